@@ -1,0 +1,2 @@
+//! facebake baker library (skeleton, filled in next).
+pub mod io;

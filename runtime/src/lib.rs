@@ -1,0 +1,3 @@
+//! facebake runtime (skeleton, filled in next).
+#![no_std]
+#![forbid(unsafe_code)]
