@@ -1,2 +1,3 @@
-//! facebake baker library (skeleton, filled in next).
+//! facebake baker library.
 pub mod io;
+pub mod mesh;

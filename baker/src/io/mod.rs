@@ -1,1 +1,7 @@
 //! Readers and writers for the files the baker touches.
+
+pub mod capture;
+pub mod glb;
+pub mod gltf_mesh;
+pub mod layout;
+pub mod npy;
