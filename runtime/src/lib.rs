@@ -1,3 +1,31 @@
-//! facebake runtime (skeleton, filled in next).
+//! # facebake-runtime
+//!
+//! Plays a facebake rig: loads a rig blob from a byte slice (zero-copy, validated once) and, per
+//! frame, turns marker positions into deformed vertex positions with integer arithmetic only.
+//!
+//! * `#![no_std]`, no `alloc`, no `unsafe`, no recursion.
+//! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
+//!   branch on marker data.
+//! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
+//!   with documented fixed-point formats ([`fixed`]).
+//!
+//! ```no_run
+//! # fn demo(blob: &[u8], markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), ()> {
+//! let rig = facebake_runtime::Rig::from_bytes(blob).map_err(|_| ())?;
+//! rig.deform(markers, out).map_err(|_| ())?;
+//! # Ok(()) }
+//! ```
 #![no_std]
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod checksum;
+pub mod fixed;
+pub mod format;
+mod kernel;
+pub mod rig;
+pub mod space;
+
+pub use format::{LoadError, Space};
+pub use rig::{Cost, FrameError, Rig};
+pub use space::ConvertError;

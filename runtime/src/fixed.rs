@@ -1,0 +1,150 @@
+//! Fixed-point formats and the primitives the per-frame path is built from.
+//!
+//! # Formats
+//!
+//! | quantity | type | format | meaning |
+//! |---|---|---|---|
+//! | position (markers in, vertices out, marker rest) | `i32` | Q8.24 | rig units: `(p − centre) / half_extent`, so the mesh spans ±1.0 (±2²⁴) with headroom to ±128 |
+//! | vertex rest position (stored) | `i16` | Q0.15 | the same rig units at 2⁻¹⁵ resolution; widened by `<< 9` ([`REST_SHIFT`]) to Q8.24 |
+//! | influence weight (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest weight |
+//! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × displacement over at most [`MAX_INFLUENCES`] terms |
+//!
+//! # Overflow by design
+//!
+//! A weight is below 2²³ in magnitude and a displacement below 2³¹ (it is an `i32`, formed by a
+//! saturating subtraction), so one product is below 2⁵⁴ and a sum of at most 64 products below
+//! 2⁶⁰: the `i64` accumulator cannot overflow. The only saturations are at the edges, where a
+//! result is narrowed back to `i32` ([`round_shift_sat`]) or added to a rest position
+//! (`i32::saturating_add`). Rounding is "half up" (add ½, arithmetic shift), identical on every
+//! platform because it is pure integer arithmetic.
+
+/// Fractional bits of a position (Q8.24).
+pub const POS_FRAC_BITS: u32 = 24;
+/// One rig unit (the mesh's half extent) in Q8.24.
+pub const POS_ONE: i32 = 1 << POS_FRAC_BITS;
+/// Left shift that widens a stored Q0.15 rest coordinate to Q8.24.
+pub const REST_SHIFT: u32 = POS_FRAC_BITS - 15;
+/// Smallest accepted number of fractional weight bits.
+pub const MIN_WEIGHT_FRAC_BITS: u8 = 8;
+/// Largest accepted number of fractional weight bits.
+pub const MAX_WEIGHT_FRAC_BITS: u8 = 22;
+/// Most influences one vertex may have; bounds the accumulator (see the module docs).
+pub const MAX_INFLUENCES: u8 = 64;
+/// Bits of a packed influence word that hold the marker index.
+pub const INFLUENCE_INDEX_BITS: u32 = 8;
+/// Largest weight magnitude a packed influence can hold, as an integer (2²³ − 1).
+pub const WEIGHT_INT_MAX: i32 = (1 << 23) - 1;
+/// Smallest packed weight (−2²³).
+pub const WEIGHT_INT_MIN: i32 = -(1 << 23);
+
+/// Multiply-accumulate: `acc + w · d`, exact (see the module docs for why it cannot overflow).
+#[inline(always)]
+pub fn mul_acc(acc: i64, w: i32, d: i32) -> i64 {
+    acc + i64::from(w) * i64::from(d)
+}
+
+/// Narrow an accumulator with `frac` fractional bits back to `i32`: round half up, saturate.
+///
+/// `frac` must be in 1..=62; the rig loader guarantees it for the weight formats it accepts.
+#[inline(always)]
+pub fn round_shift_sat(acc: i64, frac: u32) -> i32 {
+    let half = 1i64 << (frac - 1);
+    let shifted = acc.saturating_add(half) >> frac;
+    if shifted > i64::from(i32::MAX) {
+        i32::MAX
+    } else if shifted < i64::from(i32::MIN) {
+        i32::MIN
+    } else {
+        shifted as i32
+    }
+}
+
+/// Unpack an influence word: (marker index, weight as a sign-extended 24-bit integer).
+#[inline(always)]
+pub fn unpack_influence(word: u32) -> (u8, i32) {
+    (word as u8, (word as i32) >> INFLUENCE_INDEX_BITS)
+}
+
+/// Pack a marker index and a 24-bit weight into an influence word; `None` if the weight does not
+/// fit in 24 bits.
+pub fn pack_influence(marker: u8, weight: i32) -> Option<u32> {
+    if (WEIGHT_INT_MIN..=WEIGHT_INT_MAX).contains(&weight) {
+        Some(((weight as u32) << INFLUENCE_INDEX_BITS) | u32::from(marker))
+    } else {
+        None
+    }
+}
+
+/// Widen a stored Q0.15 rest coordinate to Q8.24.
+#[inline(always)]
+pub fn widen_rest(q15: i16) -> i32 {
+    i32::from(q15) << REST_SHIFT
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Golden vectors at the edges of every primitive's range: these values are the contract,
+    /// identical on every target.
+    #[test]
+    fn round_shift_golden() {
+        let cases: [(i64, u32, i32); 12] = [
+            (0, 20, 0),
+            (1 << 19, 20, 1),       // exactly ½ rounds up
+            ((1 << 19) - 1, 20, 0), // just below ½
+            (-(1 << 19), 20, 0),    // −½ rounds up to 0
+            (-(1 << 19) - 1, 20, -1),
+            (3 << 20, 20, 3),
+            (-(3 << 20), 20, -3),
+            (i64::from(i32::MAX) << 20, 20, i32::MAX),
+            ((i64::from(i32::MAX) + 1) << 20, 20, i32::MAX), // saturates
+            (i64::from(i32::MIN) << 20, 20, i32::MIN),
+            ((i64::from(i32::MIN) - 1) << 20, 20, i32::MIN), // saturates
+            (i64::MAX, 8, i32::MAX),                         // no overflow adding ½
+        ];
+        for (acc, frac, want) in cases {
+            assert_eq!(round_shift_sat(acc, frac), want, "acc={acc} frac={frac}");
+        }
+        assert_eq!(round_shift_sat(i64::MIN, 22), i32::MIN);
+    }
+
+    #[test]
+    fn mul_acc_golden_at_the_edges() {
+        let w_max = WEIGHT_INT_MAX;
+        let w_min = WEIGHT_INT_MIN;
+        assert_eq!(mul_acc(0, w_max, i32::MAX), 18_014_396_353_609_729);
+        assert_eq!(mul_acc(0, w_min, i32::MIN), 18_014_398_509_481_984);
+        assert_eq!(mul_acc(0, w_min, i32::MAX), -18_014_398_501_093_376);
+        // 64 worst-case products still fit: the accumulator bound of the module docs.
+        let mut acc = 0i64;
+        for _ in 0..MAX_INFLUENCES {
+            acc = mul_acc(acc, w_min, i32::MIN);
+        }
+        assert_eq!(acc, 64 * 18_014_398_509_481_984);
+    }
+
+    #[test]
+    fn pack_unpack_round_trips_at_the_edges() {
+        for (m, w) in [
+            (0u8, 0i32),
+            (255, WEIGHT_INT_MAX),
+            (7, WEIGHT_INT_MIN),
+            (1, -1),
+            (2, 1),
+        ] {
+            let word = pack_influence(m, w).unwrap();
+            assert_eq!(unpack_influence(word), (m, w));
+        }
+        assert_eq!(pack_influence(0, WEIGHT_INT_MAX + 1), None);
+        assert_eq!(pack_influence(0, WEIGHT_INT_MIN - 1), None);
+        assert_eq!(pack_influence(0x12, -2), Some(0xFFFF_FE12));
+    }
+
+    #[test]
+    fn widen_rest_golden() {
+        assert_eq!(widen_rest(i16::MAX), 32767 << 9);
+        assert_eq!(widen_rest(i16::MIN), -(1 << 24));
+        assert_eq!(widen_rest(-1), -512);
+    }
+}

@@ -1,0 +1,453 @@
+//! The rig blob: the one definition of the format, used by the runtime to read it and by the
+//! baker to write it.
+//!
+//! # Layout (format version 1)
+//!
+//! ```text
+//! offset  size  field
+//!      0     8  magic  b"FACEBAKE"
+//!      8     2  format version, u16 LE            (this crate reads VERSION only)
+//!     10     2  reserved, u16 LE, must be 0
+//!     12     4  payload length in bytes, u32 LE
+//!     16     4  CRC-32 (IEEE) of the payload, u32 LE
+//!     20     …  payload: [`RigData`] encoded with postcard
+//! ```
+//!
+//! The payload's bulk sections are postcard byte strings (a varint length, then the bytes), which
+//! the loader borrows in place: nothing is copied, so a blob can be read straight from flash.
+//! Inside them every number is little-endian:
+//!
+//! | section | per item | contents |
+//! |---|---|---|
+//! | `marker_names` | marker | `u8` length, then that many UTF-8 bytes |
+//! | `marker_rest` | marker | 3 × `i32` LE, Q8.24 rig units |
+//! | `vertex_rest` | vertex | 3 × `i16` LE, Q0.15 rig units |
+//! | `influence_counts` | vertex | `u8`, at most `max_influences` |
+//! | `influences` | influence | `u32` LE: bits 0–7 marker index, bits 8–31 the weight as a signed 24-bit integer with `weight_frac_bits` fractional bits |
+//!
+//! Influences are stored vertex after vertex in vertex order, `influence_counts[v]` of them for
+//! vertex `v`. The weights of a vertex sum to exactly `2^weight_frac_bits` (or the vertex has no
+//! influences and never moves); the loader checks it, and it is what makes a uniform translation
+//! of the markers move every vertex by exactly that translation.
+
+use serde::de::{Deserializer, Visitor};
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::checksum::crc32;
+use crate::fixed::{unpack_influence, MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS};
+
+/// The first eight bytes of every rig blob.
+pub const MAGIC: [u8; 8] = *b"FACEBAKE";
+/// The format version this crate reads and writes.
+pub const VERSION: u16 = 1;
+/// Size of the fixed header that precedes the payload.
+pub const HEADER_LEN: usize = 20;
+/// Most markers a rig may have (a marker index is one byte).
+pub const MAX_MARKERS: usize = 256;
+
+/// A borrowed byte string inside the payload (postcard `bytes`: varint length + raw bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Bytes<'a>(pub &'a [u8]);
+
+impl Serialize for Bytes<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(self.0)
+    }
+}
+
+impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Borrowed;
+        impl<'de> Visitor<'de> for Borrowed {
+            type Value = Bytes<'de>;
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                f.write_str("a borrowed byte string")
+            }
+            fn visit_borrowed_bytes<E: serde::de::Error>(
+                self,
+                v: &'de [u8],
+            ) -> Result<Self::Value, E> {
+                Ok(Bytes(v))
+            }
+        }
+        d.deserialize_bytes(Borrowed)
+    }
+}
+
+/// Where rig units sit in the asset's space: `rig = (asset − centre) / half_extent`, in Q8.24.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Space {
+    /// Centre of the mesh bounds, asset units.
+    pub centre: [f32; 3],
+    /// Half the largest side of the mesh bounds (slightly enlarged so the mesh fits Q0.15),
+    /// asset units per rig unit.
+    pub half_extent: f32,
+}
+
+/// The linear deformer: every vertex moves by a fixed weighted sum of marker displacements.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LinearInfluences<'a> {
+    /// Fractional bits of the stored weights, in [8, 22].
+    pub weight_frac_bits: u8,
+    /// Most influences any vertex has (K), in [1, 64].
+    pub max_influences: u8,
+    /// Per vertex: how many influences it has (`u8` each).
+    #[serde(borrow)]
+    pub influence_counts: Bytes<'a>,
+    /// The packed influences, vertex after vertex (`u32` LE each).
+    #[serde(borrow)]
+    pub influences: Bytes<'a>,
+}
+
+/// How the vertices follow the markers. Chosen at bake time; one variant per runtime kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Deformer<'a> {
+    /// Sparse linear weights (every RBF flavour bakes to this).
+    #[serde(borrow)]
+    Linear(LinearInfluences<'a>),
+}
+
+/// The payload of a rig blob (format version 1).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RigData<'a> {
+    /// Rig units in the asset's space.
+    pub space: Space,
+    /// Number of markers, in [1, 256].
+    pub marker_count: u16,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// Marker names: per marker a `u8` length and that many UTF-8 bytes.
+    #[serde(borrow)]
+    pub marker_names: Bytes<'a>,
+    /// Marker rest positions on the character: 3 × `i32` LE (Q8.24) per marker.
+    #[serde(borrow)]
+    pub marker_rest: Bytes<'a>,
+    /// Vertex rest positions: 3 × `i16` LE (Q0.15) per vertex, in the mesh's vertex order.
+    #[serde(borrow)]
+    pub vertex_rest: Bytes<'a>,
+    /// The deformer.
+    #[serde(borrow)]
+    pub deformer: Deformer<'a>,
+}
+
+/// Why a byte string is not a loadable rig. Every variant is a distinct failure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoadError {
+    /// Shorter than its header or than the payload length the header states.
+    Truncated {
+        /// Bytes the header says there should be.
+        expected: usize,
+        /// Bytes there are.
+        found: usize,
+    },
+    /// More bytes than header + payload.
+    TrailingBytes {
+        /// Bytes after the end of the payload.
+        extra: usize,
+    },
+    /// The first eight bytes are not [`MAGIC`].
+    BadMagic,
+    /// A format version this crate does not read.
+    UnsupportedVersion {
+        /// The version in the header.
+        found: u16,
+    },
+    /// The reserved header field is not zero.
+    BadReserved,
+    /// The payload's CRC-32 differs from the header's.
+    ChecksumMismatch {
+        /// CRC in the header.
+        stored: u32,
+        /// CRC of the payload.
+        computed: u32,
+    },
+    /// The payload is not a postcard-encoded [`RigData`].
+    Malformed,
+    /// The payload decodes but leaves bytes unread.
+    PayloadTrailingBytes,
+    /// `space` holds a non-finite value or a non-positive half extent.
+    BadSpace,
+    /// `marker_count` is 0 or above [`MAX_MARKERS`].
+    BadMarkerCount {
+        /// The count in the blob.
+        found: u16,
+    },
+    /// `max_influences` is 0 or above [`MAX_INFLUENCES`].
+    BadMaxInfluences {
+        /// The value in the blob.
+        found: u8,
+    },
+    /// `weight_frac_bits` is outside [8, 22].
+    BadWeightFormat {
+        /// The value in the blob.
+        found: u8,
+    },
+    /// A section's length disagrees with the counts.
+    SectionLength {
+        /// Which section.
+        section: Section,
+        /// Bytes the counts imply.
+        expected: usize,
+        /// Bytes the section has.
+        found: usize,
+    },
+    /// A marker name is empty, not UTF-8, or runs past its section.
+    BadMarkerName {
+        /// Index of the marker.
+        marker: usize,
+    },
+    /// A vertex has more influences than `max_influences`.
+    TooManyInfluences {
+        /// The vertex.
+        vertex: usize,
+        /// Its influence count.
+        count: u8,
+    },
+    /// An influence names a marker that does not exist.
+    MarkerIndexOutOfRange {
+        /// The vertex the influence belongs to.
+        vertex: usize,
+        /// The marker index it names.
+        marker: u8,
+    },
+    /// A vertex's weights do not sum to exactly one (or it has no influences).
+    WeightsNotNormalised {
+        /// The vertex.
+        vertex: usize,
+    },
+}
+
+/// A section of the payload, for [`LoadError::SectionLength`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Section {
+    /// `marker_names`
+    MarkerNames,
+    /// `marker_rest`
+    MarkerRest,
+    /// `vertex_rest`
+    VertexRest,
+    /// `influence_counts`
+    InfluenceCounts,
+    /// `influences`
+    Influences,
+}
+
+impl core::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Truncated { expected, found } => {
+                write!(f, "truncated rig blob: {found} bytes, expected {expected}")
+            }
+            Self::TrailingBytes { extra } => write!(f, "{extra} unexpected bytes after the rig payload"),
+            Self::BadMagic => f.write_str("not a facebake rig blob (bad magic)"),
+            Self::UnsupportedVersion { found } => {
+                write!(f, "rig format version {found} is not supported (this runtime reads {VERSION})")
+            }
+            Self::BadReserved => f.write_str("reserved header field is not zero"),
+            Self::ChecksumMismatch { stored, computed } => write!(
+                f,
+                "payload checksum mismatch: header says {stored:#010x}, payload has {computed:#010x}"
+            ),
+            Self::Malformed => f.write_str("payload is not a valid rig encoding"),
+            Self::PayloadTrailingBytes => f.write_str("payload has unread bytes after the rig data"),
+            Self::BadSpace => f.write_str("rig space has a non-finite centre or a non-positive extent"),
+            Self::BadMarkerCount { found } => {
+                write!(f, "marker count {found} is outside 1..={MAX_MARKERS}")
+            }
+            Self::BadMaxInfluences { found } => {
+                write!(f, "max influences {found} is outside 1..={MAX_INFLUENCES}")
+            }
+            Self::BadWeightFormat { found } => write!(
+                f,
+                "weight fractional bits {found} outside {MIN_WEIGHT_FRAC_BITS}..={MAX_WEIGHT_FRAC_BITS}"
+            ),
+            Self::SectionLength { section, expected, found } => {
+                write!(f, "section {section:?} has {found} bytes, expected {expected}")
+            }
+            Self::BadMarkerName { marker } => write!(f, "marker {marker} has an invalid name"),
+            Self::TooManyInfluences { vertex, count } => {
+                write!(f, "vertex {vertex} has {count} influences, above the rig's maximum")
+            }
+            Self::MarkerIndexOutOfRange { vertex, marker } => {
+                write!(f, "vertex {vertex} is influenced by marker {marker}, which does not exist")
+            }
+            Self::WeightsNotNormalised { vertex } => {
+                write!(f, "the weights of vertex {vertex} do not sum to one")
+            }
+        }
+    }
+}
+
+/// The header for `payload`: magic, [`VERSION`], length and CRC. The blob is the header followed
+/// by the payload.
+pub fn header_for(payload: &[u8]) -> Result<[u8; HEADER_LEN], PayloadTooLarge> {
+    let len = u32::try_from(payload.len()).map_err(|_| PayloadTooLarge)?;
+    let mut h = [0u8; HEADER_LEN];
+    h[..8].copy_from_slice(&MAGIC);
+    h[8..10].copy_from_slice(&VERSION.to_le_bytes());
+    h[12..16].copy_from_slice(&len.to_le_bytes());
+    h[16..20].copy_from_slice(&crc32(payload).to_le_bytes());
+    Ok(h)
+}
+
+/// A payload of 4 GiB or more cannot be described by the header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PayloadTooLarge;
+
+fn le_u16(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([b[at], b[at + 1]])
+}
+
+fn le_u32(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
+}
+
+/// Check the header and checksum and return the payload.
+pub fn open(bytes: &[u8]) -> Result<&[u8], LoadError> {
+    if bytes.len() < HEADER_LEN {
+        return Err(LoadError::Truncated {
+            expected: HEADER_LEN,
+            found: bytes.len(),
+        });
+    }
+    if bytes[..8] != MAGIC {
+        return Err(LoadError::BadMagic);
+    }
+    let version = le_u16(bytes, 8);
+    if version != VERSION {
+        return Err(LoadError::UnsupportedVersion { found: version });
+    }
+    if le_u16(bytes, 10) != 0 {
+        return Err(LoadError::BadReserved);
+    }
+    let len = le_u32(bytes, 12) as usize;
+    let rest = &bytes[HEADER_LEN..];
+    if rest.len() < len {
+        return Err(LoadError::Truncated {
+            expected: HEADER_LEN.saturating_add(len),
+            found: bytes.len(),
+        });
+    }
+    if rest.len() > len {
+        return Err(LoadError::TrailingBytes {
+            extra: rest.len() - len,
+        });
+    }
+    let stored = le_u32(bytes, 16);
+    let computed = crc32(rest);
+    if stored != computed {
+        return Err(LoadError::ChecksumMismatch { stored, computed });
+    }
+    Ok(rest)
+}
+
+/// Decode and validate a payload. After this succeeds every index and length in the returned
+/// data is in range, so the per-frame path needs no checks that can fail.
+pub fn decode(payload: &[u8]) -> Result<RigData<'_>, LoadError> {
+    let (data, rest): (RigData<'_>, &[u8]) =
+        postcard::take_from_bytes(payload).map_err(|_| LoadError::Malformed)?;
+    if !rest.is_empty() {
+        return Err(LoadError::PayloadTrailingBytes);
+    }
+    validate(&data)?;
+    Ok(data)
+}
+
+fn expect_len(
+    section: Section,
+    bytes: Bytes<'_>,
+    count: usize,
+    per_item: usize,
+) -> Result<(), LoadError> {
+    // On 16-bit targets a huge count could overflow; treat that as a length mismatch.
+    let expected = count.checked_mul(per_item).unwrap_or(usize::MAX);
+    if bytes.0.len() != expected {
+        return Err(LoadError::SectionLength {
+            section,
+            expected,
+            found: bytes.0.len(),
+        });
+    }
+    Ok(())
+}
+
+fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
+    let s = d.space;
+    if !(s.centre.iter().all(|c| c.is_finite()) && s.half_extent.is_finite() && s.half_extent > 0.0)
+    {
+        return Err(LoadError::BadSpace);
+    }
+    let markers = usize::from(d.marker_count);
+    if markers == 0 || markers > MAX_MARKERS {
+        return Err(LoadError::BadMarkerCount {
+            found: d.marker_count,
+        });
+    }
+    let vertices = usize::try_from(d.vertex_count).unwrap_or(usize::MAX);
+    validate_names(d.marker_names, markers)?;
+    expect_len(Section::MarkerRest, d.marker_rest, markers, 12)?;
+    expect_len(Section::VertexRest, d.vertex_rest, vertices, 6)?;
+    match d.deformer {
+        Deformer::Linear(lin) => validate_linear(&lin, vertices, markers),
+    }
+}
+
+fn validate_names(names: Bytes<'_>, markers: usize) -> Result<(), LoadError> {
+    let mut at = 0usize;
+    for marker in 0..markers {
+        let bad = LoadError::BadMarkerName { marker };
+        let len = usize::from(*names.0.get(at).ok_or(bad)?);
+        let name = names.0.get(at + 1..at + 1 + len).ok_or(bad)?;
+        if len == 0 || core::str::from_utf8(name).is_err() {
+            return Err(bad);
+        }
+        at += 1 + len;
+    }
+    if at != names.0.len() {
+        return Err(LoadError::SectionLength {
+            section: Section::MarkerNames,
+            expected: at,
+            found: names.0.len(),
+        });
+    }
+    Ok(())
+}
+
+fn validate_linear(
+    lin: &LinearInfluences<'_>,
+    vertices: usize,
+    markers: usize,
+) -> Result<(), LoadError> {
+    if lin.max_influences == 0 || lin.max_influences > MAX_INFLUENCES {
+        return Err(LoadError::BadMaxInfluences {
+            found: lin.max_influences,
+        });
+    }
+    if !(MIN_WEIGHT_FRAC_BITS..=MAX_WEIGHT_FRAC_BITS).contains(&lin.weight_frac_bits) {
+        return Err(LoadError::BadWeightFormat {
+            found: lin.weight_frac_bits,
+        });
+    }
+    expect_len(Section::InfluenceCounts, lin.influence_counts, vertices, 1)?;
+    let total: usize = lin.influence_counts.0.iter().map(|&c| usize::from(c)).sum();
+    expect_len(Section::Influences, lin.influences, total, 4)?;
+    let one = 1i64 << lin.weight_frac_bits;
+    let mut words = lin.influences.0.chunks_exact(4);
+    for (vertex, &count) in lin.influence_counts.0.iter().enumerate() {
+        if count > lin.max_influences {
+            return Err(LoadError::TooManyInfluences { vertex, count });
+        }
+        let mut sum = 0i64;
+        for w in words.by_ref().take(usize::from(count)) {
+            let (marker, weight) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            if usize::from(marker) >= markers {
+                return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
+            }
+            sum += i64::from(weight);
+        }
+        if count > 0 && sum != one {
+            return Err(LoadError::WeightsNotNormalised { vertex });
+        }
+    }
+    Ok(())
+}

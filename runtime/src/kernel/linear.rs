@@ -1,0 +1,45 @@
+//! The linear kernel: each vertex moves by a weighted sum of at most K marker displacements.
+//!
+//! ```text
+//! out[v] = rest[v] + round( Σ_k w[v,k] · (m[idx[v,k]] − m_rest[idx[v,k]]) / 2^F )
+//! ```
+//!
+//! Cost per frame: `markers` saturating 3-vector subtractions, then per influence one word decode
+//! and three `i32 × i32 → i64` multiply-adds, then per vertex three round-shifts and three
+//! saturating adds. There is no branch on marker data and no check that can fail: the loader has
+//! validated every index and count.
+
+use crate::fixed::{mul_acc, round_shift_sat, unpack_influence, widen_rest};
+use crate::format::MAX_MARKERS;
+
+/// Write deformed positions for every vertex.
+///
+/// `displacements` has one entry per possible marker index (unused ones are never read),
+/// `rest` is the vertex rest section (6 bytes a vertex), `counts` one byte a vertex, `influences`
+/// four bytes an influence, all validated at load. `out` has one entry per vertex.
+pub(crate) fn deform(
+    displacements: &[[i32; 3]; MAX_MARKERS],
+    rest: &[u8],
+    counts: &[u8],
+    influences: &[u8],
+    weight_frac_bits: u8,
+    out: &mut [[i32; 3]],
+) {
+    let frac = u32::from(weight_frac_bits);
+    let mut words = influences.chunks_exact(4);
+    for ((o, r), &count) in out.iter_mut().zip(rest.chunks_exact(6)).zip(counts) {
+        let mut acc = [0i64; 3];
+        for w in words.by_ref().take(usize::from(count)) {
+            let (marker, weight) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            // A u8 index into a 256-entry array: in range by construction.
+            let d = &displacements[usize::from(marker)];
+            acc[0] = mul_acc(acc[0], weight, d[0]);
+            acc[1] = mul_acc(acc[1], weight, d[1]);
+            acc[2] = mul_acc(acc[2], weight, d[2]);
+        }
+        for c in 0..3 {
+            let rest_c = widen_rest(i16::from_le_bytes([r[2 * c], r[2 * c + 1]]));
+            o[c] = rest_c.saturating_add(round_shift_sat(acc[c], frac));
+        }
+    }
+}

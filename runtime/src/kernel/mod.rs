@@ -1,0 +1,3 @@
+//! Per-frame deformation kernels, one module per method.
+
+pub mod linear;

@@ -1,0 +1,243 @@
+//! [`Rig`]: a validated, zero-copy view of a rig blob, and the per-frame call.
+
+use crate::fixed::widen_rest;
+use crate::format::{self, Deformer, LinearInfluences, LoadError, RigData, Space, MAX_MARKERS};
+use crate::kernel;
+
+/// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
+/// nothing; loading validated every index and length once.
+#[derive(Clone, Copy, Debug)]
+pub struct Rig<'a> {
+    data: RigData<'a>,
+}
+
+/// Why a frame could not be deformed. Nothing was written to the output when this is returned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameError {
+    /// The marker slice does not have one entry per rig marker.
+    MarkerCount {
+        /// Markers the rig has.
+        expected: usize,
+        /// Entries given.
+        found: usize,
+    },
+    /// The output slice does not have one entry per vertex.
+    OutputLength {
+        /// Vertices the rig has.
+        expected: usize,
+        /// Entries given.
+        found: usize,
+    },
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::MarkerCount { expected, found } => {
+                write!(
+                    f,
+                    "{found} marker positions given, the rig has {expected} markers"
+                )
+            }
+            Self::OutputLength { expected, found } => {
+                write!(
+                    f,
+                    "output has room for {found} vertices, the rig has {expected}"
+                )
+            }
+        }
+    }
+}
+
+/// The work one call to [`Rig::deform`] does. It depends only on the rig, never on the markers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cost {
+    /// Vertices written.
+    pub vertices: usize,
+    /// Markers read.
+    pub markers: usize,
+    /// Influences evaluated (Σ per-vertex counts).
+    pub influences: usize,
+    /// The rig's K: no vertex has more influences.
+    pub max_influences: usize,
+    /// `i32 × i32 → i64` multiply-adds (3 per influence).
+    pub multiply_adds: usize,
+    /// Saturating subtractions forming marker displacements (3 per marker).
+    pub subtractions: usize,
+    /// Round-shift-saturate-add steps writing the output (3 per vertex).
+    pub narrowings: usize,
+    /// Stack the call uses for marker displacements, in bytes.
+    pub scratch_bytes: usize,
+}
+
+impl core::fmt::Display for Cost {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "{} vertices, {} markers, {} influences (K ≤ {}): {} multiply-adds, {} subtractions, \
+             {} narrowings, {} bytes of stack scratch",
+            self.vertices,
+            self.markers,
+            self.influences,
+            self.max_influences,
+            self.multiply_adds,
+            self.subtractions,
+            self.narrowings,
+            self.scratch_bytes
+        )
+    }
+}
+
+impl<'a> Rig<'a> {
+    /// Load a rig from blob bytes: header, checksum, decoding and full validation. Never panics
+    /// and never reads out of bounds, whatever the bytes; the work is linear in their length.
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, LoadError> {
+        let payload = format::open(bytes)?;
+        Ok(Self {
+            data: format::decode(payload)?,
+        })
+    }
+
+    /// The decoded payload (borrowed sections).
+    pub fn data(&self) -> &RigData<'a> {
+        &self.data
+    }
+
+    /// Where rig units sit in the asset's space.
+    pub fn space(&self) -> Space {
+        self.data.space
+    }
+
+    /// Number of vertices the rig deforms.
+    pub fn vertex_count(&self) -> usize {
+        self.data.vertex_count as usize
+    }
+
+    /// Number of markers the rig reads per frame.
+    pub fn marker_count(&self) -> usize {
+        usize::from(self.data.marker_count)
+    }
+
+    /// The linear deformer's section.
+    fn linear(&self) -> &LinearInfluences<'a> {
+        match &self.data.deformer {
+            Deformer::Linear(lin) => lin,
+        }
+    }
+
+    /// Marker names, in marker order.
+    pub fn marker_names(&self) -> impl Iterator<Item = &'a str> + 'a {
+        let mut rest = self.data.marker_names.0;
+        core::iter::from_fn(move || {
+            let (&len, tail) = rest.split_first()?;
+            let (name, tail) = tail.split_at_checked(usize::from(len))?;
+            rest = tail;
+            core::str::from_utf8(name).ok()
+        })
+    }
+
+    /// Index of the marker called `name`.
+    pub fn marker_index(&self, name: &str) -> Option<usize> {
+        self.marker_names().position(|n| n == name)
+    }
+
+    /// Rest position of marker `i` on the character (Q8.24), or `None` past the last marker.
+    pub fn marker_rest(&self, i: usize) -> Option<[i32; 3]> {
+        let b = self
+            .data
+            .marker_rest
+            .0
+            .get(i.checked_mul(12)?..i.checked_mul(12)? + 12)?;
+        Some(
+            [0, 1, 2]
+                .map(|c| i32::from_le_bytes([b[4 * c], b[4 * c + 1], b[4 * c + 2], b[4 * c + 3]])),
+        )
+    }
+
+    /// Rest position of vertex `i` (Q8.24), or `None` past the last vertex.
+    pub fn vertex_rest(&self, i: usize) -> Option<[i32; 3]> {
+        let b = self
+            .data
+            .vertex_rest
+            .0
+            .get(i.checked_mul(6)?..i.checked_mul(6)? + 6)?;
+        Some([0, 1, 2].map(|c| widen_rest(i16::from_le_bytes([b[2 * c], b[2 * c + 1]]))))
+    }
+
+    /// Influences of vertex `i` as (marker index, weight with [`Self::weight_frac_bits`]
+    /// fractional bits). Walks the counts, so it costs O(i): for inspection, not per frame.
+    pub fn influences_of(&self, i: usize) -> impl Iterator<Item = (u8, i32)> + 'a {
+        let lin = *self.linear();
+        let counts = lin.influence_counts.0;
+        let start: usize = counts.iter().take(i).map(|&c| usize::from(c)).sum();
+        let count = counts.get(i).map_or(0, |&c| usize::from(c));
+        lin.influences
+            .0
+            .chunks_exact(4)
+            .skip(start)
+            .take(count)
+            .map(|w| crate::fixed::unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]])))
+    }
+
+    /// Fractional bits of the weights.
+    pub fn weight_frac_bits(&self) -> u8 {
+        self.linear().weight_frac_bits
+    }
+
+    /// The per-frame work of [`Self::deform`].
+    pub fn cost(&self) -> Cost {
+        let lin = self.linear();
+        let influences = lin.influences.0.len() / 4;
+        Cost {
+            vertices: self.vertex_count(),
+            markers: self.marker_count(),
+            influences,
+            max_influences: usize::from(lin.max_influences),
+            multiply_adds: 3 * influences,
+            subtractions: 3 * self.marker_count(),
+            narrowings: 3 * self.vertex_count(),
+            scratch_bytes: core::mem::size_of::<[[i32; 3]; MAX_MARKERS]>(),
+        }
+    }
+
+    /// Deform one frame: `markers` are the current marker positions in rig units (Q8.24), one
+    /// per rig marker in marker order; `out` receives one position per vertex (Q8.24).
+    ///
+    /// Zero marker motion gives the rest pose bit for bit, and moving every marker by the same
+    /// offset moves every vertex by exactly that offset (barring saturation at ±128 rig units).
+    pub fn deform(&self, markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), FrameError> {
+        if markers.len() != self.marker_count() {
+            return Err(FrameError::MarkerCount {
+                expected: self.marker_count(),
+                found: markers.len(),
+            });
+        }
+        if out.len() != self.vertex_count() {
+            return Err(FrameError::OutputLength {
+                expected: self.vertex_count(),
+                found: out.len(),
+            });
+        }
+        let mut displacements = [[0i32; 3]; MAX_MARKERS];
+        for ((d, m), r) in displacements
+            .iter_mut()
+            .zip(markers)
+            .zip(self.data.marker_rest.0.chunks_exact(12))
+        {
+            for c in 0..3 {
+                let rest = i32::from_le_bytes([r[4 * c], r[4 * c + 1], r[4 * c + 2], r[4 * c + 3]]);
+                d[c] = m[c].saturating_sub(rest);
+            }
+        }
+        let lin = self.linear();
+        kernel::linear::deform(
+            &displacements,
+            self.data.vertex_rest.0,
+            lin.influence_counts.0,
+            lin.influences.0,
+            lin.weight_frac_bits,
+            out,
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,100 @@
+//! Host-side conversions between the asset's units and rig units (Q8.24).
+//!
+//! These use floating point and are meant for the host (or a capture front end), not for the
+//! per-frame path, which is integer only.
+
+use crate::fixed::{POS_FRAC_BITS, POS_ONE};
+use crate::format::Space;
+
+/// A marker position that cannot be expressed in rig units.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConvertError {
+    /// A coordinate is NaN or infinite.
+    NotFinite,
+    /// A coordinate lies beyond ±128 half extents of the mesh (outside Q8.24).
+    OutOfRange,
+}
+
+impl core::fmt::Display for ConvertError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NotFinite => f.write_str("position is not finite"),
+            Self::OutOfRange => {
+                f.write_str("position is outside the rig's range (±128 half extents)")
+            }
+        }
+    }
+}
+
+fn round_to_i64(x: f64) -> i64 {
+    // core has no f64::round; `as` truncates toward zero, so shift by ½ away from zero first.
+    if x >= 0.0 {
+        (x + 0.5) as i64
+    } else {
+        (x - 0.5) as i64
+    }
+}
+
+impl Space {
+    /// Asset units → rig units (Q8.24), rounding to nearest.
+    pub fn to_rig_f64(&self, p: [f64; 3]) -> Result<[i32; 3], ConvertError> {
+        let mut out = [0i32; 3];
+        for c in 0..3 {
+            if !p[c].is_finite() {
+                return Err(ConvertError::NotFinite);
+            }
+            let q = (p[c] - f64::from(self.centre[c])) / f64::from(self.half_extent)
+                * f64::from(POS_ONE);
+            if !(-2_147_483_648.0..2_147_483_647.5).contains(&q) {
+                return Err(ConvertError::OutOfRange);
+            }
+            out[c] = i32::try_from(round_to_i64(q)).map_err(|_| ConvertError::OutOfRange)?;
+        }
+        Ok(out)
+    }
+
+    /// Asset units (f32) → rig units (Q8.24).
+    pub fn to_rig(&self, p: [f32; 3]) -> Result<[i32; 3], ConvertError> {
+        self.to_rig_f64([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
+    }
+
+    /// Rig units (Q8.24) → asset units, in f64.
+    pub fn to_asset_f64(&self, q: [i32; 3]) -> [f64; 3] {
+        let scale = f64::from(self.half_extent) / f64::from(1u32 << POS_FRAC_BITS);
+        [0, 1, 2].map(|c| f64::from(self.centre[c]) + f64::from(q[c]) * scale)
+    }
+
+    /// Rig units (Q8.24) → asset units, in f32.
+    pub fn to_asset(&self, q: [i32; 3]) -> [f32; 3] {
+        self.to_asset_f64(q).map(|x| x as f32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_errors() {
+        let s = Space {
+            centre: [0.0, 1.5, 0.1],
+            half_extent: 0.25,
+        };
+        let p = [0.1, 1.6, 0.0];
+        let q = s.to_rig_f64(p).unwrap();
+        assert_eq!(q, [6_710_886, 6_710_886, -6_710_887]);
+        let back = s.to_asset_f64(q);
+        for c in 0..3 {
+            assert!((back[c] - p[c]).abs() < 1e-8);
+        }
+        assert_eq!(
+            s.to_rig_f64([f64::NAN, 0.0, 0.0]),
+            Err(ConvertError::NotFinite)
+        );
+        assert_eq!(
+            s.to_rig_f64([40.0, 0.0, 0.0]),
+            Err(ConvertError::OutOfRange)
+        );
+        assert!(s.to_rig_f64([-31.9, 1.5, 0.1]).is_ok());
+    }
+}
