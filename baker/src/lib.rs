@@ -1,3 +1,9 @@
-//! facebake baker library.
+//! facebake baker library: everything expensive, solved once in f64, written as a rig blob for
+//! the `facebake-runtime` crate.
+pub mod bake;
+pub mod blob;
 pub mod io;
 pub mod mesh;
+pub mod rbf;
+pub mod reference;
+pub mod sparsify;

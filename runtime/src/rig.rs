@@ -119,7 +119,7 @@ impl<'a> Rig<'a> {
     }
 
     /// The linear deformer's section.
-    fn linear(&self) -> &LinearInfluences<'a> {
+    pub fn linear(&self) -> &LinearInfluences<'a> {
         match &self.data.deformer {
             Deformer::Linear(lin) => lin,
         }

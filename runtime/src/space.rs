@@ -3,7 +3,7 @@
 //! These use floating point and are meant for the host (or a capture front end), not for the
 //! per-frame path, which is integer only.
 
-use crate::fixed::{POS_FRAC_BITS, POS_ONE};
+use crate::fixed::{POS_FRAC_BITS, POS_ONE, REST_SHIFT};
 use crate::format::Space;
 
 /// A marker position that cannot be expressed in rig units.
@@ -56,6 +56,19 @@ impl Space {
     /// Asset units (f32) → rig units (Q8.24).
     pub fn to_rig(&self, p: [f32; 3]) -> Result<[i32; 3], ConvertError> {
         self.to_rig_f64([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
+    }
+
+    /// Asset units → a stored vertex rest position (Q0.15 rig units), rounding to nearest.
+    /// The baker chooses the space so that the mesh fits; anything outside ±1 rig unit is
+    /// [`ConvertError::OutOfRange`].
+    pub fn to_rest_q15(&self, p: [f64; 3]) -> Result<[i16; 3], ConvertError> {
+        let q = self.to_rig_f64(p)?;
+        let mut out = [0i16; 3];
+        for c in 0..3 {
+            let v = (i64::from(q[c]) + (1 << (REST_SHIFT - 1))) >> REST_SHIFT;
+            out[c] = i16::try_from(v).map_err(|_| ConvertError::OutOfRange)?;
+        }
+        Ok(out)
     }
 
     /// Rig units (Q8.24) → asset units, in f64.

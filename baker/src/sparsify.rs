@@ -1,0 +1,211 @@
+//! Dense per-vertex weights → at most K per vertex that still reproduce constants exactly, then
+//! quantised to the runtime's 24-bit weights.
+//!
+//! Two re-fits of the kept weights, both constrained to sum to one:
+//! * `uniform`: the smallest change to the kept weights (spread the dropped mass evenly);
+//! * `prior` (default): the kept weights that minimise the expected squared difference from the
+//!   dense result when marker displacements are a smooth random field with covariance
+//!   `exp(−‖x_i − x_j‖² / 2ℓ²)`. The dropped markers' motion is then predicted from the kept
+//!   ones instead of ignored: for a vertex with kept set S, solve
+//!   `[Σ_SS 1; 1ᵀ 0] [u; μ] = [Σ_S· w; 1]`.
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::rbf::kernel::distance;
+use facebake_runtime::fixed::{
+    pack_influence, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS, WEIGHT_INT_MAX,
+};
+
+/// How the kept weights are re-fitted after dropping all but the K largest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Refit {
+    /// Spread the dropped mass evenly over the kept weights.
+    Uniform,
+    /// Best prediction of the dropped markers under a smooth-motion prior.
+    Prior,
+}
+
+/// One vertex's sparse weights: (marker index, weight), summing to one.
+pub type SparseRow = Vec<(usize, f64)>;
+
+/// Sparsification or quantisation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SparsifyError {
+    /// A weight too large for the 24-bit format even at the coarsest resolution.
+    #[error("a weight of {weight:.3} (vertex {vertex}) does not fit the rig's 24-bit weights even with {MIN_WEIGHT_FRAC_BITS} fractional bits; the RBF system is probably ill-conditioned")]
+    WeightTooLarge {
+        /// The vertex.
+        vertex: usize,
+        /// The weight.
+        weight: f64,
+    },
+    /// K outside what the runtime accepts.
+    #[error("K = {0} is outside 1..=64")]
+    BadK(usize),
+}
+
+/// The prior covariance over the markers' displacements: `exp(−d²/2ℓ²)` plus a 1e-9 nugget.
+pub fn prior_covariance(markers: &[[f64; 3]], length: f64) -> DMatrix<f64> {
+    let n = markers.len();
+    DMatrix::from_fn(n, n, |i, j| {
+        let d = distance(&markers[i], &markers[j]);
+        (-(d * d) / (2.0 * length * length)).exp() + if i == j { 1e-9 } else { 0.0 }
+    })
+}
+
+/// Keep the K largest-magnitude weights of `dense` (ties to the lower index) and re-fit them.
+pub fn sparsify_row(
+    dense: &[f64],
+    k: usize,
+    refit: Refit,
+    covariance: Option<&DMatrix<f64>>,
+) -> SparseRow {
+    let mut order: Vec<usize> = (0..dense.len()).collect();
+    order.sort_by(|&a, &b| dense[b].abs().total_cmp(&dense[a].abs()).then(a.cmp(&b)));
+    order.truncate(k);
+    order.sort_unstable();
+    let uniform = || {
+        let kept: f64 = order.iter().map(|&i| dense[i]).sum();
+        let share = (1.0 - kept) / order.len() as f64;
+        order
+            .iter()
+            .map(|&i| (i, dense[i] + share))
+            .collect::<SparseRow>()
+    };
+    match (refit, covariance) {
+        (Refit::Prior, Some(cov)) if order.len() < dense.len() => {
+            let m = order.len();
+            let mut a = DMatrix::<f64>::zeros(m + 1, m + 1);
+            let mut b = DVector::<f64>::zeros(m + 1);
+            let w = DVector::from_column_slice(dense);
+            for (r, &i) in order.iter().enumerate() {
+                for (c, &j) in order.iter().enumerate() {
+                    a[(r, c)] = cov[(i, j)];
+                }
+                a[(r, m)] = 1.0;
+                a[(m, r)] = 1.0;
+                b[r] = cov.row(i).transpose().dot(&w);
+            }
+            b[m] = 1.0;
+            match a.lu().solve(&b) {
+                Some(u) if u.iter().all(|x| x.is_finite()) => {
+                    order.iter().enumerate().map(|(r, &i)| (i, u[r])).collect()
+                }
+                _ => uniform(),
+            }
+        }
+        _ => uniform(),
+    }
+}
+
+/// Weights quantised for the blob.
+pub struct Quantised {
+    /// Fractional bits F: every vertex's weights sum to exactly 2^F.
+    pub frac_bits: u8,
+    /// Per vertex: (marker index, packed influence word).
+    pub words: Vec<Vec<u32>>,
+    /// Largest |quantised − sparse| weight error.
+    pub max_rounding: f64,
+}
+
+/// Quantise sparse rows with the finest F that holds every weight, fixing each row's rounding
+/// so it sums to exactly 2^F (the residual goes to the row's largest weight).
+pub fn quantise(rows: &[SparseRow]) -> Result<Quantised, SparsifyError> {
+    let (mut vertex, mut largest) = (0, 0.0f64);
+    for (v, row) in rows.iter().enumerate() {
+        for &(_, w) in row {
+            if w.abs() > largest {
+                (vertex, largest) = (v, w.abs());
+            }
+        }
+    }
+    // Leave room for the per-row residual (at most K/2 units) on top of the rounded weight.
+    let margin = 64.0;
+    let frac_bits = (MIN_WEIGHT_FRAC_BITS..=MAX_WEIGHT_FRAC_BITS)
+        .rev()
+        .find(|&f| largest * f64::from(1u32 << f) + margin <= f64::from(WEIGHT_INT_MAX))
+        .ok_or(SparsifyError::WeightTooLarge {
+            vertex,
+            weight: largest,
+        })?;
+    let scale = f64::from(1u32 << frac_bits);
+    let mut words = Vec::with_capacity(rows.len());
+    let mut max_rounding = 0.0f64;
+    for (v, row) in rows.iter().enumerate() {
+        let mut q: Vec<i64> = row
+            .iter()
+            .map(|&(_, w)| (w * scale).round() as i64)
+            .collect();
+        let residual = (1i64 << frac_bits) - q.iter().sum::<i64>();
+        if let Some(big) = (0..row.len()).max_by(|&a, &b| row[a].1.abs().total_cmp(&row[b].1.abs()))
+        {
+            q[big] += residual;
+        }
+        let mut packed = Vec::with_capacity(row.len());
+        for (&(m, w), &qi) in row.iter().zip(&q) {
+            max_rounding = max_rounding.max((qi as f64 / scale - w).abs());
+            let word = i32::try_from(qi)
+                .ok()
+                .and_then(|qi| pack_influence(m as u8, qi))
+                .ok_or(SparsifyError::WeightTooLarge {
+                    vertex: v,
+                    weight: w,
+                })?;
+            packed.push(word);
+        }
+        words.push(packed);
+    }
+    Ok(Quantised {
+        frac_bits,
+        words,
+        max_rounding,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keeps_the_largest_and_sums_to_one() {
+        let dense = [0.5, -0.3, 0.05, 0.6, 0.1, 0.05];
+        for refit in [Refit::Uniform, Refit::Prior] {
+            let pts: Vec<[f64; 3]> = (0..6).map(|i| [i as f64, 0.0, 0.0]).collect();
+            let cov = prior_covariance(&pts, 2.0);
+            let row = sparsify_row(&dense, 3, refit, Some(&cov));
+            let idx: Vec<usize> = row.iter().map(|r| r.0).collect();
+            assert_eq!(idx, vec![0, 1, 3]);
+            let sum: f64 = row.iter().map(|r| r.1).sum();
+            assert!((sum - 1.0).abs() < 1e-12, "{refit:?}");
+        }
+        let row = sparsify_row(&dense, 3, Refit::Uniform, None);
+        assert!((row[0].1 - (0.5 + 0.2 / 3.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn quantised_rows_sum_exactly() {
+        let rows = vec![
+            vec![(0, 0.3333333), (1, 0.3333333), (2, 0.3333334)],
+            vec![(4, 2.5), (5, -1.5)],
+        ];
+        let q = quantise(&rows).unwrap();
+        assert_eq!(
+            q.frac_bits, 21,
+            "2.5 · 2^22 exceeds the 24-bit range, so one fewer fractional bit"
+        );
+        for row in &q.words {
+            let sum: i64 = row
+                .iter()
+                .map(|&w| i64::from(facebake_runtime::fixed::unpack_influence(w).1))
+                .sum();
+            assert_eq!(sum, 1 << q.frac_bits);
+        }
+        assert!(q.max_rounding < 2.0 / f64::from(1u32 << 21));
+        assert!(matches!(
+            quantise(&[vec![(0, 1e6)]]),
+            Err(SparsifyError::WeightTooLarge { .. })
+        ));
+    }
+}
