@@ -1,1 +1,791 @@
-//! (being written)
+//! Reading a face mesh (rest positions, triangles, morph targets) from glTF 2.0.
+//!
+//! [`load_mesh`] reads a `.glb` or `.gltf` file (buffers embedded, in the GLB `BIN` chunk,
+//! or in external files next to the `.gltf`), picks one mesh (by name, or the first) and one
+//! primitive of it (by index, or the first `TRIANGLES` primitive) and returns a [`FaceMesh`]:
+//! positions and triangles in the file's own vertex order and units, optional normals, the
+//! morph targets (named from `mesh.extras.targetNames`, the convention Blender and most
+//! exporters follow), and a *welded* copy of the topology where vertices with bit-identical
+//! positions (UV and normal seams) are merged into one.
+//!
+//! Node transforms are not applied: positions are in the mesh's own coordinate system.
+//! Images are never decoded.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use gltf::mesh::Mode;
+use thiserror::Error;
+
+use crate::mesh::Topology;
+
+/// One morph target (blend shape) of a [`FaceMesh`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct MorphTarget {
+    /// Name from `mesh.extras.targetNames`, or `target_<i>` when the file names none.
+    pub name: String,
+    /// Per-vertex position offsets, in glTF vertex order and asset units
+    /// (all zero when the target carries no `POSITION` attribute).
+    pub deltas: Vec<[f64; 3]>,
+}
+
+/// A triangle mesh read from glTF, with its morph targets and a welded copy of its topology.
+#[derive(Debug, Clone)]
+pub struct FaceMesh {
+    /// The file the mesh was read from.
+    pub source: PathBuf,
+    /// The mesh's name in the file (`#<index>` when it has none).
+    pub mesh_name: String,
+    /// Rest positions, in glTF vertex order and asset units.
+    pub positions: Vec<[f64; 3]>,
+    /// Vertex normals as stored in the file, if the primitive has `NORMAL`.
+    pub normals: Option<Vec<[f64; 3]>>,
+    /// Triangles in original glTF vertex indices, in file order.
+    pub triangles: Vec<[u32; 3]>,
+    /// For each original vertex, the id of its welded vertex (vertices with bit-identical
+    /// positions share one id; ids are numbered in order of first appearance).
+    pub weld: Vec<u32>,
+    /// Position of each welded vertex.
+    pub welded_positions: Vec<[f64; 3]>,
+    /// The same triangles as [`FaceMesh::triangles`] (same order, none dropped) in welded ids;
+    /// see [`FaceMesh::degenerate_welded_triangles`] for those that collapse.
+    pub welded_triangles: Vec<[u32; 3]>,
+    /// Morph targets in file order.
+    pub morph_targets: Vec<MorphTarget>,
+}
+
+/// Failure to load a mesh: the file and what is wrong with it.
+#[derive(Debug, Error)]
+#[error("{}: {kind}", path.display())]
+pub struct MeshLoadError {
+    /// The file being read.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub kind: MeshLoadErrorKind,
+}
+
+/// The problems [`load_mesh`] reports.
+#[derive(Debug, Error)]
+pub enum MeshLoadErrorKind {
+    /// The file could not be read or is not valid glTF.
+    #[error("cannot read glTF: {0}")]
+    Gltf(#[from] gltf::Error),
+    /// The file contains no mesh at all.
+    #[error("the file contains no meshes")]
+    NoMeshes,
+    /// No mesh has the requested name.
+    #[error("no mesh named \"{name}\"; the file has: {available}")]
+    NoSuchMesh {
+        /// The requested name.
+        name: String,
+        /// The meshes in the file, comma separated.
+        available: String,
+    },
+    /// The requested primitive index does not exist.
+    #[error("mesh \"{mesh}\" has no primitive {index} (it has {count})")]
+    NoSuchPrimitive {
+        /// Mesh name.
+        mesh: String,
+        /// Requested primitive index.
+        index: usize,
+        /// Number of primitives in the mesh.
+        count: usize,
+    },
+    /// The mesh has no `TRIANGLES` primitive.
+    #[error("mesh \"{mesh}\" has no TRIANGLES primitive (its primitives' modes: {modes})")]
+    NoTrianglePrimitive {
+        /// Mesh name.
+        mesh: String,
+        /// Modes of its primitives.
+        modes: String,
+    },
+    /// The requested primitive is not in `TRIANGLES` mode.
+    #[error("mesh \"{mesh}\" primitive {primitive} has mode {mode}; only TRIANGLES is supported")]
+    NotTriangles {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Its mode.
+        mode: String,
+    },
+    /// The primitive lacks the `POSITION` attribute.
+    #[error("mesh \"{mesh}\" primitive {primitive} has no POSITION attribute")]
+    NoPositions {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+    },
+    /// An accessor's data could not be read in full.
+    #[error(
+        "mesh \"{mesh}\" primitive {primitive}: {what}: expected {expected} items, the buffer holds {actual}"
+    )]
+    ShortData {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Which data (e.g. `NORMAL`, `morph target 3 POSITION`).
+        what: String,
+        /// Items expected (the vertex or index count).
+        expected: usize,
+        /// Items actually read.
+        actual: usize,
+    },
+    /// The number of indices is not a multiple of three.
+    #[error("mesh \"{mesh}\" primitive {primitive}: {count} indices is not a multiple of 3")]
+    IndexCount {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Number of indices.
+        count: usize,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error(
+        "mesh \"{mesh}\" primitive {primitive}: triangle {triangle} uses vertex {index}, but there are only {vertex_count} vertices"
+    )]
+    IndexOutOfRange {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Triangle number.
+        triangle: usize,
+        /// The bad vertex index.
+        index: u32,
+        /// Number of vertices.
+        vertex_count: usize,
+    },
+    /// The primitive has no vertices or no triangles.
+    #[error("mesh \"{mesh}\" primitive {primitive} is empty ({vertices} vertices, {triangles} triangles)")]
+    Empty {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Number of vertices.
+        vertices: usize,
+        /// Number of triangles.
+        triangles: usize,
+    },
+    /// A position, normal or morph delta is NaN or infinite.
+    #[error("mesh \"{mesh}\" primitive {primitive}: {what} of vertex {vertex} is not finite")]
+    NotFinite {
+        /// Mesh name.
+        mesh: String,
+        /// Primitive index.
+        primitive: usize,
+        /// Which data.
+        what: String,
+        /// The vertex.
+        vertex: usize,
+    },
+    /// `mesh.extras.targetNames` is present but unusable.
+    #[error("mesh \"{mesh}\": extras.targetNames {problem}")]
+    BadTargetNames {
+        /// Mesh name.
+        mesh: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+}
+
+/// Loads one triangle primitive of one mesh from a `.glb` or `.gltf` file.
+///
+/// `mesh` selects a mesh by name (default: the file's first mesh); `primitive` selects a
+/// primitive by index (default: the first primitive in `TRIANGLES` mode). A primitive without
+/// indices is read as consecutive vertex triples.
+pub fn load_mesh(
+    path: &Path,
+    mesh: Option<&str>,
+    primitive: Option<usize>,
+) -> Result<FaceMesh, MeshLoadError> {
+    load(path, mesh, primitive).map_err(|kind| MeshLoadError {
+        path: path.to_path_buf(),
+        kind,
+    })
+}
+
+fn load(
+    path: &Path,
+    mesh_name: Option<&str>,
+    primitive_index: Option<usize>,
+) -> Result<FaceMesh, MeshLoadErrorKind> {
+    let gltf::Gltf { document, blob } = gltf::Gltf::open(path)?;
+    let buffers = gltf::import_buffers(&document, path.parent(), blob)?;
+
+    let display_name = |m: &gltf::Mesh| {
+        m.name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("#{}", m.index()))
+    };
+    let gmesh = match mesh_name {
+        None => document
+            .meshes()
+            .next()
+            .ok_or(MeshLoadErrorKind::NoMeshes)?,
+        Some(name) => document
+            .meshes()
+            .find(|m| m.name() == Some(name))
+            .ok_or_else(|| MeshLoadErrorKind::NoSuchMesh {
+                name: name.to_owned(),
+                available: document
+                    .meshes()
+                    .map(|m| format!("\"{}\"", display_name(&m)))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?,
+    };
+    let name = display_name(&gmesh);
+
+    let prim = match primitive_index {
+        Some(index) => {
+            let prim = gmesh.primitives().nth(index).ok_or_else(|| {
+                MeshLoadErrorKind::NoSuchPrimitive {
+                    mesh: name.clone(),
+                    index,
+                    count: gmesh.primitives().len(),
+                }
+            })?;
+            if prim.mode() != Mode::Triangles {
+                return Err(MeshLoadErrorKind::NotTriangles {
+                    mesh: name,
+                    primitive: index,
+                    mode: format!("{:?}", prim.mode()),
+                });
+            }
+            prim
+        }
+        None => gmesh
+            .primitives()
+            .find(|p| p.mode() == Mode::Triangles)
+            .ok_or_else(|| MeshLoadErrorKind::NoTrianglePrimitive {
+                mesh: name.clone(),
+                modes: gmesh
+                    .primitives()
+                    .map(|p| format!("{:?}", p.mode()))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?,
+    };
+    let pi = prim.index();
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+
+    let position_accessor =
+        prim.get(&gltf::Semantic::Positions)
+            .ok_or_else(|| MeshLoadErrorKind::NoPositions {
+                mesh: name.clone(),
+                primitive: pi,
+            })?;
+    let vertex_count = position_accessor.count();
+    let short = |what: &str, expected: usize, actual: usize| MeshLoadErrorKind::ShortData {
+        mesh: name.clone(),
+        primitive: pi,
+        what: what.to_owned(),
+        expected,
+        actual,
+    };
+    // `count` 0 accessors are invalid glTF and would make the reader misbehave.
+    if vertex_count == 0 {
+        return Err(MeshLoadErrorKind::Empty {
+            mesh: name,
+            primitive: pi,
+            vertices: 0,
+            triangles: 0,
+        });
+    }
+    let read_vec3s = |it: Option<Box<dyn Iterator<Item = [f32; 3]> + '_>>,
+                      what: &str|
+     -> Result<Vec<[f64; 3]>, MeshLoadErrorKind> {
+        let v: Vec<[f64; 3]> = it
+            .map(|it| it.map(|p| p.map(f64::from)).collect())
+            .unwrap_or_default();
+        if v.len() != vertex_count {
+            return Err(short(what, vertex_count, v.len()));
+        }
+        if let Some(vertex) = v.iter().position(|p| p.iter().any(|x| !x.is_finite())) {
+            return Err(MeshLoadErrorKind::NotFinite {
+                mesh: name.clone(),
+                primitive: pi,
+                what: what.to_owned(),
+                vertex,
+            });
+        }
+        Ok(v)
+    };
+    let positions = read_vec3s(
+        reader.read_positions().map(|it| Box::new(it) as Box<_>),
+        "POSITION",
+    )?;
+    let normals = match prim.get(&gltf::Semantic::Normals) {
+        None => None,
+        Some(_) => Some(read_vec3s(
+            reader.read_normals().map(|it| Box::new(it) as Box<_>),
+            "NORMAL",
+        )?),
+    };
+
+    let indices: Vec<u32> = match prim.indices() {
+        None => (0..vertex_count as u32).collect(),
+        Some(acc) => {
+            let expected = acc.count();
+            let v: Vec<u32> = if expected == 0 {
+                Vec::new()
+            } else {
+                reader
+                    .read_indices()
+                    .map(|it| it.into_u32().collect())
+                    .unwrap_or_default()
+            };
+            if v.len() != expected {
+                return Err(short("indices", expected, v.len()));
+            }
+            v
+        }
+    };
+    if indices.len() % 3 != 0 {
+        return Err(MeshLoadErrorKind::IndexCount {
+            mesh: name,
+            primitive: pi,
+            count: indices.len(),
+        });
+    }
+    let triangles: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    if triangles.is_empty() {
+        return Err(MeshLoadErrorKind::Empty {
+            mesh: name,
+            primitive: pi,
+            vertices: vertex_count,
+            triangles: 0,
+        });
+    }
+    for (triangle, t) in triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= vertex_count) {
+            return Err(MeshLoadErrorKind::IndexOutOfRange {
+                mesh: name,
+                primitive: pi,
+                triangle,
+                index,
+                vertex_count,
+            });
+        }
+    }
+
+    let target_count = prim.morph_targets().len();
+    let names = target_names(&gmesh, &name, target_count)?;
+    let mut morph_targets = Vec::with_capacity(target_count);
+    for (i, ((deltas, _, _), name_i)) in reader.read_morph_targets().zip(names).enumerate() {
+        let deltas = match prim.morph_targets().nth(i).and_then(|t| t.positions()) {
+            None => vec![[0.0; 3]; vertex_count],
+            Some(_) => read_vec3s(
+                deltas.map(|it| Box::new(it) as Box<_>),
+                &format!("morph target {i} (\"{name_i}\") POSITION"),
+            )?,
+        };
+        morph_targets.push(MorphTarget {
+            name: name_i,
+            deltas,
+        });
+    }
+
+    let (weld, welded_positions) = weld_positions(&positions);
+    let welded_triangles = triangles
+        .iter()
+        .map(|t| t.map(|v| weld[v as usize]))
+        .collect();
+    Ok(FaceMesh {
+        source: path.to_path_buf(),
+        mesh_name: name,
+        positions,
+        normals,
+        triangles,
+        weld,
+        welded_positions,
+        welded_triangles,
+        morph_targets,
+    })
+}
+
+/// Target names from `mesh.extras.targetNames`, or `target_<i>` if absent.
+fn target_names(
+    mesh: &gltf::Mesh,
+    mesh_name: &str,
+    count: usize,
+) -> Result<Vec<String>, MeshLoadErrorKind> {
+    let bad = |problem: String| MeshLoadErrorKind::BadTargetNames {
+        mesh: mesh_name.to_owned(),
+        problem,
+    };
+    let from_extras = match mesh.extras() {
+        None => None,
+        Some(raw) => {
+            let value: serde_json::Value = serde_json::from_str(raw.get())
+                .map_err(|e| bad(format!("cannot be parsed: {e}")))?;
+            match value.get("targetNames") {
+                None => None,
+                Some(v) => Some(
+                    serde_json::from_value::<Vec<String>>(v.clone())
+                        .map_err(|e| bad(format!("is not a list of strings: {e}")))?,
+                ),
+            }
+        }
+    };
+    match from_extras {
+        None => Ok((0..count).map(|i| format!("target_{i}")).collect()),
+        Some(names) if names.len() != count => Err(bad(format!(
+            "has {} names but the primitive has {count} morph targets",
+            names.len()
+        ))),
+        Some(names) => Ok(names),
+    }
+}
+
+/// Welds vertices with bit-identical positions; returns (original -> welded id, welded positions).
+fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    let mut welded = Vec::new();
+    let weld = positions
+        .iter()
+        .map(|p| {
+            *ids.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                welded.push(*p);
+                (welded.len() - 1) as u32
+            })
+        })
+        .collect();
+    (weld, welded)
+}
+
+impl FaceMesh {
+    /// Positions with morph targets applied: rest + Σ weight · delta, in glTF vertex order.
+    ///
+    /// `weights` pairs a morph target index with its weight.
+    ///
+    /// # Panics
+    /// If a target index is out of range (use [`FaceMesh::morph_index`] to look names up).
+    pub fn morphed(&self, weights: &[(usize, f64)]) -> Vec<[f64; 3]> {
+        let mut out = self.positions.clone();
+        for &(t, w) in weights {
+            let target = self.morph_targets.get(t).unwrap_or_else(|| {
+                panic!(
+                    "morph target {t} out of range: mesh \"{}\" has {}",
+                    self.mesh_name,
+                    self.morph_targets.len()
+                )
+            });
+            for (p, d) in out.iter_mut().zip(&target.deltas) {
+                for k in 0..3 {
+                    p[k] += w * d[k];
+                }
+            }
+        }
+        out
+    }
+
+    /// Index of the morph target with this exact name.
+    pub fn morph_index(&self, name: &str) -> Option<usize> {
+        self.morph_targets.iter().position(|t| t.name == name)
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the rest positions.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        bounds(self.positions.iter().copied())
+    }
+
+    /// Length of the bounding box diagonal of the rest positions (a scale for tolerances).
+    pub fn diagonal(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        crate::mesh::distance(&lo, &hi)
+    }
+
+    /// Indices of triangles whose welded vertices are not three distinct ids.
+    pub fn degenerate_welded_triangles(&self) -> Vec<usize> {
+        self.welded_triangles
+            .iter()
+            .enumerate()
+            .filter(|(_, [a, b, c])| a == b || b == c || a == c)
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// For each welded vertex, the first original glTF vertex that maps to it.
+    pub fn welded_to_original(&self) -> Vec<u32> {
+        let mut out = vec![u32::MAX; self.welded_positions.len()];
+        for (orig, &w) in self.weld.iter().enumerate().rev() {
+            out[w as usize] = orig as u32;
+        }
+        out
+    }
+
+    /// Topology (adjacency, edges, components, boundary loops) of the welded mesh.
+    pub fn welded_topology(&self) -> Topology {
+        Topology::new(&self.welded_positions, &self.welded_triangles)
+    }
+}
+
+/// Axis-aligned bounds `(min, max)` of a point set (`(+inf, -inf)` when empty).
+pub fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// The Face Cap head fixture.
+    pub(crate) const FACECAP: &str = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/FaceCapHeadGeneric.glb"
+    );
+    /// The MediaPipe canonical face fixture.
+    pub(crate) const MEDIAPIPE: &str = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/mediapipe_canonical_face_model.glb"
+    );
+
+    /// The Face Cap `head` mesh, loaded once per test binary.
+    pub(crate) fn head() -> &'static FaceMesh {
+        static HEAD: std::sync::OnceLock<FaceMesh> = std::sync::OnceLock::new();
+        HEAD.get_or_init(|| load_mesh(Path::new(FACECAP), Some("head"), None).unwrap())
+    }
+
+    /// A scratch path unique to this process and `name`.
+    pub(crate) fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("facebake-mesh-tests-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn facecap_head_counts() {
+        let m = head();
+        assert_eq!(m.mesh_name, "head");
+        assert_eq!(m.positions.len(), 2694);
+        assert_eq!(m.welded_positions.len(), 2659);
+        assert_eq!(m.triangles.len(), 5032);
+        assert_eq!(m.welded_triangles.len(), 5032);
+        assert_eq!(m.weld.len(), 2694);
+        assert_eq!(m.normals.as_ref().map(Vec::len), Some(2694));
+        assert!(m.degenerate_welded_triangles().is_empty());
+        // Welding keeps geometry: every original vertex sits on its welded vertex.
+        for (i, &w) in m.weld.iter().enumerate() {
+            assert_eq!(m.positions[i], m.welded_positions[w as usize]);
+        }
+        let rep = m.welded_to_original();
+        assert!(rep.iter().all(|&o| (o as usize) < 2694));
+        assert_eq!(m.weld[rep[100] as usize], 100);
+    }
+
+    #[test]
+    fn facecap_head_morph_targets() {
+        let m = head();
+        assert_eq!(m.morph_targets.len(), 52);
+        // ARKit's 52 shapes in ARKit order, but with Face Cap's `_L`/`_R` suffixes
+        // (`eyeBlink_L`, not ARKit's `eyeBlinkLeft`).
+        assert_eq!(m.morph_targets[0].name, "browInnerUp");
+        assert_eq!(m.morph_index("eyeBlink_L"), Some(13));
+        assert_eq!(m.morph_index("jawOpen"), Some(24));
+        assert_eq!(m.morph_index("mouthSmile_R"), Some(38));
+        assert_eq!(m.morph_index("tongueOut"), Some(51));
+        assert_eq!(m.morph_index("eyeBlinkLeft"), None);
+        let tongue = &m.morph_targets[m.morph_index("tongueOut").unwrap()];
+        assert!(tongue.deltas.iter().all(|d| *d == [0.0; 3]));
+        let jaw = m.morph_index("jawOpen").unwrap();
+        let max_jaw = m.morph_targets[jaw]
+            .deltas
+            .iter()
+            .map(crate::mesh::norm)
+            .fold(0.0, f64::max);
+        // The jaw opens by centimetres, and the file is in metres.
+        assert!(max_jaw > 0.005 && max_jaw < 0.1, "{max_jaw}");
+        // Every other target moves something.
+        let still: Vec<&str> = m
+            .morph_targets
+            .iter()
+            .filter(|t| t.deltas.iter().all(|d| *d == [0.0; 3]))
+            .map(|t| t.name.as_str())
+            .collect();
+        assert_eq!(still, ["tongueOut"]);
+    }
+
+    #[test]
+    fn seam_duplicates_move_together() {
+        // Vertices welded together must carry identical morph deltas, or welding would tear
+        // the surface when morphed.
+        let m = head();
+        let rep = m.welded_to_original();
+        for t in &m.morph_targets {
+            for (i, &w) in m.weld.iter().enumerate() {
+                assert_eq!(
+                    t.deltas[i], t.deltas[rep[w as usize] as usize],
+                    "{}",
+                    t.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn facecap_bounds_and_morphing() {
+        let m = head();
+        let (lo, hi) = m.bounds();
+        assert!((lo[0] + 0.0951516).abs() < 1e-6 && (hi[0] - 0.0951516).abs() < 1e-6);
+        assert!((hi[1] - 0.1385095).abs() < 1e-6);
+        let d = m.diagonal();
+        assert!(d > 0.3 && d < 0.4, "{d}");
+        let jaw = m.morph_index("jawOpen").unwrap();
+        let half = m.morphed(&[(jaw, 0.5)]);
+        let full = m.morphed(&[(jaw, 0.25), (jaw, 0.75)]);
+        assert_eq!(m.morphed(&[]), m.positions);
+        for i in 0..m.positions.len() {
+            for k in 0..3 {
+                let want = m.positions[i][k] + m.morph_targets[jaw].deltas[i][k];
+                assert!((full[i][k] - want).abs() < 1e-12);
+                let want = m.positions[i][k] + 0.5 * m.morph_targets[jaw].deltas[i][k];
+                assert!((half[i][k] - want).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn other_facecap_meshes() {
+        let path = Path::new(FACECAP);
+        let first = load_mesh(path, None, None).unwrap();
+        assert_eq!(first.mesh_name, "head");
+        for name in ["eyeLeft", "eyeRight", "teeth"] {
+            let m = load_mesh(path, Some(name), None).unwrap();
+            assert_eq!(m.mesh_name, name);
+            assert!(m.morph_targets.is_empty());
+            assert!(!m.triangles.is_empty());
+        }
+    }
+
+    #[test]
+    fn mediapipe_counts() {
+        let m = load_mesh(Path::new(MEDIAPIPE), None, Some(0)).unwrap();
+        assert_eq!(m.mesh_name, "mediapipe_canonical_face_model");
+        assert_eq!(m.positions.len(), 468);
+        assert_eq!(m.welded_positions.len(), 468);
+        assert_eq!(m.triangles.len(), 898);
+        assert!(m.morph_targets.is_empty());
+        // Centimetres: the face is about 15 cm wide.
+        let (lo, hi) = m.bounds();
+        assert!((hi[0] - lo[0] - 15.486).abs() < 1e-2, "{}", hi[0] - lo[0]);
+    }
+
+    #[test]
+    fn errors_name_file_and_problem() {
+        let path = Path::new(FACECAP);
+        let e = load_mesh(path, Some("nose"), None).unwrap_err().to_string();
+        assert!(e.contains("FaceCapHeadGeneric.glb"), "{e}");
+        assert!(
+            e.contains("no mesh named \"nose\"")
+                && e.contains("\"head\", \"eyeLeft\", \"eyeRight\", \"teeth\""),
+            "{e}"
+        );
+        let e = load_mesh(path, Some("head"), Some(1)).unwrap_err();
+        assert!(
+            matches!(
+                e.kind,
+                MeshLoadErrorKind::NoSuchPrimitive {
+                    index: 1,
+                    count: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = load_mesh(Path::new("/nonexistent/face.glb"), None, None).unwrap_err();
+        assert!(matches!(e.kind, MeshLoadErrorKind::Gltf(_)), "{e}");
+        assert!(e.to_string().contains("/nonexistent/face.glb"));
+    }
+
+    /// Writes a small `.gltf` with an external buffer; `mode` and `indices` vary per test.
+    fn write_tiny_gltf(name: &str, mode: u32, indices: &[u32]) -> PathBuf {
+        let positions: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut bin: Vec<u8> = positions
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+        let bin_path = scratch(&format!("{name}.bin"));
+        std::fs::write(&bin_path, &bin).unwrap();
+        let json = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                {"buffer": 0, "byteOffset": 36, "byteLength": 4 * indices.len()}
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                 "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+                {"bufferView": 1, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}
+            ],
+            "meshes": [{"name": "tiny", "primitives": [
+                {"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}
+            ]}]
+        });
+        let path = scratch(&format!("{name}.gltf"));
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        path
+    }
+
+    #[test]
+    fn reads_gltf_with_external_buffer() {
+        let path = write_tiny_gltf("ok", 4, &[0, 1, 2]);
+        let m = load_mesh(&path, Some("tiny"), None).unwrap();
+        assert_eq!(m.triangles, [[0, 1, 2]]);
+        assert_eq!(m.positions[1], [1.0, 0.0, 0.0]);
+        assert!(m.normals.is_none());
+        assert!(m.morph_targets.is_empty());
+    }
+
+    #[test]
+    fn rejects_bad_primitives() {
+        let lines = write_tiny_gltf("lines", 1, &[0, 1, 1, 2]);
+        let e = load_mesh(&lines, None, None).unwrap_err();
+        assert!(
+            matches!(e.kind, MeshLoadErrorKind::NoTrianglePrimitive { .. }),
+            "{e}"
+        );
+        let e = load_mesh(&lines, None, Some(0)).unwrap_err().to_string();
+        assert!(e.contains("lines.gltf") && e.contains("mode Lines"), "{e}");
+
+        let out_of_range = write_tiny_gltf("oor", 4, &[0, 1, 2, 2, 1, 7]);
+        let e = load_mesh(&out_of_range, None, None).unwrap_err();
+        assert!(
+            matches!(
+                e.kind,
+                MeshLoadErrorKind::IndexOutOfRange {
+                    triangle: 1,
+                    index: 7,
+                    vertex_count: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let ragged = write_tiny_gltf("ragged", 4, &[0, 1, 2, 2]);
+        let e = load_mesh(&ragged, None, None).unwrap_err();
+        assert!(
+            matches!(e.kind, MeshLoadErrorKind::IndexCount { count: 4, .. }),
+            "{e}"
+        );
+    }
+}
