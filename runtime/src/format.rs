@@ -360,7 +360,7 @@ fn expect_len(
     per_item: usize,
 ) -> Result<(), LoadError> {
     // On 16-bit targets a huge count could overflow; treat that as a length mismatch.
-    let expected = count.checked_mul(per_item).unwrap_or(usize::MAX);
+    let expected = count.saturating_mul(per_item);
     if bytes.0.len() != expected {
         return Err(LoadError::SectionLength {
             section,

@@ -1,1 +1,41 @@
-//! Shared helpers for the cross-crate tests.
+//! Shared helpers for the cross-crate tests: fixture paths and the FaceCap ground-truth rig.
+
+use std::path::PathBuf;
+
+use facebake::bake::{bake_linear, BakeConfig, BakeInput, Baked};
+use facebake::ground_truth::GroundTruth;
+use facebake::io::gltf_mesh::load_mesh;
+
+/// Path of a file in `fixtures/`.
+pub fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures")).join(name)
+}
+
+/// Markers on the FaceCap head, as in the README's figures: 40, of which 6 on still skin.
+pub const FACECAP_MARKERS: usize = 40;
+/// Of [`FACECAP_MARKERS`], how many sit where no morph target moves the skin.
+pub const FACECAP_STATIC_MARKERS: usize = 6;
+
+/// The FaceCap ground truth (head mesh, 40 markers, the blend sequence).
+pub fn facecap_truth() -> GroundTruth {
+    let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
+        .expect("FaceCap head loads");
+    GroundTruth::new(mesh, FACECAP_MARKERS, FACECAP_STATIC_MARKERS).expect("ground truth builds")
+}
+
+/// Bake the ground truth's markers with `config`.
+pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
+    let names = truth.marker_names();
+    let rest = truth.marker_rest();
+    let stiffness = vec![1.0; names.len()];
+    bake_linear(
+        &BakeInput {
+            vertices: &truth.mesh.positions,
+            marker_names: &names,
+            marker_rest: &rest,
+            stiffness: &stiffness,
+        },
+        config,
+    )
+    .expect("bake succeeds")
+}
