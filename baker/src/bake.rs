@@ -35,7 +35,7 @@ impl Default for BakeConfig {
             affine: true,
             k: 8,
             refit: Refit::Prior,
-            prior_length: 0.25,
+            prior_length: 0.05,
         }
     }
 }

@@ -39,3 +39,21 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
     )
     .expect("bake succeeds")
 }
+
+/// The FaceCap truth and its default bake, built once per test binary.
+pub fn facecap_default() -> &'static (GroundTruth, Baked) {
+    static CELL: std::sync::OnceLock<(GroundTruth, Baked)> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        let truth = facecap_truth();
+        let baked = bake_truth(&truth, &BakeConfig::default());
+        (truth, baked)
+    })
+}
+
+/// Reseal a blob whose payload was edited, so the structural validation (not the CRC) is what
+/// a test exercises.
+pub fn reseal(blob: &mut [u8]) {
+    let header_len = facebake_runtime::format::HEADER_LEN;
+    let crc = facebake_runtime::checksum::crc32(&blob[header_len..]);
+    blob[16..20].copy_from_slice(&crc.to_le_bytes());
+}

@@ -1,0 +1,135 @@
+//! The runtime's arithmetic promises, on the real FaceCap rig with random marker data:
+//! zero motion gives the rest pose bit for bit, a uniform translation moves every vertex by
+//! exactly that translation, and the map is linear within rounding.
+
+use facebake::ground_truth::SplitMix64;
+use facebake_runtime::{FrameError, Rig};
+use facebake_tests::facecap_default;
+
+fn rest_markers(rig: &Rig<'_>) -> Vec<[i32; 3]> {
+    (0..rig.marker_count())
+        .map(|i| rig.marker_rest(i).unwrap())
+        .collect()
+}
+
+fn deform(rig: &Rig<'_>, m: &[[i32; 3]]) -> Vec<[i32; 3]> {
+    let mut out = vec![[0; 3]; rig.vertex_count()];
+    rig.deform(m, &mut out).unwrap();
+    out
+}
+
+/// A random offset within ±`range` rig units (Q8.24).
+fn offset(rng: &mut SplitMix64, range: f64) -> [i32; 3] {
+    [0; 3].map(|_| ((rng.unit() * 2.0 - 1.0) * range * f64::from(1 << 24)) as i32)
+}
+
+#[test]
+fn zero_motion_is_the_rest_pose_bit_for_bit() {
+    let rig = Rig::from_bytes(&facecap_default().1.blob).unwrap();
+    let out = deform(&rig, &rest_markers(&rig));
+    for (v, o) in out.iter().enumerate() {
+        assert_eq!(*o, rig.vertex_rest(v).unwrap(), "vertex {v}");
+    }
+}
+
+#[test]
+fn uniform_translation_is_exact() {
+    let rig = Rig::from_bytes(&facecap_default().1.blob).unwrap();
+    let rest = rest_markers(&rig);
+    let mut rng = SplitMix64(7);
+    for trial in 0..200 {
+        // Translations up to ±4 rig units, and tiny ones down to a few LSBs.
+        let t = offset(&mut rng, if trial % 2 == 0 { 4.0 } else { 1e-6 });
+        let moved: Vec<_> = rest
+            .iter()
+            .map(|m| [m[0] + t[0], m[1] + t[1], m[2] + t[2]])
+            .collect();
+        let out = deform(&rig, &moved);
+        for (v, o) in out.iter().enumerate() {
+            let r = rig.vertex_rest(v).unwrap();
+            assert_eq!(
+                *o,
+                [r[0] + t[0], r[1] + t[1], r[2] + t[2]],
+                "trial {trial}, vertex {v}"
+            );
+        }
+    }
+}
+
+#[test]
+fn linear_within_rounding() {
+    let rig = Rig::from_bytes(&facecap_default().1.blob).unwrap();
+    let rest = rest_markers(&rig);
+    let mut rng = SplitMix64(11);
+    let add = |x: &[[i32; 3]]| -> Vec<[i32; 3]> {
+        x.iter()
+            .zip(&rest)
+            .map(|(d, r)| [r[0] + d[0], r[1] + d[1], r[2] + d[2]])
+            .collect()
+    };
+    for trial in 0..50 {
+        let a: Vec<[i32; 3]> = (0..rest.len()).map(|_| offset(&mut rng, 0.1)).collect();
+        let b: Vec<[i32; 3]> = (0..rest.len()).map(|_| offset(&mut rng, 0.1)).collect();
+        let ab: Vec<[i32; 3]> = a
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| [p[0] + q[0], p[1] + q[1], p[2] + q[2]])
+            .collect();
+        let (fa, fb, fab) = (
+            deform(&rig, &add(&a)),
+            deform(&rig, &add(&b)),
+            deform(&rig, &add(&ab)),
+        );
+        for v in 0..rig.vertex_count() {
+            let r = rig.vertex_rest(v).unwrap();
+            for c in 0..3 {
+                // f(a+b) − rest = (f(a) − rest) + (f(b) − rest), each side rounded once.
+                let lhs = i64::from(fab[v][c]) - i64::from(r[c]);
+                let rhs = i64::from(fa[v][c]) + i64::from(fb[v][c]) - 2 * i64::from(r[c]);
+                assert!(
+                    (lhs - rhs).abs() <= 1,
+                    "trial {trial} vertex {v}: {lhs} vs {rhs}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn wrong_slice_lengths_are_errors_and_write_nothing() {
+    let rig = Rig::from_bytes(&facecap_default().1.blob).unwrap();
+    let rest = rest_markers(&rig);
+    let mut out = vec![[7; 3]; rig.vertex_count()];
+    assert_eq!(
+        rig.deform(&rest[1..], &mut out),
+        Err(FrameError::MarkerCount {
+            expected: 40,
+            found: 39
+        })
+    );
+    assert!(out.iter().all(|o| *o == [7; 3]));
+    let mut short = vec![[0; 3]; 5];
+    assert_eq!(
+        rig.deform(&rest, &mut short),
+        Err(FrameError::OutputLength {
+            expected: 2694,
+            found: 5
+        })
+    );
+}
+
+#[test]
+fn extreme_markers_saturate_instead_of_wrapping() {
+    let rig = Rig::from_bytes(&facecap_default().1.blob).unwrap();
+    for extreme in [i32::MAX, i32::MIN] {
+        let m = vec![[extreme; 3]; rig.marker_count()];
+        // A push to the edge of the range: every vertex ends near that extreme (within the
+        // mesh's size, 2^24), none wraps round to the other sign.
+        for o in deform(&rig, &m) {
+            for c in o {
+                assert_eq!(c.signum(), extreme.signum());
+                assert!(c.unsigned_abs() >= (1 << 31) - (1 << 25), "{c}");
+            }
+        }
+    }
+}
