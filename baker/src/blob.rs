@@ -1,10 +1,8 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
 use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, RigData, Space, MAX_MARKERS,
+    self, Bytes, Deformer, LinearInfluences, RbfCoefficients, RigData, Space, MAX_MARKERS,
 };
-
-use crate::sparsify::Quantised;
 
 /// The blob could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -36,14 +34,7 @@ pub enum BlobError {
 /// The rig space for a mesh: centre of its bounds and half its largest side, enlarged by 2⁻¹⁰
 /// so every vertex fits Q0.15 after rounding to f32.
 pub fn space_for(positions: &[[f64; 3]]) -> Space {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in positions {
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
+    let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
     let centre = [0, 1, 2].map(|c| (0.5 * (lo[c] + hi[c])) as f32);
     let half = (0..3)
         .map(|c| 0.5 * (hi[c] - lo[c]))
@@ -53,6 +44,37 @@ pub fn space_for(positions: &[[f64; 3]]) -> Space {
         centre,
         half_extent: (half * (1.0 + 1.0 / 1024.0)) as f32,
     }
+}
+
+/// A point in rig units (f64, unquantised): `(p − centre) / half_extent`.
+pub fn to_rig_units(space: &Space, p: &[f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|c| (p[c] - f64::from(space.centre[c])) / f64::from(space.half_extent))
+}
+
+/// The deformer's sections, already encoded as bytes.
+pub enum DeformerBytes {
+    /// Linear weights: per-vertex counts and packed influences.
+    Linear {
+        /// Fractional weight bits.
+        weight_frac_bits: u8,
+        /// Per vertex, its packed influences.
+        rows: Vec<Vec<u32>>,
+    },
+    /// RBF coefficients.
+    Rbf {
+        /// Fractional bits of φ.
+        weight_frac_bits: u8,
+        /// Influences per vertex.
+        k: u8,
+        /// Affine rows present.
+        affine: bool,
+        /// Per coefficient row: shift.
+        row_shifts: Vec<u8>,
+        /// Rows × markers entries.
+        matrix: Vec<i16>,
+        /// Per vertex, exactly `k` packed influences.
+        rows: Vec<Vec<u32>>,
+    },
 }
 
 /// Everything the blob holds, in asset units.
@@ -65,8 +87,8 @@ pub struct BlobContents<'a> {
     pub marker_names: &'a [String],
     /// Marker rest positions on the character.
     pub marker_rest: &'a [[f64; 3]],
-    /// Quantised influences, one row per vertex.
-    pub influences: &'a Quantised,
+    /// The deformer.
+    pub deformer: &'a DeformerBytes,
 }
 
 /// Sizes of a written blob.
@@ -82,8 +104,15 @@ pub struct BlobSizes {
     pub other_bytes_per_vertex: f64,
 }
 
-/// Encode and seal a linear rig.
-pub fn write_linear(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
+fn le_words(rows: &[Vec<u32>]) -> Vec<u8> {
+    rows.iter()
+        .flatten()
+        .flat_map(|w| w.to_le_bytes())
+        .collect()
+}
+
+/// Encode and seal a rig.
+pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
     if c.marker_names.is_empty() || c.marker_names.len() > MAX_MARKERS {
         return Err(BlobError::MarkerCount(c.marker_names.len()));
     }
@@ -116,17 +145,52 @@ pub fn write_linear(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobEr
         q.iter()
             .for_each(|x| vertex_rest.extend_from_slice(&x.to_le_bytes()));
     }
-    let mut counts = Vec::with_capacity(c.vertices.len());
-    let mut words = Vec::new();
-    let mut max_k = 0u8;
-    for row in &c.influences.words {
-        let n = u8::try_from(row.len())
-            .map_err(|_| BlobError::Limits(format!("a vertex has {} influences", row.len())))?;
-        max_k = max_k.max(n);
-        counts.push(n);
-        row.iter()
-            .for_each(|w| words.extend_from_slice(&w.to_le_bytes()));
-    }
+    let too_many = |n: usize| BlobError::Limits(format!("a vertex has {n} influences; at most 64"));
+    let (counts, words, shifts, matrix);
+    let deformer = match c.deformer {
+        DeformerBytes::Linear {
+            weight_frac_bits,
+            rows,
+        } => {
+            counts = rows
+                .iter()
+                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
+                .collect::<Result<Vec<u8>, _>>()?;
+            words = le_words(rows);
+            Deformer::Linear(LinearInfluences {
+                weight_frac_bits: *weight_frac_bits,
+                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
+                influence_counts: Bytes(&counts),
+                influences: Bytes(&words),
+            })
+        }
+        DeformerBytes::Rbf {
+            weight_frac_bits,
+            k,
+            affine,
+            row_shifts,
+            matrix: m,
+            rows,
+        } => {
+            if let Some(r) = rows.iter().find(|r| r.len() != usize::from(*k)) {
+                return Err(BlobError::Limits(format!(
+                    "a vertex has {} kernel terms, the rig has K = {k}",
+                    r.len()
+                )));
+            }
+            words = le_words(rows);
+            shifts = row_shifts.clone();
+            matrix = m.iter().flat_map(|q| q.to_le_bytes()).collect::<Vec<u8>>();
+            Deformer::RbfCoefficients(RbfCoefficients {
+                influences_per_vertex: *k,
+                weight_frac_bits: *weight_frac_bits,
+                affine: *affine,
+                row_shifts: Bytes(&shifts),
+                matrix: Bytes(&matrix),
+                influences: Bytes(&words),
+            })
+        }
+    };
     let data = RigData {
         space: c.space,
         marker_count: c.marker_names.len() as u16,
@@ -135,12 +199,7 @@ pub fn write_linear(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobEr
         marker_names: Bytes(&names),
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
-        deformer: Deformer::Linear(LinearInfluences {
-            weight_frac_bits: c.influences.frac_bits,
-            max_influences: max_k.max(1),
-            influence_counts: Bytes(&counts),
-            influences: Bytes(&words),
-        }),
+        deformer,
     };
     let payload = postcard::to_allocvec(&data)?;
     let header =

@@ -5,7 +5,9 @@
 //! * [`SparseF64`]: the baked rig evaluated in f64 from the blob's own (quantised) numbers, so the
 //!   runtime's fixed-point arithmetic can be compared with exact arithmetic on identical data.
 
-use facebake_runtime::Rig;
+use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
+use facebake_runtime::format::Deformer;
+use facebake_runtime::{Rig, Space};
 
 use crate::rbf::RbfSystem;
 
@@ -44,62 +46,139 @@ impl DenseRbf {
     }
 }
 
-/// A loaded rig's own numbers, evaluated in f64.
+/// A loaded rig's own numbers, evaluated in f64 in rig units: the same formula as the runtime
+/// on the same quantised data, with exact arithmetic instead of fixed point.
 pub struct SparseF64 {
+    space: Space,
     rest: Vec<[f64; 3]>,
     marker_rest: Vec<[f64; 3]>,
+    /// Per vertex: (table index, weight).
     rows: Vec<Vec<(usize, f64)>>,
+    /// RBF-coefficient rigs: the dequantised map (rows × markers) and whether it has affine rows.
+    coefficients: Option<(Vec<Vec<f64>>, bool)>,
+}
+
+fn dequantise_rows(
+    words: &[u8],
+    counts: impl Iterator<Item = usize>,
+    scale: f64,
+) -> Vec<Vec<(usize, f64)>> {
+    let mut words = words.chunks_exact(4);
+    counts
+        .map(|count| {
+            words
+                .by_ref()
+                .take(count)
+                .map(|w| {
+                    let (m, q) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                    (usize::from(m), f64::from(q) / scale)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 impl SparseF64 {
-    /// Dequantise a rig: rest positions, marker rest positions and weights exactly as stored.
+    /// Dequantise a rig: rest positions, marker rest positions, weights and coefficient map
+    /// exactly as stored.
     pub fn from_rig(rig: &Rig<'_>) -> Self {
-        let space = rig.space();
         let scale = f64::from(1u32 << rig.weight_frac_bits());
+        let one = f64::from(1u32 << POS_FRAC_BITS);
+        let to_f64 = |q: [i32; 3]| q.map(|x| f64::from(x) / one);
         let rest = (0..rig.vertex_count())
             .filter_map(|i| rig.vertex_rest(i))
-            .map(|q| space.to_asset_f64(q))
+            .map(to_f64)
             .collect();
         let marker_rest = (0..rig.marker_count())
             .filter_map(|i| rig.marker_rest(i))
-            .map(|q| space.to_asset_f64(q))
+            .map(to_f64)
             .collect();
-        let mut rows = Vec::with_capacity(rig.vertex_count());
-        let lin = rig.linear();
-        let mut words = lin.influences.0.chunks_exact(4);
-        for &count in lin.influence_counts.0 {
-            let row = words
-                .by_ref()
-                .take(usize::from(count))
-                .map(|w| {
-                    let (m, q) = facebake_runtime::fixed::unpack_influence(u32::from_le_bytes([
-                        w[0], w[1], w[2], w[3],
-                    ]));
-                    (usize::from(m), f64::from(q) / scale)
-                })
-                .collect();
-            rows.push(row);
-        }
+        let (rows, coefficients) = match rig.deformer() {
+            Deformer::Linear(l) => (
+                dequantise_rows(
+                    l.influences.0,
+                    l.influence_counts.0.iter().map(|&c| usize::from(c)),
+                    scale,
+                ),
+                None,
+            ),
+            Deformer::RbfCoefficients(r) => {
+                let k = usize::from(r.influences_per_vertex);
+                let rows =
+                    dequantise_rows(r.influences.0, (0..rig.vertex_count()).map(|_| k), scale);
+                let m = rig.marker_count();
+                let matrix = r
+                    .row_shifts
+                    .0
+                    .iter()
+                    .zip(r.matrix.0.chunks_exact(2 * m))
+                    .map(|(&s, e)| {
+                        let unit = 2f64.powi(i32::from(s));
+                        e.chunks_exact(2)
+                            .map(|q| f64::from(i16::from_le_bytes([q[0], q[1]])) / unit)
+                            .collect()
+                    })
+                    .collect();
+                (rows, Some((matrix, r.affine)))
+            }
+        };
         Self {
+            space: rig.space(),
             rest,
             marker_rest,
             rows,
+            coefficients,
         }
     }
 
     /// Deformed positions for marker positions `markers` (asset units).
     pub fn frame(&self, markers: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let d: Vec<[f64; 3]> = markers
+            .iter()
+            .zip(&self.marker_rest)
+            .map(|(m, r)| {
+                let m = crate::blob::to_rig_units(&self.space, m);
+                [m[0] - r[0], m[1] - r[1], m[2] - r[2]]
+            })
+            .collect();
+        // The table the per-vertex sums index: displacements, or this frame's coefficients.
+        let (table, affine) = match &self.coefficients {
+            None => (d, false),
+            Some((matrix, affine)) => {
+                let c = matrix
+                    .iter()
+                    .map(|row| {
+                        let mut c = [0.0; 3];
+                        for (q, dj) in row.iter().zip(&d) {
+                            for a in 0..3 {
+                                c[a] += q * dj[a];
+                            }
+                        }
+                        c
+                    })
+                    .collect();
+                (c, *affine)
+            }
+        };
+        let n = self.marker_rest.len();
         self.rest
             .iter()
             .zip(&self.rows)
             .map(|(v, row)| {
                 let mut out = *v;
-                for &(m, w) in row {
-                    for c in 0..3 {
-                        out[c] += w * (markers[m][c] - self.marker_rest[m][c]);
+                for &(i, w) in row {
+                    for a in 0..3 {
+                        out[a] += w * table[i][a];
                     }
                 }
-                out
+                if affine {
+                    for a in 0..3 {
+                        out[a] +=
+                            table[n][a] + (0..3).map(|b| table[n + 1 + b][a] * v[b]).sum::<f64>();
+                    }
+                }
+                let h = f64::from(self.space.half_extent);
+                [0, 1, 2].map(|a| f64::from(self.space.centre[a]) + out[a] * h)
             })
             .collect()
     }

@@ -55,6 +55,15 @@ pub fn prior_covariance(markers: &[[f64; 3]], length: f64) -> DMatrix<f64> {
     })
 }
 
+/// Indices of the K largest-magnitude values (ties to the lower index), ascending.
+pub fn top_k(values: &[f64], k: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..values.len()).collect();
+    order.sort_by(|&a, &b| values[b].abs().total_cmp(&values[a].abs()).then(a.cmp(&b)));
+    order.truncate(k);
+    order.sort_unstable();
+    order
+}
+
 /// Keep the K largest-magnitude weights of `dense` (ties to the lower index) and re-fit them.
 pub fn sparsify_row(
     dense: &[f64],
@@ -62,10 +71,7 @@ pub fn sparsify_row(
     refit: Refit,
     covariance: Option<&DMatrix<f64>>,
 ) -> SparseRow {
-    let mut order: Vec<usize> = (0..dense.len()).collect();
-    order.sort_by(|&a, &b| dense[b].abs().total_cmp(&dense[a].abs()).then(a.cmp(&b)));
-    order.truncate(k);
-    order.sort_unstable();
+    let order = top_k(dense, k);
     let uniform = || {
         let kept: f64 = order.iter().map(|&i| dense[i]).sum();
         let share = (1.0 - kept) / order.len() as f64;
@@ -110,9 +116,9 @@ pub struct Quantised {
     pub max_rounding: f64,
 }
 
-/// Quantise sparse rows with the finest F that holds every weight, fixing each row's rounding
-/// so it sums to exactly 2^F (the residual goes to the row's largest weight).
-pub fn quantise(rows: &[SparseRow]) -> Result<Quantised, SparsifyError> {
+/// Quantise sparse rows with the finest F that holds every weight. With `normalise`, each row's
+/// rounding is fixed so it sums to exactly 2^F (the residual goes to the row's largest weight).
+pub fn quantise(rows: &[SparseRow], normalise: bool) -> Result<Quantised, SparsifyError> {
     let (mut vertex, mut largest) = (0, 0.0f64);
     for (v, row) in rows.iter().enumerate() {
         for &(_, w) in row {
@@ -138,7 +144,11 @@ pub fn quantise(rows: &[SparseRow]) -> Result<Quantised, SparsifyError> {
             .iter()
             .map(|&(_, w)| (w * scale).round() as i64)
             .collect();
-        let residual = (1i64 << frac_bits) - q.iter().sum::<i64>();
+        let residual = if normalise {
+            (1i64 << frac_bits) - q.iter().sum::<i64>()
+        } else {
+            0
+        };
         if let Some(big) = (0..row.len()).max_by(|&a, &b| row[a].1.abs().total_cmp(&row[b].1.abs()))
         {
             q[big] += residual;
@@ -162,6 +172,57 @@ pub fn quantise(rows: &[SparseRow]) -> Result<Quantised, SparsifyError> {
         words,
         max_rounding,
     })
+}
+
+/// A coefficient map quantised row by row to `i16 · 2^−shift`.
+pub struct QuantisedMatrix {
+    /// Per row, its shift in [1, 48].
+    pub shifts: Vec<u8>,
+    /// Rows × columns entries, row-major.
+    pub entries: Vec<i16>,
+    /// Largest |quantised − exact| entry error relative to its row's largest entry.
+    pub max_relative_rounding: f64,
+}
+
+/// Quantise each row of `m` with the finest shift that holds it in `i16`, then fix the rounding
+/// so the row sums to exactly `2^shift` (row `unit_row`, the β₀ row) or 0 (every other row):
+/// what exact translation needs, and what the runtime's loader checks.
+pub fn quantise_matrix(m: &DMatrix<f64>, unit_row: Option<usize>) -> QuantisedMatrix {
+    let (mut shifts, mut entries) = (Vec::new(), Vec::new());
+    let mut max_relative_rounding = 0.0f64;
+    for (i, row) in m.row_iter().enumerate() {
+        let largest = row.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        // Room for the residual fix (at most half a unit per entry) on top of the largest entry.
+        let headroom = f64::from(i16::MAX) - row.len() as f64;
+        let shift = (1..=48u8)
+            .rev()
+            .find(|&s| largest * 2f64.powi(i32::from(s)) <= headroom)
+            .unwrap_or(1);
+        let scale = 2f64.powi(i32::from(shift));
+        let mut q: Vec<i64> = row.iter().map(|x| (x * scale).round() as i64).collect();
+        let target = if unit_row == Some(i) {
+            1i64 << shift
+        } else {
+            0
+        };
+        let residual = target - q.iter().sum::<i64>();
+        if let Some(big) = (0..q.len()).max_by_key(|&j| q[j].abs()) {
+            q[big] += residual;
+        }
+        for (qj, x) in q.iter().zip(row.iter()) {
+            if largest > 0.0 {
+                max_relative_rounding =
+                    max_relative_rounding.max((*qj as f64 / scale - x).abs() / largest);
+            }
+            entries.push(i16::try_from(*qj).unwrap_or(if *qj > 0 { i16::MAX } else { i16::MIN }));
+        }
+        shifts.push(shift);
+    }
+    QuantisedMatrix {
+        shifts,
+        entries,
+        max_relative_rounding,
+    }
 }
 
 #[cfg(test)]
@@ -190,7 +251,7 @@ mod tests {
             vec![(0, 0.3333333), (1, 0.3333333), (2, 0.3333334)],
             vec![(4, 2.5), (5, -1.5)],
         ];
-        let q = quantise(&rows).unwrap();
+        let q = quantise(&rows, true).unwrap();
         assert_eq!(
             q.frac_bits, 21,
             "2.5 · 2^22 exceeds the 24-bit range, so one fewer fractional bit"

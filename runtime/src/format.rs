@@ -25,10 +25,25 @@
 //! | `influence_counts` | vertex | `u8`, at most `max_influences` |
 //! | `influences` | influence | `u32` LE: bits 0–7 marker index, bits 8–31 the weight as a signed 24-bit integer with `weight_frac_bits` fractional bits |
 //!
-//! Influences are stored vertex after vertex in vertex order, `influence_counts[v]` of them for
-//! vertex `v`. The weights of a vertex sum to exactly `2^weight_frac_bits` (or the vertex has no
-//! influences and never moves); the loader checks it, and it is what makes a uniform translation
-//! of the markers move every vertex by exactly that translation.
+//! The deformer is one of two kinds (see [`Deformer`]):
+//!
+//! * **Linear**: per vertex, weights on marker displacements. Influences are stored vertex after
+//!   vertex, `influence_counts[v]` of them for vertex `v`. The weights of a vertex sum to exactly
+//!   `2^weight_frac_bits` (or the vertex has no influences and never moves); the loader checks it,
+//!   and it is what makes a uniform translation move every vertex by exactly that translation.
+//! * **RBF coefficients**: per frame, the RBF coefficients `c = M · D` (one row of `M` per kernel
+//!   centre, plus four affine rows β₀, βx, βy, βz), then per vertex the K largest kernel terms
+//!   `Σ φ_k(v) c_k` plus the affine part `β₀ + β · rest(v)`. Sections:
+//!
+//! | section | per item | contents |
+//! |---|---|---|
+//! | `row_shifts` | coefficient row | `u8` s ∈ [1, 48]: the row's entries are `q · 2^−s` |
+//! | `matrix` | coefficient row × marker | `i16` LE q |
+//! | `influences` | vertex × K | `u32` LE as above; the index is a kernel centre (a marker) |
+//!
+//! The integer entries of every kernel row and of βx, βy, βz sum to 0, and those of β₀ sum to
+//! `2^s`; the loader checks it. A uniform translation then gives exactly zero kernel coefficients
+//! and β₀ equal to the translation, so it too moves every vertex by exactly that translation.
 
 use serde::de::{Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
@@ -99,12 +114,41 @@ pub struct LinearInfluences<'a> {
     pub influences: Bytes<'a>,
 }
 
+/// The RBF-coefficient deformer: a small dense map from marker displacements to RBF
+/// coefficients per frame, then K kernel terms per vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RbfCoefficients<'a> {
+    /// Influences of every vertex (K), in [1, 64].
+    pub influences_per_vertex: u8,
+    /// Fractional bits of the stored kernel values φ, in [8, 22].
+    pub weight_frac_bits: u8,
+    /// Whether the four affine rows (β₀, βx, βy, βz) follow the kernel rows.
+    pub affine: bool,
+    /// Per coefficient row: its scale exponent s (entries are `q · 2^−s`), `u8` each.
+    #[serde(borrow)]
+    pub row_shifts: Bytes<'a>,
+    /// The map M: rows × markers, `i16` LE.
+    #[serde(borrow)]
+    pub matrix: Bytes<'a>,
+    /// K packed influences per vertex (`u32` LE each): kernel centre index and φ.
+    #[serde(borrow)]
+    pub influences: Bytes<'a>,
+}
+
+/// Smallest accepted coefficient row shift.
+pub const MIN_ROW_SHIFT: u8 = 1;
+/// Largest accepted coefficient row shift.
+pub const MAX_ROW_SHIFT: u8 = 48;
+
 /// How the vertices follow the markers. Chosen at bake time; one variant per runtime kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Deformer<'a> {
-    /// Sparse linear weights (every RBF flavour bakes to this).
+    /// Sparse linear weights on marker displacements.
     #[serde(borrow)]
     Linear(LinearInfluences<'a>),
+    /// Per-frame RBF coefficients, then K kernel terms per vertex.
+    #[serde(borrow)]
+    RbfCoefficients(RbfCoefficients<'a>),
 }
 
 /// The payload of a rig blob (format version 1).
@@ -215,6 +259,18 @@ pub enum LoadError {
         /// The vertex.
         vertex: usize,
     },
+    /// A coefficient row's scale exponent is outside [1, 48].
+    BadRowShift {
+        /// The row.
+        row: usize,
+        /// Its shift.
+        shift: u8,
+    },
+    /// A coefficient row does not sum to what exact translation needs (0, or 2^s for β₀).
+    CoefficientsNotNormalised {
+        /// The row.
+        row: usize,
+    },
 }
 
 /// A section of the payload, for [`LoadError::SectionLength`].
@@ -230,6 +286,10 @@ pub enum Section {
     InfluenceCounts,
     /// `influences`
     Influences,
+    /// `row_shifts`
+    RowShifts,
+    /// `matrix`
+    Matrix,
 }
 
 impl core::fmt::Display for LoadError {
@@ -274,6 +334,14 @@ impl core::fmt::Display for LoadError {
             Self::WeightsNotNormalised { vertex } => {
                 write!(f, "the weights of vertex {vertex} do not sum to one")
             }
+            Self::BadRowShift { row, shift } => write!(
+                f,
+                "coefficient row {row} has scale exponent {shift}, outside {MIN_ROW_SHIFT}..={MAX_ROW_SHIFT}"
+            ),
+            Self::CoefficientsNotNormalised { row } => write!(
+                f,
+                "coefficient row {row} does not sum to what exact translation needs"
+            ),
         }
     }
 }
@@ -389,6 +457,7 @@ fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
     expect_len(Section::VertexRest, d.vertex_rest, vertices, 6)?;
     match d.deformer {
         Deformer::Linear(lin) => validate_linear(&lin, vertices, markers),
+        Deformer::RbfCoefficients(rbf) => validate_rbf(&rbf, vertices, markers),
     }
 }
 
@@ -409,6 +478,68 @@ fn validate_names(names: Bytes<'_>, markers: usize) -> Result<(), LoadError> {
             expected: at,
             found: names.0.len(),
         });
+    }
+    Ok(())
+}
+
+fn validate_k_and_format(k: u8, weight_frac_bits: u8) -> Result<(), LoadError> {
+    if k == 0 || k > MAX_INFLUENCES {
+        return Err(LoadError::BadMaxInfluences { found: k });
+    }
+    if !(MIN_WEIGHT_FRAC_BITS..=MAX_WEIGHT_FRAC_BITS).contains(&weight_frac_bits) {
+        return Err(LoadError::BadWeightFormat {
+            found: weight_frac_bits,
+        });
+    }
+    Ok(())
+}
+
+fn validate_rbf(
+    rbf: &RbfCoefficients<'_>,
+    vertices: usize,
+    markers: usize,
+) -> Result<(), LoadError> {
+    validate_k_and_format(rbf.influences_per_vertex, rbf.weight_frac_bits)?;
+    let k = usize::from(rbf.influences_per_vertex);
+    let rows = markers + if rbf.affine { 4 } else { 0 };
+    expect_len(Section::RowShifts, rbf.row_shifts, rows, 1)?;
+    expect_len(Section::Matrix, rbf.matrix, rows, 2 * markers)?;
+    expect_len(
+        Section::Influences,
+        rbf.influences,
+        vertices,
+        4usize.saturating_mul(k),
+    )?;
+    for (row, (&shift, entries)) in rbf
+        .row_shifts
+        .0
+        .iter()
+        .zip(rbf.matrix.0.chunks_exact(2 * markers))
+        .enumerate()
+    {
+        if !(MIN_ROW_SHIFT..=MAX_ROW_SHIFT).contains(&shift) {
+            return Err(LoadError::BadRowShift { row, shift });
+        }
+        let sum: i64 = entries
+            .chunks_exact(2)
+            .map(|q| i64::from(i16::from_le_bytes([q[0], q[1]])))
+            .sum();
+        let want = if rbf.affine && row == markers {
+            1i64 << shift
+        } else {
+            0
+        };
+        if sum != want {
+            return Err(LoadError::CoefficientsNotNormalised { row });
+        }
+    }
+    for (vertex, words) in rbf.influences.0.chunks_exact(4 * k).enumerate() {
+        for w in words.chunks_exact(4) {
+            let (marker, _) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            if usize::from(marker) >= markers {
+                return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
+            }
+        }
     }
     Ok(())
 }

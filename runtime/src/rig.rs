@@ -1,7 +1,7 @@
 //! [`Rig`]: a validated, zero-copy view of a rig blob, and the per-frame call.
 
 use crate::fixed::widen_rest;
-use crate::format::{self, Deformer, LinearInfluences, LoadError, RigData, Space, MAX_MARKERS};
+use crate::format::{self, Deformer, LoadError, RigData, Space, MAX_MARKERS};
 use crate::kernel;
 
 /// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
@@ -60,11 +60,14 @@ pub struct Cost {
     pub influences: usize,
     /// The rig's K: no vertex has more influences.
     pub max_influences: usize,
-    /// `i32 × i32 → i64` multiply-adds (3 per influence).
+    /// Coefficient rows computed per frame (RBF-coefficient rigs; 0 for linear rigs).
+    pub coefficient_rows: usize,
+    /// Widening multiply-adds into `i64` accumulators: 3 per influence, plus for RBF-coefficient
+    /// rigs 3 per coefficient row and marker (stage 1) and 9 per vertex for the affine part.
     pub multiply_adds: usize,
     /// Saturating subtractions forming marker displacements (3 per marker).
     pub subtractions: usize,
-    /// Round-shift-saturate-add steps writing the output (3 per vertex).
+    /// Round-shift-saturate steps narrowing an accumulator to `i32`.
     pub narrowings: usize,
     /// Stack the call uses for marker displacements, in bytes.
     pub scratch_bytes: usize,
@@ -74,10 +77,11 @@ impl core::fmt::Display for Cost {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(
             f,
-            "{} vertices, {} markers, {} influences (K ≤ {}): {} multiply-adds, {} subtractions, \
-             {} narrowings, {} bytes of stack scratch",
+            "{} vertices, {} markers, {} coefficient rows, {} influences (K ≤ {}): {} multiply-adds, \
+             {} subtractions, {} narrowings, {} bytes of stack scratch",
             self.vertices,
             self.markers,
+            self.coefficient_rows,
             self.influences,
             self.max_influences,
             self.multiply_adds,
@@ -116,13 +120,6 @@ impl<'a> Rig<'a> {
     /// Number of markers the rig reads per frame.
     pub fn marker_count(&self) -> usize {
         usize::from(self.data.marker_count)
-    }
-
-    /// The linear deformer's section.
-    pub fn linear(&self) -> &LinearInfluences<'a> {
-        match &self.data.deformer {
-            Deformer::Linear(lin) => lin,
-        }
     }
 
     /// Marker names, in marker order.
@@ -164,39 +161,55 @@ impl<'a> Rig<'a> {
         Some([0, 1, 2].map(|c| widen_rest(i16::from_le_bytes([b[2 * c], b[2 * c + 1]]))))
     }
 
-    /// Influences of vertex `i` as (marker index, weight with [`Self::weight_frac_bits`]
-    /// fractional bits). Walks the counts, so it costs O(i): for inspection, not per frame.
-    pub fn influences_of(&self, i: usize) -> impl Iterator<Item = (u8, i32)> + 'a {
-        let lin = *self.linear();
-        let counts = lin.influence_counts.0;
-        let start: usize = counts.iter().take(i).map(|&c| usize::from(c)).sum();
-        let count = counts.get(i).map_or(0, |&c| usize::from(c));
-        lin.influences
-            .0
-            .chunks_exact(4)
-            .skip(start)
-            .take(count)
-            .map(|w| crate::fixed::unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]])))
+    /// The deformer section.
+    pub fn deformer(&self) -> &Deformer<'a> {
+        &self.data.deformer
     }
 
-    /// Fractional bits of the weights.
+    /// Fractional bits of the stored weights (linear) or kernel values (RBF coefficients).
     pub fn weight_frac_bits(&self) -> u8 {
-        self.linear().weight_frac_bits
+        match &self.data.deformer {
+            Deformer::Linear(l) => l.weight_frac_bits,
+            Deformer::RbfCoefficients(r) => r.weight_frac_bits,
+        }
     }
 
     /// The per-frame work of [`Self::deform`].
     pub fn cost(&self) -> Cost {
-        let lin = self.linear();
-        let influences = lin.influences.0.len() / 4;
-        Cost {
-            vertices: self.vertex_count(),
-            markers: self.marker_count(),
-            influences,
-            max_influences: usize::from(lin.max_influences),
-            multiply_adds: 3 * influences,
-            subtractions: 3 * self.marker_count(),
-            narrowings: 3 * self.vertex_count(),
-            scratch_bytes: core::mem::size_of::<[[i32; 3]; MAX_MARKERS]>(),
+        let (v, m) = (self.vertex_count(), self.marker_count());
+        let displacement_scratch = core::mem::size_of::<[[i32; 3]; MAX_MARKERS]>();
+        match &self.data.deformer {
+            Deformer::Linear(l) => {
+                let influences = l.influences.0.len() / 4;
+                Cost {
+                    vertices: v,
+                    markers: m,
+                    influences,
+                    max_influences: usize::from(l.max_influences),
+                    coefficient_rows: 0,
+                    multiply_adds: 3 * influences,
+                    subtractions: 3 * m,
+                    narrowings: 3 * v,
+                    scratch_bytes: displacement_scratch,
+                }
+            }
+            Deformer::RbfCoefficients(r) => {
+                let k = usize::from(r.influences_per_vertex);
+                let rows = r.row_shifts.0.len();
+                let affine = if r.affine { 3 * 3 * v } else { 0 };
+                Cost {
+                    vertices: v,
+                    markers: m,
+                    influences: v * k,
+                    max_influences: k,
+                    coefficient_rows: rows,
+                    multiply_adds: 3 * rows * m + 3 * v * k + affine,
+                    subtractions: 3 * m,
+                    narrowings: 3 * rows + if r.affine { 6 * v } else { 3 * v },
+                    scratch_bytes: displacement_scratch
+                        + core::mem::size_of::<[[i32; 3]; kernel::rbf::MAX_ROWS]>(),
+                }
+            }
         }
     }
 
@@ -229,15 +242,22 @@ impl<'a> Rig<'a> {
                 d[c] = m[c].saturating_sub(rest);
             }
         }
-        let lin = self.linear();
-        kernel::linear::deform(
-            &displacements,
-            self.data.vertex_rest.0,
-            lin.influence_counts.0,
-            lin.influences.0,
-            lin.weight_frac_bits,
-            out,
-        );
+        match &self.data.deformer {
+            Deformer::Linear(lin) => kernel::linear::deform(
+                &displacements,
+                self.data.vertex_rest.0,
+                lin.influence_counts.0,
+                lin.influences.0,
+                lin.weight_frac_bits,
+                out,
+            ),
+            Deformer::RbfCoefficients(rbf) => {
+                let mut table = [[0i32; 3]; kernel::rbf::MAX_ROWS];
+                let m = self.marker_count();
+                kernel::rbf::coefficients(rbf, m, &displacements, &mut table);
+                kernel::rbf::deform(rbf, m, &table, self.data.vertex_rest.0, out);
+            }
+        }
         Ok(())
     }
 }

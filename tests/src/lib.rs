@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use facebake::bake::{bake_linear, BakeConfig, BakeInput, Baked};
+use facebake::bake::{bake, BakeConfig, BakeInput, Baked};
 use facebake::ground_truth::GroundTruth;
 use facebake::io::gltf_mesh::load_mesh;
 
@@ -28,7 +28,7 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
     let names = truth.marker_names();
     let rest = truth.marker_rest();
     let stiffness = vec![1.0; names.len()];
-    bake_linear(
+    bake(
         &BakeInput {
             vertices: &truth.mesh.positions,
             marker_names: &names,
@@ -48,6 +48,30 @@ pub fn facecap_default() -> &'static (GroundTruth, Baked) {
         let baked = bake_truth(&truth, &BakeConfig::default());
         (truth, baked)
     })
+}
+
+/// The FaceCap truth baked in the weights form (IMQ, K = 8), built once per test binary.
+pub fn facecap_weights() -> &'static Baked {
+    static CELL: std::sync::OnceLock<Baked> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| bake_truth(&facecap_default().0, &weights_config()))
+}
+
+/// The weights-form configuration the tests use: paper 000's inverse multiquadric, K = 8.
+pub fn weights_config() -> BakeConfig {
+    BakeConfig {
+        form: facebake::bake::RigForm::Weights,
+        kernel: facebake::rbf::KernelKind::InverseMultiquadric,
+        width_factor: 2.0,
+        ..BakeConfig::default()
+    }
+}
+
+/// Both FaceCap rigs: (name, blob).
+pub fn facecap_blobs() -> [(&'static str, &'static [u8]); 2] {
+    [
+        ("coefficients", &facecap_default().1.blob),
+        ("weights", &facecap_weights().blob),
+    ]
 }
 
 /// Reseal a blob whose payload was edited, so the structural validation (not the CRC) is what

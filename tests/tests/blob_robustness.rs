@@ -3,10 +3,11 @@
 
 use facebake::ground_truth::SplitMix64;
 use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, LoadError, RigData, Section, HEADER_LEN,
+    self, Bytes, Deformer, LinearInfluences, LoadError, RbfCoefficients, RigData, Section,
+    HEADER_LEN,
 };
 use facebake_runtime::Rig;
-use facebake_tests::{facecap_default, reseal};
+use facebake_tests::{facecap_blobs, facecap_default, facecap_weights, reseal};
 
 fn blob() -> Vec<u8> {
     facecap_default().1.blob.clone()
@@ -21,12 +22,17 @@ fn seal(data: &RigData<'_>) -> Vec<u8> {
 }
 
 #[test]
-fn the_real_blob_loads() {
-    let b = blob();
-    let rig = Rig::from_bytes(&b).unwrap();
-    assert_eq!(rig.vertex_count(), 2694);
-    assert_eq!(rig.marker_count(), 40);
-    assert_eq!(rig.marker_names().count(), 40);
+fn the_real_blobs_load() {
+    for (name, b) in facecap_blobs() {
+        let rig = Rig::from_bytes(b).unwrap();
+        assert_eq!(rig.vertex_count(), 2694, "{name}");
+        assert_eq!(rig.marker_count(), 40, "{name}");
+        assert_eq!(rig.marker_names().count(), 40, "{name}");
+    }
+    assert!(matches!(
+        Rig::from_bytes(&blob()).unwrap().deformer(),
+        Deformer::RbfCoefficients(_)
+    ));
 }
 
 #[test]
@@ -64,12 +70,17 @@ fn random_flips_are_caught_by_the_checksum_or_the_header() {
 
 #[test]
 fn resealed_random_damage_never_panics() {
+    for (name, b) in facecap_blobs() {
+        resealed_damage(name, b);
+    }
+}
+
+fn resealed_damage(name: &str, b: &[u8]) {
     // The CRC is fixed up after the damage, so decoding and validation see it.
-    let b = blob();
     let mut rng = SplitMix64(2);
     let mut loaded = 0;
-    for round in 0..4000 {
-        let mut c = b.clone();
+    for round in 0..3000 {
+        let mut c = b.to_vec();
         let flips = 1 + (round % 4);
         for _ in 0..flips {
             let at = HEADER_LEN + (rng.next_u64() % (c.len() - HEADER_LEN) as u64) as usize;
@@ -88,7 +99,7 @@ fn resealed_random_damage_never_panics() {
     // here so a loader that rejects everything is noticed.
     assert!(
         loaded > 100,
-        "only {loaded} of 4000 damaged-but-valid blobs loaded"
+        "{name}: only {loaded} of 3000 damaged-but-valid blobs loaded"
     );
 }
 
@@ -128,9 +139,11 @@ fn every_header_error_is_distinct() {
 
 #[test]
 fn every_payload_error_is_distinct() {
-    let b = blob();
+    let b = facecap_weights().blob.clone();
     let good = *Rig::from_bytes(&b).unwrap().data();
-    let Deformer::Linear(lin) = good.deformer;
+    let Deformer::Linear(lin) = good.deformer else {
+        panic!("weights form bakes a linear rig")
+    };
 
     let mut extra = b.clone();
     extra.push(0);
@@ -276,4 +289,118 @@ fn every_payload_error_is_distinct() {
             ),
         }
     }
+}
+
+#[test]
+fn every_coefficient_error_is_distinct() {
+    let b = blob();
+    let good = *Rig::from_bytes(&b).unwrap().data();
+    let Deformer::RbfCoefficients(rbf) = good.deformer else {
+        panic!("the default is the coefficient form")
+    };
+    let markers = usize::from(good.marker_count);
+    let mut bad_shift = rbf.row_shifts.0.to_vec();
+    bad_shift[3] = 0;
+    let mut bad_row = rbf.matrix.0.to_vec();
+    bad_row[2 * markers * 5] ^= 1; // row 5 no longer sums to 0
+    let mut bad_unit = rbf.matrix.0.to_vec();
+    bad_unit[2 * markers * markers] ^= 1; // the β₀ row no longer sums to 2^s
+    let mut bad_index = rbf.influences.0.to_vec();
+    bad_index[4 * 8 * 3 + 4] = 41; // vertex 3, second term: centre 41 of 40
+    let short = &rbf.matrix.0[2..];
+    let cases: [(RbfCoefficients<'_>, LoadError); 7] = [
+        (
+            RbfCoefficients {
+                influences_per_vertex: 0,
+                ..rbf
+            },
+            LoadError::BadMaxInfluences { found: 0 },
+        ),
+        (
+            RbfCoefficients {
+                weight_frac_bits: 7,
+                ..rbf
+            },
+            LoadError::BadWeightFormat { found: 7 },
+        ),
+        (
+            RbfCoefficients {
+                row_shifts: Bytes(&bad_shift),
+                ..rbf
+            },
+            LoadError::BadRowShift { row: 3, shift: 0 },
+        ),
+        (
+            RbfCoefficients {
+                matrix: Bytes(&bad_row),
+                ..rbf
+            },
+            LoadError::CoefficientsNotNormalised { row: 5 },
+        ),
+        (
+            RbfCoefficients {
+                matrix: Bytes(&bad_unit),
+                ..rbf
+            },
+            LoadError::CoefficientsNotNormalised { row: markers },
+        ),
+        (
+            RbfCoefficients {
+                influences: Bytes(&bad_index),
+                ..rbf
+            },
+            LoadError::MarkerIndexOutOfRange {
+                vertex: 3,
+                marker: 41,
+            },
+        ),
+        (
+            RbfCoefficients {
+                matrix: Bytes(short),
+                ..rbf
+            },
+            LoadError::SectionLength {
+                section: Section::Matrix,
+                expected: rbf.matrix.0.len(),
+                found: short.len(),
+            },
+        ),
+    ];
+    for (i, (edited, want)) in cases.into_iter().enumerate() {
+        let d = RigData {
+            deformer: Deformer::RbfCoefficients(edited),
+            ..good
+        };
+        assert_eq!(Rig::from_bytes(&seal(&d)).unwrap_err(), want, "case {i}");
+    }
+    // Fewer influences than vertices × K, and the affine flag without its rows.
+    let fewer = &rbf.influences.0[32..];
+    let d = RigData {
+        deformer: Deformer::RbfCoefficients(RbfCoefficients {
+            influences: Bytes(fewer),
+            ..rbf
+        }),
+        ..good
+    };
+    assert!(matches!(
+        Rig::from_bytes(&seal(&d)).unwrap_err(),
+        LoadError::SectionLength {
+            section: Section::Influences,
+            ..
+        }
+    ));
+    let d = RigData {
+        deformer: Deformer::RbfCoefficients(RbfCoefficients {
+            affine: false,
+            ..rbf
+        }),
+        ..good
+    };
+    assert!(matches!(
+        Rig::from_bytes(&seal(&d)).unwrap_err(),
+        LoadError::SectionLength {
+            section: Section::RowShifts,
+            ..
+        }
+    ));
 }

@@ -123,6 +123,17 @@ impl RbfSystem {
         &self.kernel
     }
 
+    /// The map from marker displacements to coefficients `[α; β]`: the first `n` columns of
+    /// A⁻¹, one row per coefficient (`n` kernel rows, then β₀, βx, βy, βz with the affine term).
+    pub fn coefficient_map(&self) -> DMatrix<f64> {
+        self.inverse.columns(0, self.len()).into_owned()
+    }
+
+    /// Whether the system has the affine block.
+    pub fn affine(&self) -> bool {
+        self.affine
+    }
+
     /// g(v): the kernel values at `v`, then `[1, v]` with the affine term.
     fn basis(&self, v: &[f64; 3]) -> Vec<f64> {
         let mut g: Vec<f64> = self

@@ -1,3 +1,4 @@
 //! Per-frame deformation kernels, one module per method.
 
 pub mod linear;
+pub mod rbf;
