@@ -2,6 +2,7 @@
 //! the `facebake-runtime` crate.
 pub mod bake;
 pub mod blob;
+pub mod cli;
 pub mod ground_truth;
 pub mod io;
 pub mod mesh;

@@ -1,0 +1,267 @@
+//! `facebake bake`: mesh + marker layout → rig blob, with a report of what the bake measured.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use super::{emit, print_json, weight_format, write_file, CliError};
+use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
+use crate::io::gltf_mesh::{load_mesh, FaceMesh};
+use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
+use crate::rbf::KernelKind;
+use crate::sparsify::Refit;
+
+/// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
+/// bounding-box diagonal.
+pub const DEFAULT_MAX_SNAP_FRACTION: f64 = 0.01;
+
+/// Arguments of `facebake bake`.
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// The face mesh (.glb or .gltf).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Which mesh of the file (default: the first).
+    #[arg(long, value_name = "NAME")]
+    pub mesh_name: Option<String>,
+    /// Which primitive of the mesh (default: the first triangle primitive).
+    #[arg(long, value_name = "INDEX")]
+    pub primitive: Option<usize>,
+    /// The marker layout (.toml or .json).
+    #[arg(long, value_name = "LAYOUT")]
+    pub layout: PathBuf,
+    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, or K weights
+    /// per vertex on marker displacements.
+    #[arg(long, value_enum, default_value_t = BakeConfig::default().form)]
+    pub form: RigForm,
+    /// Radial kernel.
+    #[arg(long, value_enum, default_value_t = BakeConfig::default().kernel)]
+    pub kernel: KernelKind,
+    /// Kernel width in mesh units (default: --width-factor × the mean nearest-marker distance;
+    /// the inverse multiquadric uses per-marker radii and ignores it).
+    #[arg(long, value_name = "W")]
+    pub width: Option<f64>,
+    /// Width as a multiple of the mean nearest-marker distance, when --width is not given.
+    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().width_factor)]
+    pub width_factor: f64,
+    /// Leave out the affine term of the RBF system.
+    #[arg(long)]
+    pub no_affine: bool,
+    /// Influences per vertex, 1 to 64.
+    #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeConfig::default().k)]
+    pub k: usize,
+    /// How the kept weights are re-fitted after sparsifying (weights form).
+    #[arg(long, value_enum, default_value_t = BakeConfig::default().refit)]
+    pub refit: Refit,
+    /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
+    /// (default: 1% of the mesh's bounding-box diagonal).
+    #[arg(long, value_name = "D")]
+    pub max_snap: Option<f64>,
+    /// Where to write the rig blob.
+    #[arg(short, long, value_name = "RIG")]
+    pub output: PathBuf,
+    /// Print the report as JSON on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl BakeArgs {
+    /// The bake configuration: the options given, the library's defaults for the rest.
+    pub fn config(&self) -> BakeConfig {
+        let d = BakeConfig::default();
+        BakeConfig {
+            form: self.form,
+            kernel: self.kernel,
+            width: self.width.or(d.width),
+            width_factor: self.width_factor,
+            affine: d.affine && !self.no_affine,
+            k: self.k,
+            refit: self.refit,
+            ..d
+        }
+    }
+}
+
+/// What `bake` reports.
+#[derive(Debug, Serialize)]
+pub struct BakeSummary {
+    /// The rig written.
+    pub output: PathBuf,
+    /// The mesh file.
+    pub mesh: PathBuf,
+    /// The mesh's name in the file.
+    pub mesh_name: String,
+    /// The layout file.
+    pub layout: PathBuf,
+    /// Vertices of the rig.
+    pub vertices: usize,
+    /// Markers of the rig.
+    pub markers: usize,
+    /// Largest snap of a marker onto the surface, mesh units.
+    pub max_snap_distance: f64,
+    /// Whether the affine term was solved.
+    pub affine: bool,
+    /// Weight format, `Q(23−F).F`.
+    pub weight_format: String,
+    /// Bytes per stored influence.
+    pub bytes_per_influence: f64,
+    /// The bake's own report.
+    pub report: BakeReport,
+}
+
+/// Place `layout` on `mesh` (snapping `point` markers at most `max_snap`, default 1% of the
+/// diagonal) and bake it with `config`. Errors name the layout file.
+pub fn bake_layout(
+    mesh: &FaceMesh,
+    layout: &MarkerLayout,
+    config: &BakeConfig,
+    max_snap: Option<f64>,
+) -> Result<(Baked, Vec<PlacedMarker>), CliError> {
+    let max_snap = max_snap.unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
+    let placed = place_markers(layout, mesh, max_snap)?;
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let rest: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+    let stiffness: Vec<f64> = placed.iter().map(|m| m.stiffness).collect();
+    let baked = bake(
+        &BakeInput {
+            vertices: &mesh.positions,
+            marker_names: &names,
+            marker_rest: &rest,
+            stiffness: &stiffness,
+        },
+        config,
+    )
+    .map_err(|source| CliError::Bake {
+        path: layout.source.clone(),
+        source,
+    })?;
+    Ok((baked, placed))
+}
+
+/// Run `facebake bake`.
+pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
+    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
+    let layout = read_layout(&args.layout)?;
+    let config = args.config();
+    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
+    write_file(&args.output, &baked.blob)?;
+    let report = baked.report;
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        mesh: args.mesh.clone(),
+        mesh_name: mesh.mesh_name.clone(),
+        layout: args.layout.clone(),
+        vertices: mesh.positions.len(),
+        markers: placed.len(),
+        max_snap_distance: placed
+            .iter()
+            .map(|m| m.surface.distance)
+            .fold(0.0, f64::max),
+        affine: config.affine,
+        weight_format: weight_format(report.weight_frac_bits),
+        bytes_per_influence: report.sizes.influence_bytes as f64
+            / report.sizes.influences.max(1) as f64,
+        report,
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        print_text(&summary);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Bytes as "N bytes (x.y KiB)".
+pub fn bytes_text(n: usize) -> String {
+    format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
+}
+
+/// What a rig form stores per influence, for reports.
+pub fn form_text(form: RigForm) -> &'static str {
+    match form {
+        RigForm::Coefficients => {
+            "coefficients: per-frame RBF coefficients, K kernel terms per vertex"
+        }
+        RigForm::Weights => "weights: K weights per vertex on marker displacements",
+    }
+}
+
+fn print_text(s: &BakeSummary) {
+    let mut out = String::new();
+    let r = &s.report;
+    outln!(
+        out,
+        "baked mesh \"{}\" ({}, {} vertices) with {} markers ({})",
+        s.mesh_name,
+        s.mesh.display(),
+        s.vertices,
+        s.markers,
+        s.layout.display()
+    );
+    outln!(out, "  form          {}", form_text(r.form));
+    outln!(
+        out,
+        "  kernel        {}, {}",
+        r.kernel,
+        if s.affine {
+            "with affine term"
+        } else {
+            "no affine term"
+        }
+    );
+    outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    outln!(
+        out,
+        "  markers       largest snap onto the surface {:.3e} mesh units",
+        s.max_snap_distance
+    );
+    outln!(
+        out,
+        "  influences    K = {} per vertex, {} in all",
+        r.k,
+        r.sizes.influences
+    );
+    let stored = match r.form {
+        RigForm::Coefficients => "kernel values",
+        RigForm::Weights => "weights",
+    };
+    outln!(
+        out,
+        "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
+        s.weight_format,
+        r.weight_frac_bits,
+        r.max_weight_rounding
+    );
+    if r.form == RigForm::Coefficients {
+        outln!(
+            out,
+            "  coefficients  largest rounding of the coefficient map {:.2e} (relative to its row)",
+            r.max_matrix_rounding
+        );
+    }
+    outln!(
+        out,
+        "  dropped mass  mean {:.4}, max {:.4} (share of each vertex's {} dropped by keeping K)",
+        r.mean_dropped_mass,
+        r.max_dropped_mass,
+        match r.form {
+            RigForm::Coefficients => "kernel mass",
+            RigForm::Weights => "dense weight",
+        }
+    );
+    outln!(
+        out,
+        "  blob          {}: influences {} bytes ({} bytes/influence), other {:.2} bytes/vertex",
+        bytes_text(r.sizes.total),
+        r.sizes.influence_bytes,
+        s.bytes_per_influence,
+        r.sizes.other_bytes_per_vertex
+    );
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
+    outln!(out, "wrote {}", s.output.display());
+    emit(&out);
+}
