@@ -1,0 +1,348 @@
+//! End-to-end tests of the `facebake` command: the built binary run as a user would.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+use facebake::ground_truth::GroundTruth;
+use facebake::io::capture::{write_csv, Capture, Units};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::npy::read_npy_f32;
+use facebake_runtime::Rig;
+use serde_json::Value;
+
+const VERTICES: usize = 2694;
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures")).join(name)
+}
+
+fn mesh_path() -> PathBuf {
+    fixture("FaceCapHeadGeneric.glb")
+}
+
+/// A fresh, empty directory path for one test.
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("facebake-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// A fresh directory that is removed when the test ends.
+struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn temp_dir(name: &str) -> TempDir {
+    TempDir(fresh_dir(name))
+}
+
+/// Run `facebake` with `args`.
+fn facebake(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_facebake"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// `facebake bake` of `layout` on the FaceCap head (or on `mesh`), writing `rig`.
+fn bake(mesh: &Path, layout: &Path, rig: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "bake",
+        "--mesh",
+        s(mesh),
+        "--layout",
+        s(layout),
+        "-o",
+        s(rig),
+    ];
+    args.extend_from_slice(extra);
+    facebake(&args)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 temp paths")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Parse stdout as JSON, after checking the run succeeded.
+fn json_ok(out: &Output) -> Value {
+    assert_eq!(out.status.code(), Some(0), "stderr: {}", stderr(out));
+    serde_json::from_slice(&out.stdout).expect("stdout is JSON")
+}
+
+/// The demo, run once for all tests (with one timing repetition, to keep it quick).
+fn demo() -> &'static (PathBuf, Value) {
+    static DEMO: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    DEMO.get_or_init(|| {
+        // Shared by every test and left for inspection (statics are never dropped).
+        let dir = fresh_dir("demo");
+        let out = facebake(&["demo", "--out", s(&dir), "--repetitions", "1", "--json"]);
+        let summary = json_ok(&out);
+        (dir, summary)
+    })
+}
+
+#[test]
+fn demo_writes_its_files() {
+    let (dir, summary) = demo();
+    let frames = summary["frames"].as_u64().unwrap() as usize;
+    assert!(frames >= 6, "{summary}");
+    assert_eq!(summary["vertices"], VERTICES);
+    assert_eq!(summary["runtime_vs_f64_passed"], true);
+    for name in [
+        "facecap_markers.toml",
+        "facecap.fbk",
+        "facecap_frames.npy",
+        "facecap_capture.csv",
+        "facecap_demo.glb",
+    ] {
+        assert!(dir.join(name).is_file(), "{name} missing");
+    }
+    let npy = std::fs::read(dir.join("facecap_frames.npy")).unwrap();
+    let header = String::from_utf8_lossy(&npy[10..128]);
+    assert!(
+        header.contains(&format!("'shape': ({frames}, {VERTICES}, 3)")),
+        "{header}"
+    );
+    let (shape, values) = read_npy_f32(&dir.join("facecap_frames.npy")).unwrap();
+    assert_eq!(shape, [frames, VERTICES, 3]);
+    assert!(values.iter().all(|x| x.is_finite()));
+    let (doc, _, _) = gltf::import(dir.join("facecap_demo.glb")).expect("the GLB loads");
+    let mesh = doc.meshes().next().expect("a mesh");
+    let primitive = mesh.primitives().next().expect("a primitive");
+    assert_eq!(primitive.morph_targets().count(), 6);
+    // The rig loads and the text output names every file.
+    let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
+    assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
+    assert_eq!(summary["files"].as_array().unwrap().len(), 5);
+}
+
+#[test]
+fn bake_inspect_verify_round_trip() {
+    let (demo_dir, _) = demo();
+    let dir = temp_dir("roundtrip");
+    let rig = dir.join("rig.fbk");
+    let layout = demo_dir.join("facecap_markers.toml");
+    let baked = json_ok(&bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--mesh-name", "head", "--json"],
+    ));
+    assert_eq!(baked["markers"], 40);
+    assert_eq!(baked["report"]["k"], 8);
+    // The demo bakes its layout with the default configuration: the same blob.
+    assert_eq!(
+        std::fs::read(&rig).unwrap(),
+        std::fs::read(demo_dir.join("facecap.fbk")).unwrap()
+    );
+
+    let info = json_ok(&facebake(&["inspect", s(&rig), "--json"]));
+    assert_eq!(info["vertices"], VERTICES);
+    assert_eq!(info["markers"], 40);
+    assert_eq!(info["k"], 8);
+    assert_eq!(info["marker_names"][0], "M00");
+    assert_eq!(info["position_format"], "Q8.24");
+    assert_eq!(info["bytes_per_influence"], 4.0);
+    assert_eq!(info["blob_bytes"], baked["report"]["sizes"]["total"]);
+    let text = facebake(&["inspect", s(&rig)]);
+    assert_eq!(text.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("Q8.24") && text.contains("multiply-adds"),
+        "{text}"
+    );
+
+    let verified = json_ok(&facebake(&[
+        "verify",
+        s(&rig),
+        "--mesh",
+        s(&mesh_path()),
+        "--mesh-name",
+        "head",
+        "--json",
+    ]));
+    assert_eq!(verified["passed"], true);
+    assert_eq!(verified["sequence"], "ground truth");
+    assert!(verified["max_error_fraction"].as_f64().unwrap() <= 2e-5);
+    assert!(verified["ground_truth"]["mean_mm"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn play_reproduces_the_runtime() {
+    let (demo_dir, _) = demo();
+    let dir = temp_dir("play");
+    let rig_path = demo_dir.join("facecap.fbk");
+    // A capture of the ground-truth markers, in millimetres and with the columns reversed, so
+    // units and marker order both have to be handled.
+    let truth = GroundTruth::new(load_mesh(&mesh_path(), Some("head"), None).unwrap(), 40, 6)
+        .expect("ground truth");
+    let frames: Vec<Vec<[f64; 3]>> = (0..truth.frames.len())
+        .map(|f| truth.markers_of(&truth.positions(f)))
+        .collect();
+    let csv = dir.join("capture.csv");
+    let mut names = truth.marker_names();
+    names.reverse();
+    write_csv(
+        &csv,
+        &Capture {
+            source: csv.clone(),
+            rate_hz: 60.0,
+            units: Units::Millimetres,
+            marker_names: names,
+            frames: frames
+                .iter()
+                .map(|m| {
+                    m.iter()
+                        .rev()
+                        .map(|p| Some(p.map(|x| x * 1000.0)))
+                        .collect()
+                })
+                .collect(),
+        },
+    )
+    .unwrap();
+    let npy = dir.join("frames.npy");
+    let glb = dir.join("frames.glb");
+    let played = json_ok(&facebake(&[
+        "play",
+        s(&rig_path),
+        "--markers",
+        s(&csv),
+        "-o",
+        s(&npy),
+        "--glb",
+        s(&glb),
+        "--mesh",
+        s(&mesh_path()),
+        "--mesh-name",
+        "head",
+        "--frames",
+        "0,2,5",
+        "--json",
+    ]));
+    assert_eq!(played["frames"], frames.len());
+    assert_eq!(played["glb_frames"], serde_json::json!([0, 2, 5]));
+
+    // The runtime, called directly on the same markers.
+    let blob = std::fs::read(&rig_path).unwrap();
+    let rig = Rig::from_bytes(&blob).unwrap();
+    let space = rig.space();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut expected = Vec::new();
+    for m in &frames {
+        let q: Vec<[i32; 3]> = m.iter().map(|p| space.to_rig_f64(*p).unwrap()).collect();
+        rig.deform(&q, &mut out).unwrap();
+        expected.extend(
+            out.iter()
+                .flat_map(|p| space.to_asset_f64(*p))
+                .map(|x| x as f32),
+        );
+    }
+    let (shape, values) = read_npy_f32(&npy).unwrap();
+    assert_eq!(shape, [frames.len(), VERTICES, 3]);
+    // Millimetres → metres may move a marker by one Q8.24 step; far below a micrometre.
+    let worst = values
+        .iter()
+        .zip(&expected)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-6, "largest difference {worst} m");
+    let (doc, _, _) = gltf::import(&glb).expect("the GLB loads");
+    let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
+    assert_eq!(primitive.morph_targets().count(), 3);
+}
+
+#[test]
+fn a_missing_sample_is_bad_input_naming_frame_and_marker() {
+    let (demo_dir, _) = demo();
+    let dir = temp_dir("gap");
+    let text = std::fs::read_to_string(demo_dir.join("facecap_capture.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let row = lines.iter().position(|l| l.starts_with("3,")).unwrap();
+    let mut cells: Vec<&str> = lines[row].split(',').collect();
+    cells[2 + 3 * 7] = ""; // M07's x in frame index 2
+    lines[row] = cells.join(",");
+    let csv = dir.join("gap.csv");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let out = facebake(&[
+        "play",
+        s(&demo_dir.join("facecap.fbk")),
+        "--markers",
+        s(&csv),
+        "-o",
+        s(&dir.join("x.npy")),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.starts_with("error: ") && err.contains("gap.csv") && err.contains("frame 2"),
+        "{err}"
+    );
+    assert!(err.contains("\"M07\""), "{err}");
+}
+
+/// Exit code 2, one `error:` line naming `file`, no panic.
+fn assert_bad_input(out: &Output, file: &str) {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.contains(file), "{file} not named in: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn bad_input_exits_2_naming_the_file() {
+    let dir = temp_dir("bad");
+    let missing_mesh = dir.join("no-such-mesh.glb");
+    let layout = dir.join("layout.toml");
+    std::fs::write(
+        &layout,
+        "[markers]\nA = { vertex = 1 }\nB = { vertex = 2 }\n",
+    )
+    .unwrap();
+    let rig = dir.join("rig.fbk");
+    assert_bad_input(&bake(&missing_mesh, &layout, &rig, &[]), "no-such-mesh.glb");
+    let malformed = dir.join("malformed.toml");
+    std::fs::write(&malformed, "[markers\nA = { vertex = 1 }\n").unwrap();
+    assert_bad_input(
+        &bake(&mesh_path(), &malformed, &rig, &["--mesh-name", "head"]),
+        "malformed.toml",
+    );
+    let not_a_rig = dir.join("not-a-rig.fbk");
+    std::fs::write(&not_a_rig, b"FACEBAKE but not really").unwrap();
+    assert_bad_input(&facebake(&["inspect", s(&not_a_rig)]), "not-a-rig.fbk");
+    assert_bad_input(
+        &facebake(&["inspect", s(&dir.join("absent.fbk"))]),
+        "absent.fbk",
+    );
+    assert!(!rig.exists(), "nothing is written on bad input");
+}
+
+#[test]
+fn help_documents_the_exit_codes() {
+    let out = facebake(&["--help"]);
+    assert_eq!(out.status.code(), Some(0));
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("Exit codes:") && help.contains("verification failed"));
+    for command in ["bake", "play", "inspect", "verify", "demo"] {
+        assert!(help.contains(command), "{command} missing from --help");
+    }
+}
