@@ -265,7 +265,7 @@ mod tests {
         }
         assert!(q.max_rounding < 2.0 / f64::from(1u32 << 21));
         assert!(matches!(
-            quantise(&[vec![(0, 1e6)]]),
+            quantise(&[vec![(0, 1e6)]], true),
             Err(SparsifyError::WeightTooLarge { .. })
         ));
     }
