@@ -164,7 +164,7 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
         ));
     }
     let condition = dense_system.condition();
-    let (deformer, frac_bits, dropped, rounding, matrix_rounding) = match config.form {
+    let form = match config.form {
         RigForm::Weights => weights_form(input, config, &dense_system, &space)?,
         RigForm::Coefficients => coefficients_form(input, config, &space)?,
     };
@@ -173,19 +173,21 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
         vertices: input.vertices,
         marker_names: input.marker_names,
         marker_rest: input.marker_rest,
-        deformer: &deformer,
+        deformer: &form.deformer,
     })?;
+    let dropped_max = form.dropped.iter().copied().fold(0.0, f64::max);
+    let dropped_mean = form.dropped.iter().sum::<f64>() / form.dropped.len().max(1) as f64;
     let report = BakeReport {
         form: config.form,
         kernel: config.kernel.name(),
         condition,
         warnings,
         k: config.k.min(n),
-        weight_frac_bits: frac_bits,
-        mean_dropped_mass: dropped.0,
-        max_dropped_mass: dropped.1,
-        max_weight_rounding: rounding,
-        max_matrix_rounding: matrix_rounding,
+        weight_frac_bits: form.frac_bits,
+        mean_dropped_mass: dropped_mean,
+        max_dropped_mass: dropped_max,
+        max_weight_rounding: form.rounding,
+        max_matrix_rounding: form.matrix_rounding,
         sizes,
     };
     let dense = DenseRbf::new(
@@ -200,7 +202,15 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
     })
 }
 
-type FormOutput = (DeformerBytes, u8, (f64, f64), f64, f64);
+/// What a form's bake hands back for the blob and the report.
+struct FormOutput {
+    deformer: DeformerBytes,
+    frac_bits: u8,
+    /// Per vertex, the share of its weight or kernel mass that keeping K dropped.
+    dropped: Vec<f64>,
+    rounding: f64,
+    matrix_rounding: f64,
+}
 
 fn weights_form(
     input: &BakeInput<'_>,
@@ -210,7 +220,7 @@ fn weights_form(
 ) -> Result<FormOutput, BakeError> {
     let diagonal = 2.0 * f64::from(space.half_extent) * 3f64.sqrt();
     let covariance = sparsify::prior_covariance(input.marker_rest, config.prior_length * diagonal);
-    let (mut dropped_sum, mut dropped_max) = (0.0, 0.0f64);
+    let mut dropped = Vec::with_capacity(input.vertices.len());
     let rows: Vec<_> = input
         .vertices
         .iter()
@@ -218,25 +228,21 @@ fn weights_form(
             let dense = system.weights_at(v);
             let row = sparsify::sparsify_row(&dense, config.k, config.refit, Some(&covariance));
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
-            let dropped = (dense.iter().sum::<f64>() - kept).abs();
-            dropped_sum += dropped;
-            dropped_max = dropped_max.max(dropped);
+            dropped.push((dense.iter().sum::<f64>() - kept).abs());
             row
         })
         .collect();
     let q = sparsify::quantise(&rows, true)?;
-    let mean = dropped_sum / input.vertices.len().max(1) as f64;
-    let deformer = DeformerBytes::Linear {
-        weight_frac_bits: q.frac_bits,
-        rows: q.words,
-    };
-    Ok((
-        deformer,
-        q.frac_bits,
-        (mean, dropped_max),
-        q.max_rounding,
-        0.0,
-    ))
+    Ok(FormOutput {
+        deformer: DeformerBytes::Linear {
+            weight_frac_bits: q.frac_bits,
+            rows: q.words,
+        },
+        frac_bits: q.frac_bits,
+        dropped,
+        rounding: q.max_rounding,
+        matrix_rounding: 0.0,
+    })
 }
 
 fn coefficients_form(
@@ -266,7 +272,7 @@ fn coefficients_form(
     let system = RbfSystem::new(&centres, kernel, config.affine, input.stiffness)?;
     let n = centres.len();
     let k = config.k.min(n);
-    let (mut dropped_sum, mut dropped_max) = (0.0, 0.0f64);
+    let mut dropped = Vec::with_capacity(input.vertices.len());
     let rows: Vec<_> = input
         .vertices
         .iter()
@@ -281,10 +287,10 @@ fn coefficients_form(
                 .collect();
             let kept = sparsify::top_k(&phi, k);
             let total: f64 = phi.iter().map(|x| x.abs()).sum();
-            let dropped = 1.0
-                - kept.iter().map(|&i| phi[i].abs()).sum::<f64>() / total.max(f64::MIN_POSITIVE);
-            dropped_sum += dropped;
-            dropped_max = dropped_max.max(dropped);
+            dropped.push(
+                1.0 - kept.iter().map(|&i| phi[i].abs()).sum::<f64>()
+                    / total.max(f64::MIN_POSITIVE),
+            );
             kept.into_iter()
                 .map(|i| (i, phi[i]))
                 .collect::<sparsify::SparseRow>()
@@ -292,20 +298,18 @@ fn coefficients_form(
         .collect();
     let q = sparsify::quantise(&rows, false)?;
     let m = sparsify::quantise_matrix(&system.coefficient_map(), config.affine.then_some(n));
-    let mean = dropped_sum / input.vertices.len().max(1) as f64;
-    let deformer = DeformerBytes::Rbf {
-        weight_frac_bits: q.frac_bits,
-        k: k as u8,
-        affine: config.affine,
-        row_shifts: m.shifts,
-        matrix: m.entries,
-        rows: q.words,
-    };
-    Ok((
-        deformer,
-        q.frac_bits,
-        (mean, dropped_max),
-        q.max_rounding,
-        m.max_relative_rounding,
-    ))
+    Ok(FormOutput {
+        deformer: DeformerBytes::Rbf {
+            weight_frac_bits: q.frac_bits,
+            k: k as u8,
+            affine: config.affine,
+            row_shifts: m.shifts,
+            matrix: m.entries,
+            rows: q.words,
+        },
+        frac_bits: q.frac_bits,
+        dropped,
+        rounding: q.max_rounding,
+        matrix_rounding: m.max_relative_rounding,
+    })
 }

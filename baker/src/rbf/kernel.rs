@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::mesh::distance;
+
 /// Which radial function, before its width is resolved against the marker layout.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -127,10 +129,6 @@ pub fn nearest_distances(centres: &[[f64; 3]]) -> Vec<f64> {
         .collect()
 }
 
-/// Euclidean distance.
-pub fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
 
 #[cfg(test)]
 mod tests {
