@@ -8,9 +8,30 @@
 //! and three `i32 × i32 → i64` multiply-adds, then per vertex three round-shifts and three
 //! saturating adds. There is no branch on marker data and no check that can fail: the loader has
 //! validated every index and count.
+//!
+//! The loop is shaped for the code it compiles to (it is instruction-bound): each vertex's
+//! influences are split off as one slice, so the inner loop has a single trip counter; each
+//! influence word is read as one `[u8; 4]`, so it is one 32-bit load rather than byte loads; and
+//! the rounding half is added without a saturation check, which cannot be reached (see
+//! [`narrow`]). The results are bit for bit those of
+//! [`round_shift_sat`](crate::fixed::round_shift_sat)'s definition.
 
-use crate::fixed::{mul_acc, round_shift_sat, unpack_influence, widen_rest};
+use crate::fixed::{mul_acc, unpack_influence, widen_rest};
 use crate::format::MAX_MARKERS;
+
+/// [`round_shift_sat`](crate::fixed::round_shift_sat) for a kernel accumulator:
+/// `(acc + half) >> frac`, saturated to `i32`.
+///
+/// `half` is `1 << (frac - 1)`, hoisted out of the loop. An accumulator is a sum of at most
+/// [`MAX_INFLUENCES`](crate::fixed::MAX_INFLUENCES) products of a 24-bit weight and an `i32`, so
+/// `|acc| < 2⁶⁰` and adding `half ≤ 2²¹` cannot overflow: the saturating add of
+/// [`round_shift_sat`](crate::fixed::round_shift_sat) is a plain add here, with identical
+/// results.
+#[inline(always)]
+fn narrow(acc: i64, half: i64, frac: u32) -> i32 {
+    let shifted = (acc + half) >> frac;
+    shifted.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
 
 /// Write deformed positions for every vertex.
 ///
@@ -26,11 +47,19 @@ pub(crate) fn deform(
     out: &mut [[i32; 3]],
 ) {
     let frac = u32::from(weight_frac_bits);
-    let mut words = influences.chunks_exact(4);
+    let half = 1i64 << (frac - 1);
+    let mut words = influences;
     for ((o, r), &count) in out.iter_mut().zip(rest.chunks_exact(6)).zip(counts) {
+        // The loader checked that the counts add up to the section; the fallback is never taken.
+        let (mine, tail) = words
+            .split_at_checked(4 * usize::from(count))
+            .unwrap_or((words, &[]));
+        words = tail;
         let mut acc = [0i64; 3];
-        for w in words.by_ref().take(usize::from(count)) {
-            let (marker, weight) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        for w in mine.chunks_exact(4) {
+            // Always four bytes: the fallback folds away.
+            let word: [u8; 4] = w.try_into().unwrap_or([0; 4]);
+            let (marker, weight) = unpack_influence(u32::from_le_bytes(word));
             // A u8 index into a 256-entry array: in range by construction.
             let d = &displacements[usize::from(marker)];
             acc[0] = mul_acc(acc[0], weight, d[0]);
@@ -39,7 +68,7 @@ pub(crate) fn deform(
         }
         for c in 0..3 {
             let rest_c = widen_rest(i16::from_le_bytes([r[2 * c], r[2 * c + 1]]));
-            o[c] = rest_c.saturating_add(round_shift_sat(acc[c], frac));
+            o[c] = rest_c.saturating_add(narrow(acc[c], half, frac));
         }
     }
 }

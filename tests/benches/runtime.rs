@@ -1,0 +1,507 @@
+//! Per-frame cost of the runtime's fixed-point kernel against two float baselines.
+//!
+//! Rigs (one criterion group each, so the figures inside a group compare like with like):
+//!
+//! * the FaceCap ground-truth bake (2694 vertices, 40 markers) at K = 8 and K = 4, fed the
+//!   "jaw open" frame's real marker positions;
+//! * a synthetic 50,000-vertex bumpy-ellipsoid "head" with 60 farthest-point markers, markers
+//!   moved by up to 5 mm, at K = 4 and K = 8.
+//!
+//! Each is baked in both runtime forms: `weights` (the linear kernel: K weights per vertex on
+//! marker displacements; IMQ, width 2 × marker spacing, as [`facebake_tests::weights_config`])
+//! and `coefficients` (the default bake: per-frame RBF coefficients, K kernel terms per vertex).
+//!
+//! Paths:
+//!
+//! * `fixed`: [`Rig::deform`], the no_std Q8.24 runtime;
+//! * `f32` (weights form): [`F32Rig`], the same sparse rig decoded once from the blob's own
+//!   quantised numbers into f32 and evaluated with the same per-vertex gather, as a float
+//!   linear-blend-skinning library's positions-only path would;
+//! * `dense_f64` (FaceCap): the papers' per-frame RBF of the same configuration
+//!   ([`facebake::reference::DenseRbf::frame`]: solve, then evaluate every vertex against every
+//!   marker).
+//!
+//! Every benchmark's throughput is the sparse rig's influence count (Σ per-vertex counts), so
+//! criterion's `elem/s` reads as vertex-influences per second (for `dense_f64`, the same work
+//! delivered: the rig's output per second).
+//!
+//! After the criterion groups, when run by `cargo bench`, a same-run table of ratios is printed:
+//! every path of a rig is timed in interleaved `Instant` loops of equal duration after a warm-up,
+//! and each ratio is the median of per-round ratios, so machine noise hits both sides alike.
+//!
+//! Run: `cargo bench -p facebake-tests --bench runtime`.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{Criterion, Throughput};
+use facebake::bake::{bake, BakeConfig, BakeInput, Baked, RigForm};
+use facebake::ground_truth::SplitMix64;
+use facebake::mesh::farthest_point_sampling;
+use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
+use facebake_runtime::format::{Deformer, MAX_MARKERS};
+use facebake_runtime::Rig;
+use facebake_tests::{bake_truth, facecap_truth, weights_config};
+
+/// Vertices of the synthetic head.
+const SYNTH_VERTICES: usize = 50_000;
+/// Markers on the synthetic head.
+const SYNTH_MARKERS: usize = 60;
+/// Criterion measurement time per benchmark.
+const MEASUREMENT: Duration = Duration::from_secs(3);
+/// Criterion warm-up time per benchmark.
+const WARM_UP: Duration = Duration::from_secs(1);
+/// Criterion samples per benchmark.
+const SAMPLES: usize = 30;
+/// Same-run ratio table: timed rounds (after one warm-up round) and time per path per round.
+const ROUNDS: usize = 9;
+/// See [`ROUNDS`].
+const SLICE: Duration = Duration::from_millis(80);
+/// The reference point the brief quotes for a float linear-blend-skinning library on one core:
+/// (K, vertices per millisecond).
+const LBS_REFERENCE: [(usize, f64); 2] = [(4, 200_000.0), (8, 100_000.0)];
+
+/// One rig unit (Q8.24 one) as f32.
+const Q24: f32 = (1u32 << POS_FRAC_BITS) as f32;
+
+/// A baked rig's sparse weights decoded to f32, evaluated the way a float skinning library does.
+///
+/// Everything is in rig units (the Q8.24 values divided by 2²⁴), taken from the blob's own
+/// quantised numbers, so it computes the same function as [`Rig::deform`] up to f32 rounding.
+struct F32Rig {
+    /// Vertex rest positions.
+    rest: Vec<[f32; 3]>,
+    /// Influences per vertex.
+    counts: Vec<u8>,
+    /// Marker index of each influence, vertex after vertex.
+    markers: Vec<u8>,
+    /// Weight of each influence, parallel to `markers`.
+    weights: Vec<f32>,
+    /// Marker rest positions.
+    marker_rest: Vec<[f32; 3]>,
+}
+
+impl F32Rig {
+    /// Decode `rig` once: rest positions, weights and marker rest positions; `None` unless it
+    /// is a weights-form (linear) rig.
+    fn from_rig(rig: &Rig<'_>) -> Option<Self> {
+        let Deformer::Linear(lin) = rig.deformer() else {
+            return None;
+        };
+        let to_f32 = |q: [i32; 3]| q.map(|c| c as f32 / Q24);
+        let scale = (1u32 << lin.weight_frac_bits) as f32;
+        let (markers, weights) = lin
+            .influences
+            .0
+            .chunks_exact(4)
+            .map(|w| {
+                let (m, q) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                (m, q as f32 / scale)
+            })
+            .unzip();
+        Some(Self {
+            rest: (0..rig.vertex_count())
+                .filter_map(|i| rig.vertex_rest(i))
+                .map(to_f32)
+                .collect(),
+            counts: lin.influence_counts.0.to_vec(),
+            markers,
+            weights,
+            marker_rest: (0..rig.marker_count())
+                .filter_map(|i| rig.marker_rest(i))
+                .map(to_f32)
+                .collect(),
+        })
+    }
+
+    /// `out[v] = rest[v] + Σ w · (m − m_rest)`, f32 throughout, one gather per influence.
+    ///
+    /// `markers` has one entry per rig marker, `out` one per vertex.
+    fn deform(&self, markers: &[[f32; 3]], out: &mut [[f32; 3]]) {
+        assert_eq!(markers.len(), self.marker_rest.len());
+        assert_eq!(out.len(), self.rest.len());
+        // A u8 index into a 256-entry table: no bounds check in the loop.
+        let mut displacements = [[0f32; 3]; MAX_MARKERS];
+        for ((d, m), r) in displacements.iter_mut().zip(markers).zip(&self.marker_rest) {
+            *d = [m[0] - r[0], m[1] - r[1], m[2] - r[2]];
+        }
+        let mut influences = self.markers.iter().zip(&self.weights);
+        for ((o, r), &count) in out.iter_mut().zip(&self.rest).zip(&self.counts) {
+            let mut acc = [0f32; 3];
+            for (&m, &w) in influences.by_ref().take(usize::from(count)) {
+                let d = &displacements[usize::from(m)];
+                acc[0] += w * d[0];
+                acc[1] += w * d[1];
+                acc[2] += w * d[2];
+            }
+            *o = [r[0] + acc[0], r[1] + acc[1], r[2] + acc[2]];
+        }
+    }
+}
+
+/// One baked rig with one frame of input for every path.
+struct Case {
+    /// Label in criterion ids and the table.
+    name: String,
+    /// The bake (blob and dense reference).
+    baked: Baked,
+    /// Marker positions in rig units (Q8.24), for [`Rig::deform`].
+    markers_q: Vec<[i32; 3]>,
+    /// The same in rig units as f32, for [`F32Rig::deform`].
+    markers_f32: Vec<[f32; 3]>,
+    /// The same in asset units, for the dense reference.
+    markers_f64: Vec<[f64; 3]>,
+    /// Whether to time the dense f64 RBF.
+    dense: bool,
+}
+
+impl Case {
+    /// A case from a bake and the frame's marker positions in asset units.
+    fn new(name: String, baked: Baked, markers_f64: Vec<[f64; 3]>, dense: bool) -> Self {
+        let rig = Rig::from_bytes(&baked.blob).expect("the bake loads");
+        let space = rig.space();
+        let markers_q: Vec<[i32; 3]> = markers_f64
+            .iter()
+            .map(|p| space.to_rig_f64(*p).expect("markers in range"))
+            .collect();
+        let markers_f32 = markers_q
+            .iter()
+            .map(|q| q.map(|c| c as f32 / Q24))
+            .collect();
+        Self {
+            name,
+            baked,
+            markers_q,
+            markers_f32,
+            markers_f64,
+            dense,
+        }
+    }
+}
+
+/// The loaded rig, its f32 decoding and output buffers: everything a timed call touches.
+struct Prepared<'a> {
+    case: &'a Case,
+    rig: Rig<'a>,
+    f32_rig: Option<F32Rig>,
+    out_q: Vec<[i32; 3]>,
+    out_f32: Vec<[f32; 3]>,
+}
+
+impl<'a> Prepared<'a> {
+    /// Load `case` and check that the f32 path (if any) computes what the fixed path does.
+    fn new(case: &'a Case) -> Self {
+        let rig = Rig::from_bytes(&case.baked.blob).expect("the bake loads");
+        let mut p = Self {
+            case,
+            rig,
+            f32_rig: F32Rig::from_rig(&rig),
+            out_q: vec![[0; 3]; rig.vertex_count()],
+            out_f32: vec![[0.0; 3]; rig.vertex_count()],
+        };
+        if p.f32_rig.is_some() {
+            p.fixed();
+            p.float();
+            let worst = p
+                .out_q
+                .iter()
+                .zip(&p.out_f32)
+                .flat_map(|(q, f)| (0..3).map(move |c| (q[c] as f32 / Q24 - f[c]).abs()))
+                .fold(0f32, f32::max);
+            assert!(
+                worst < 1e-4,
+                "{}: f32 and fixed paths differ by {worst} rig units",
+                case.name
+            );
+        }
+        p
+    }
+
+    /// One fixed-point frame.
+    fn fixed(&mut self) {
+        self.rig
+            .deform(black_box(&self.case.markers_q), &mut self.out_q)
+            .expect("frame shape");
+        black_box(&self.out_q);
+    }
+
+    /// One f32 frame (weights form only; a no-op otherwise).
+    fn float(&mut self) {
+        if let Some(f) = &self.f32_rig {
+            f.deform(black_box(&self.case.markers_f32), &mut self.out_f32);
+        }
+        black_box(&self.out_f32);
+    }
+
+    /// One dense f64 frame.
+    fn dense(&self) {
+        black_box(
+            self.case
+                .baked
+                .dense
+                .frame(black_box(&self.case.markers_f64)),
+        );
+    }
+
+    /// Σ per-vertex influence counts.
+    fn influences(&self) -> usize {
+        self.rig.cost().influences
+    }
+}
+
+/// The weights-form configuration at `k`.
+fn weights_at(k: usize) -> BakeConfig {
+    BakeConfig {
+        k,
+        ..weights_config()
+    }
+}
+
+/// The default (coefficients-form) configuration at `k`.
+fn coefficients_at(k: usize) -> BakeConfig {
+    BakeConfig {
+        k,
+        ..BakeConfig::default()
+    }
+}
+
+/// Short name of a form, for ids.
+fn form_name(form: RigForm) -> &'static str {
+    match form {
+        RigForm::Weights => "weights",
+        RigForm::Coefficients => "coefficients",
+    }
+}
+
+/// The FaceCap bakes, both forms at K = 8 and K = 4, fed the "jaw open" frame.
+fn facecap_cases() -> Vec<Case> {
+    let truth = facecap_truth();
+    let frame = truth
+        .frames
+        .iter()
+        .position(|f| f.name == "jaw open")
+        .expect("the FaceCap sequence has a jaw-open frame");
+    let markers = truth.markers_of(&truth.positions(frame));
+    let configs = [8, 4]
+        .into_iter()
+        .flat_map(|k| [weights_at(k), coefficients_at(k)]);
+    configs
+        .map(|config| {
+            let name = format!("facecap_{}_k{}", form_name(config.form), config.k);
+            Case::new(name, bake_truth(&truth, &config), markers.clone(), true)
+        })
+        .collect()
+}
+
+/// A deterministic bumpy ellipsoid of `n` vertices about 0.2 m tall (a Fibonacci lattice, so
+/// consecutive vertices are neighbours, as in a real mesh's vertex order).
+fn synthetic_head(n: usize) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let ring = (1.0 - y * y).sqrt();
+            let theta = golden * i as f64;
+            let (x, z) = (ring * theta.cos(), ring * theta.sin());
+            let bump = 1.0 + 0.04 * (5.0 * theta).sin() * (4.0 * y).cos() + 0.02 * (9.0 * y).sin();
+            [0.075 * bump * x, 0.1 * bump * y, 0.085 * bump * z]
+        })
+        .collect()
+}
+
+/// The synthetic 50k head, both forms at K = 4 and K = 8, markers moved by a few millimetres.
+fn synthetic_cases() -> Vec<Case> {
+    let vertices = synthetic_head(SYNTH_VERTICES);
+    let all: Vec<u32> = (0..vertices.len() as u32).collect();
+    let picks = farthest_point_sampling(&vertices, &all, SYNTH_MARKERS, 0).expect("markers");
+    let marker_rest: Vec<[f64; 3]> = picks.iter().map(|&v| vertices[v as usize]).collect();
+    let names: Vec<String> = (0..picks.len()).map(|i| format!("S{i:02}")).collect();
+    let stiffness = vec![1.0; picks.len()];
+    let mut rng = SplitMix64(0x5EED_50CA);
+    let markers: Vec<[f64; 3]> = marker_rest
+        .iter()
+        .map(|p| p.map(|c| c + 0.005 * (2.0 * rng.unit() - 1.0)))
+        .collect();
+    let input = BakeInput {
+        vertices: &vertices,
+        marker_names: &names,
+        marker_rest: &marker_rest,
+        stiffness: &stiffness,
+    };
+    let configs = [4, 8]
+        .into_iter()
+        .flat_map(|k| [weights_at(k), coefficients_at(k)]);
+    configs
+        .map(|config| {
+            let name = format!("synthetic50k_{}_k{}", form_name(config.form), config.k);
+            let baked = bake(&input, &config).expect("the synthetic head bakes");
+            Case::new(name, baked, markers.clone(), false)
+        })
+        .collect()
+}
+
+/// One criterion group per rig: fixed, f32 (weights form) and dense f64 (FaceCap).
+fn bench_case(c: &mut Criterion, case: &Case) {
+    let mut p = Prepared::new(case);
+    let mut group = c.benchmark_group(&case.name);
+    group
+        .throughput(Throughput::Elements(p.influences() as u64))
+        .sample_size(SAMPLES)
+        .warm_up_time(WARM_UP)
+        .measurement_time(MEASUREMENT);
+    group.bench_function("fixed", |b| b.iter(|| p.fixed()));
+    if p.f32_rig.is_some() {
+        group.bench_function("f32", |b| b.iter(|| p.float()));
+    }
+    if case.dense {
+        group.bench_function("dense_f64", |b| b.iter(|| p.dense()));
+    }
+    group.finish();
+}
+
+/// Time every path in `paths` in interleaved rounds: each round runs each path for
+/// [`SLICE`] in turn; the first round is a warm-up. Returns per path the seconds per call of
+/// every timed round.
+fn interleaved(paths: &mut [&mut dyn FnMut()]) -> Vec<Vec<f64>> {
+    let mut times = vec![Vec::with_capacity(ROUNDS); paths.len()];
+    for round in 0..=ROUNDS {
+        for (path, t) in paths.iter_mut().zip(&mut times) {
+            let start = Instant::now();
+            let mut calls = 0u32;
+            while start.elapsed() < SLICE {
+                path();
+                calls += 1;
+            }
+            if round > 0 {
+                t.push(start.elapsed().as_secs_f64() / f64::from(calls));
+            }
+        }
+    }
+    times
+}
+
+/// Median of `x` (which it sorts).
+fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    let n = x.len();
+    if n % 2 == 1 {
+        x[n / 2]
+    } else {
+        0.5 * (x[n / 2 - 1] + x[n / 2])
+    }
+}
+
+/// Median over rounds of `a[r] / b[r]`.
+fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
+    let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    median(&mut r)
+}
+
+/// Same-run figures of one rig: median seconds per frame of each path and ratios.
+struct Row {
+    fixed: f64,
+    f32: Option<f64>,
+    dense: Option<f64>,
+    fixed_over_f32: Option<f64>,
+    dense_over_fixed: Option<f64>,
+}
+
+/// Time the paths of one rig interleaved.
+fn measure(case: &Case) -> Row {
+    let mut p = Prepared::new(case);
+    let has_f32 = p.f32_rig.is_some();
+    let p = std::cell::RefCell::new(&mut p);
+    let mut fixed = || p.borrow_mut().fixed();
+    let mut float = || p.borrow_mut().float();
+    let mut dense = || p.borrow().dense();
+    let mut paths: Vec<&mut dyn FnMut()> = vec![&mut fixed];
+    if has_f32 {
+        paths.push(&mut float);
+    }
+    if case.dense {
+        paths.push(&mut dense);
+    }
+    let mut times = interleaved(&mut paths);
+    let f32_at = has_f32.then_some(1);
+    let dense_at = case.dense.then_some(1 + usize::from(has_f32));
+    let fixed_over_f32 = f32_at.map(|i| median_ratio(&times[0], &times[i]));
+    let dense_over_fixed = dense_at.map(|i| median_ratio(&times[i], &times[0]));
+    let t: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
+    Row {
+        fixed: t[0],
+        f32: f32_at.map(|i| t[i]),
+        dense: dense_at.map(|i| t[i]),
+        fixed_over_f32,
+        dense_over_fixed,
+    }
+}
+
+/// The same-run ratio table (see the module docs).
+fn summary(cases: &[Case]) {
+    println!();
+    println!(
+        "Same-run ratios: paths of a rig interleaved, {ROUNDS} rounds × {} ms each after a \
+         warm-up round; times are medians, ratios medians of per-round ratios",
+        SLICE.as_millis()
+    );
+    println!(
+        "{:<28} {:>6} {:>2} {:>6} {:>9} {:>8} {:>9} {:>9} {:>11} {:>13} {:>11}",
+        "rig",
+        "verts",
+        "K",
+        "infl/v",
+        "fixed µs",
+        "f32 µs",
+        "dense µs",
+        "fixed/f32",
+        "dense/fixed",
+        "fixed vert/ms",
+        "f32 vert/ms"
+    );
+    for case in cases {
+        let row = measure(case);
+        let rig = Rig::from_bytes(&case.baked.blob).expect("the bake loads");
+        let (vertices, cost) = (rig.vertex_count(), rig.cost());
+        let us = |s: Option<f64>| s.map_or("-".into(), |s| format!("{:.1}", s * 1e6));
+        let per_ms = |s: Option<f64>| {
+            s.map_or("-".into(), |s| {
+                format!("{:.0}", vertices as f64 / (s * 1e3))
+            })
+        };
+        println!(
+            "{:<28} {:>6} {:>2} {:>6.2} {:>9} {:>8} {:>9} {:>9} {:>11} {:>13} {:>11}",
+            case.name,
+            vertices,
+            cost.max_influences,
+            cost.influences as f64 / vertices as f64,
+            us(Some(row.fixed)),
+            us(row.f32),
+            us(row.dense),
+            row.fixed_over_f32.map_or("-".into(), |r| format!("{r:.2}")),
+            row.dense_over_fixed
+                .map_or("-".into(), |r| format!("{r:.0}×")),
+            per_ms(Some(row.fixed)),
+            per_ms(row.f32),
+        );
+    }
+    for (k, reference) in LBS_REFERENCE {
+        println!(
+            "reference: float linear-blend skinning, K={k}: ~{reference:.0} vertices/ms on one core"
+        );
+    }
+}
+
+/// Criterion groups for every rig, then (under `cargo bench`) the same-run ratio table.
+fn main() {
+    let mut cases = facecap_cases();
+    cases.extend(synthetic_cases());
+    let mut c = Criterion::default().configure_from_args();
+    for case in &cases {
+        bench_case(&mut c, case);
+    }
+    c.final_summary();
+    // `cargo bench` passes `--bench`; `cargo test --benches` does not and only smoke-tests.
+    if std::env::args().any(|a| a == "--bench") {
+        summary(&cases);
+    }
+}
