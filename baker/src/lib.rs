@@ -8,4 +8,5 @@ pub mod io;
 pub mod mesh;
 pub mod rbf;
 pub mod reference;
+pub mod rigid;
 pub mod sparsify;
