@@ -68,7 +68,9 @@ pub(crate) fn deform(
     for ((o, r), words) in vertices {
         let mut acc = [0i64; 3];
         for w in words.chunks_exact(4) {
-            let (centre, phi) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            // Always four bytes, read as one word: the fallback folds away.
+            let word: [u8; 4] = w.try_into().unwrap_or([0; 4]);
+            let (centre, phi) = unpack_influence(u32::from_le_bytes(word));
             // A u8 index into a 260-entry table: in range by construction.
             let c = &table[usize::from(centre)];
             acc[0] = mul_acc(acc[0], phi, c[0]);
