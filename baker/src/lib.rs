@@ -8,5 +8,6 @@ pub mod io;
 pub mod mesh;
 pub mod rbf;
 pub mod reference;
+pub mod retarget;
 pub mod rigid;
 pub mod sparsify;
