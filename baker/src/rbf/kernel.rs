@@ -129,7 +129,6 @@ pub fn nearest_distances(centres: &[[f64; 3]]) -> Vec<f64> {
         .collect()
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
