@@ -6,6 +6,7 @@ pub mod cli;
 pub mod ground_truth;
 pub mod io;
 pub mod mesh;
+pub mod placement;
 pub mod rbf;
 pub mod reference;
 pub mod retarget;

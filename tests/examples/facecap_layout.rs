@@ -1,0 +1,29 @@
+//! Writes `fixtures/facecap_jawmocap_layout.toml`: JawMoCap's 41 markers placed on the FaceCap
+//! head from nine landmarks found from the mesh's topology (see `facebake::placement`). The
+//! test `placement::tests` checks the committed file against a fresh placement.
+//! `cargo run -p facebake-tests --example facecap_layout`
+use facebake::io::capture::read_capture;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::write_layout;
+use facebake::placement::{facecap_landmarks, place_from_landmarks};
+use facebake_tests::fixture;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)?;
+    let cap = read_capture(&fixture("JawMoCap.trc"))?;
+    let neutral: Vec<[f64; 3]> = cap.frames[0]
+        .iter()
+        .map(|p| p.ok_or("frame 0 has a missing marker"))
+        .collect::<Result<_, _>>()?;
+    let landmarks = facecap_landmarks(&mesh)?;
+    let layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh)?;
+    let out = fixture("facecap_jawmocap_layout.toml");
+    write_layout(&out, &layout)?;
+    println!(
+        "wrote {} ({} markers, {} landmarks)",
+        out.display(),
+        layout.markers.len(),
+        landmarks.markers.len()
+    );
+    Ok(())
+}
