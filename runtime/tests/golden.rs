@@ -11,6 +11,7 @@ use facebake_runtime::Rig;
 
 const COEFFICIENTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients.fbk");
 const WEIGHTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_weights.fbk");
+const COEFFICIENTS_K4: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk");
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
 
@@ -73,6 +74,11 @@ fn coefficients_rig_is_bit_identical_to_the_golden_hashes() {
 #[test]
 fn weights_rig_is_bit_identical_to_the_golden_hashes() {
     check("weights", WEIGHTS);
+}
+
+#[test]
+fn k4_coefficients_rig_is_bit_identical_to_the_golden_hashes() {
+    check("coefficients_k4", COEFFICIENTS_K4);
 }
 
 /// The fixed-point primitives at their range edges, beyond the unit tests in `fixed.rs`

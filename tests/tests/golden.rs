@@ -10,12 +10,14 @@
 //! |---|---|
 //! | `facecap_coefficients.fbk` | the default bake (RBF coefficients, Gaussian, K = 8) |
 //! | `facecap_weights.fbk` | the weights bake (IMQ, K = 8) |
+//! | `facecap_coefficients_k4.fbk` | the default bake at K = 4, so per-frame cost can be split into per-vertex and per-influence parts |
 //! | `facecap_markers.bin` | frames × 40 markers × 3 `i32` LE, Q8.24: every ground-truth frame, then [`EDGE_FRAMES`] |
 //! | `hashes.txt` | per rig: FNV-1a-64 of each frame's output (`i32` LE, x y z per vertex), then of the whole sequence |
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use facebake::bake::{BakeConfig, Baked};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::fixed::POS_ONE;
 use facebake_runtime::Rig;
@@ -36,6 +38,20 @@ const EDGE_FRAMES: [&str; 7] = [
 
 fn golden_dir() -> PathBuf {
     fixture("golden")
+}
+
+/// The default configuration at K = 4.
+fn k4_config() -> BakeConfig {
+    BakeConfig {
+        k: 4,
+        ..BakeConfig::default()
+    }
+}
+
+/// The default bake at K = 4, built once per test binary.
+fn facecap_k4() -> &'static Baked {
+    static CELL: std::sync::OnceLock<Baked> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| bake_truth(&facecap_default().0, &k4_config()))
 }
 
 /// The edge frames for markers at `rest` (Q8.24), one `Vec` per frame.
@@ -123,7 +139,7 @@ fn hashes_txt(rigs: &[(&str, &[u8])], frames: &[Vec<[i32; 3]>]) -> String {
 #[test]
 fn bake_is_deterministic() {
     let (truth, baked) = facecap_default();
-    let again = bake_truth(truth, &facebake::bake::BakeConfig::default());
+    let again = bake_truth(truth, &BakeConfig::default());
     assert!(
         again.blob == baked.blob,
         "coefficients bake differs run to run"
@@ -133,19 +149,27 @@ fn bake_is_deterministic() {
         again.blob == facecap_weights().blob,
         "weights bake differs run to run"
     );
+    let again = bake_truth(truth, &k4_config());
+    assert!(
+        again.blob == facecap_k4().blob,
+        "K = 4 bake differs run to run"
+    );
 }
 
 #[test]
 fn golden_files_match_the_baker_byte_for_byte() {
     let coefficients = facecap_default().1.blob.as_slice();
     let weights = facecap_weights().blob.as_slice();
+    let k4 = facecap_k4().blob.as_slice();
     let rig = Rig::from_bytes(coefficients).unwrap();
-    let other = Rig::from_bytes(weights).unwrap();
-    // One marker file drives both rigs: they must agree on the markers and their units.
     assert_eq!(rig.marker_count(), FACECAP_MARKERS);
-    assert_eq!(rig.space(), other.space());
-    for i in 0..rig.marker_count() {
-        assert_eq!(rig.marker_rest(i), other.marker_rest(i));
+    // One marker file drives every rig: they must agree on the markers and their units.
+    for blob in [weights, k4] {
+        let other = Rig::from_bytes(blob).unwrap();
+        assert_eq!(rig.space(), other.space());
+        for i in 0..rig.marker_count() {
+            assert_eq!(rig.marker_rest(i), other.marker_rest(i));
+        }
     }
     let frames = marker_frames(&rig);
     let markers: Vec<u8> = frames
@@ -154,10 +178,15 @@ fn golden_files_match_the_baker_byte_for_byte() {
         .flatten()
         .flat_map(|c| c.to_le_bytes())
         .collect();
-    let rigs = [("coefficients", coefficients), ("weights", weights)];
-    let files: [(&str, Vec<u8>); 4] = [
+    let rigs = [
+        ("coefficients", coefficients),
+        ("weights", weights),
+        ("coefficients_k4", k4),
+    ];
+    let files: [(&str, Vec<u8>); 5] = [
         ("facecap_coefficients.fbk", coefficients.to_vec()),
         ("facecap_weights.fbk", weights.to_vec()),
+        ("facecap_coefficients_k4.fbk", k4.to_vec()),
         ("facecap_markers.bin", markers),
         ("hashes.txt", hashes_txt(&rigs, &frames).into_bytes()),
     ];
