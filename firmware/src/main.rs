@@ -117,6 +117,10 @@ fn main() -> ! {
         let v = alloc::vec![0u8; 4];
         black_box(&v);
     }
+    #[cfg(feature = "panic-canary")]
+    if black_box(true) {
+        panic!("panic-canary: a deliberate panic");
+    }
     let mut out = [[0i32; 3]; MAX_VERTICES];
     for (name, blob) in RIGS {
         play(name, blob, &mut out);
