@@ -1,7 +1,11 @@
-//! CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) over the blob payload.
+//! Checksums: CRC-32 over the blob payload, and FNV-1a-64 over output frames.
 //!
-//! The table is built at compile time, so the check costs 1 KiB of flash and one table look-up
-//! per byte, at load time only.
+//! * CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) seals the blob. The table is built at
+//!   compile time, so the check costs 1 KiB of flash and one table look-up per byte, at load time
+//!   only.
+//! * [`Fnv1a64`] fingerprints deformed vertex buffers, so the golden tests (host, cross-built
+//!   targets under emulation, the Cortex-M4 firmware) compare frames by one short number each. It
+//!   is never on the per-frame path of [`crate::Rig::deform`].
 
 const TABLE: [u32; 256] = build_table();
 
@@ -34,9 +38,72 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     !c
 }
 
+/// FNV-1a, 64-bit: a tiny, table-free hash, identical on every platform because it is defined on
+/// bytes. Positions are hashed as `i32` little-endian, x y z per vertex, whatever the host's byte
+/// order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fnv1a64(u64);
+
+impl Fnv1a64 {
+    const OFFSET_BASIS: u64 = 0xCBF2_9CE4_8422_2325;
+    const PRIME: u64 = 0x0000_0100_0000_01B3;
+
+    /// A hash of nothing yet.
+    pub const fn new() -> Self {
+        Self(Self::OFFSET_BASIS)
+    }
+
+    /// Feed bytes.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(Self::PRIME);
+        }
+    }
+
+    /// Feed positions (Q8.24) as `i32` LE, x y z per entry.
+    pub fn write_positions(&mut self, positions: &[[i32; 3]]) {
+        for p in positions {
+            for c in p {
+                self.write(&c.to_le_bytes());
+            }
+        }
+    }
+
+    /// The hash of everything fed so far.
+    pub const fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+impl Default for Fnv1a64 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::crc32;
+    use super::{crc32, Fnv1a64};
+
+    #[test]
+    fn fnv1a64_known_answers() {
+        let hash = |b: &[u8]| {
+            let mut h = Fnv1a64::new();
+            h.write(b);
+            h.finish()
+        };
+        // The reference values of the FNV authors' test suite.
+        assert_eq!(hash(b""), 0xCBF2_9CE4_8422_2325);
+        assert_eq!(hash(b"a"), 0xAF63_DC4C_8601_EC8C);
+        assert_eq!(hash(b"foobar"), 0x8594_4171_F739_67E8);
+        // Positions are hashed little-endian whatever the host's byte order.
+        let mut h = Fnv1a64::new();
+        h.write_positions(&[[1, -2, 0x0102_0304]]);
+        assert_eq!(
+            h.finish(),
+            hash(&[1, 0, 0, 0, 0xFE, 0xFF, 0xFF, 0xFF, 4, 3, 2, 1])
+        );
+    }
 
     #[test]
     fn known_answers() {

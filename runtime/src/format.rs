@@ -439,9 +439,23 @@ fn expect_len(
     Ok(())
 }
 
+/// `x.is_finite()`, on the IEEE-754 bits: the exponent is not all ones. Integer-only, so loading
+/// a rig needs no floating-point code on a core without an FPU (no soft-float routines linked).
+fn f32_is_finite(x: f32) -> bool {
+    x.to_bits() & 0x7F80_0000 != 0x7F80_0000
+}
+
+/// `x > 0.0`, on the IEEE-754 bits: sign clear, not ±0, not NaN.
+fn f32_is_positive(x: f32) -> bool {
+    let bits = x.to_bits();
+    bits & 0x8000_0000 == 0 && bits != 0 && bits <= 0x7F80_0000
+}
+
 fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
     let s = d.space;
-    if !(s.centre.iter().all(|c| c.is_finite()) && s.half_extent.is_finite() && s.half_extent > 0.0)
+    if !(s.centre.iter().all(|&c| f32_is_finite(c))
+        && f32_is_finite(s.half_extent)
+        && f32_is_positive(s.half_extent))
     {
         return Err(LoadError::BadSpace);
     }
@@ -581,4 +595,45 @@ fn validate_linear(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{f32_is_finite, f32_is_positive};
+
+    /// The integer bit tests agree with the float operations they replace, on every class of
+    /// value: zeros, subnormals, normals, the extremes, infinities and NaNs of both signs.
+    #[test]
+    fn space_checks_on_bits_match_float_semantics() {
+        let special = [
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::from_bits(0x8000_0001),
+            1.0,
+            -1.0,
+            0.25,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            f32::from_bits(0x7F80_0001),
+            f32::from_bits(0xFFFF_FFFF),
+            f32::from_bits(0x7F7F_FFFF),
+        ];
+        // And a spread of bit patterns across the whole range.
+        let mut bits = 0u32;
+        let spread = (0..1 << 16).map(|_| {
+            bits = bits.wrapping_mul(0x9E37_79B9).wrapping_add(0x7F4A_7C15);
+            f32::from_bits(bits)
+        });
+        for x in special.into_iter().chain(spread) {
+            assert_eq!(f32_is_finite(x), x.is_finite(), "{:#010x}", x.to_bits());
+            assert_eq!(f32_is_positive(x), x > 0.0, "{:#010x}", x.to_bits());
+        }
+    }
 }

@@ -1,0 +1,337 @@
+#!/usr/bin/env bash
+# Proves the runtime's promises (issue #6):
+#   * bit-identical output on every architecture: the golden hashes on x86_64, and cross-built
+#     under qemu-user on aarch64, 32-bit big-endian PowerPC and i686;
+#   * runs on a Cortex-M4: the firmware plays every golden frame under QEMU mps2-an386 and must
+#     print exactly the golden hashes (a panic exits non-zero and fails);
+#   * never allocates: the firmware links no allocator (an alloc canary must fail to build) and
+#     a host test counts allocations;
+#   * no float on the per-frame path: load + deform built for thumbv6m (no FPU) links no
+#     soft-float routine;
+#   * bounded, data-independent cost: instructions per frame under callgrind (host) and a QEMU
+#     plugin (Cortex-M4) are the same for every frame, rest pose and saturated poses included.
+#
+# Installs what it needs, idempotently: rustup targets and llvm-tools, Debian's cross compilers,
+# qemu-user and valgrind, and qemu-system-arm unpacked into a private directory (installing it
+# with apt would remove qemu-utils). Prints PASS/FAIL lines and the figures; exits non-zero on
+# any failure.
+set -euo pipefail
+
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+ROOT=$PWD
+START=$SECONDS
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
+FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware"
+TOOLS="${FACEBAKE_CI_TOOLS:-${XDG_CACHE_HOME:-$HOME/.cache}/facebake-ci}"
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; fi
+
+PASSED=0
+FAILED=0
+pass() { PASSED=$((PASSED + 1)); echo "PASS: $*"; }
+fail() { FAILED=$((FAILED + 1)); echo "FAIL: $*"; }
+figure() { echo "FIGURE: $*"; }
+section() { echo; echo "== $* ($((SECONDS - START)) s)"; }
+
+CROSS_TARGETS=(aarch64-unknown-linux-gnu powerpc-unknown-linux-gnu i686-unknown-linux-gnu)
+M4_TARGET=thumbv7em-none-eabihf
+NOFPU_TARGET=thumbv6m-none-eabi
+RIGS=(coefficients weights coefficients_k4)
+declare -A M4_INSNS HOST_IR
+
+# ---------------------------------------------------------------------------------------------
+section "toolchain and packages"
+
+installed_targets=$(rustup target list --installed)
+for t in "${CROSS_TARGETS[@]}" "$M4_TARGET" "$NOFPU_TARGET"; do
+    grep -qx "$t" <<<"$installed_targets" || rustup target add "$t"
+done
+HOST=$(rustc -vV | awk '/^host:/ {print $2}')
+LLVM_BIN="$(rustc --print sysroot)/lib/rustlib/$HOST/bin"
+[ -x "$LLVM_BIN/llvm-size" ] || rustup component add llvm-tools
+for tool in llvm-size llvm-nm llvm-objdump; do
+    [ -x "$LLVM_BIN/$tool" ] || { echo "FAIL: $tool missing from $LLVM_BIN"; exit 1; }
+done
+
+APT_PACKAGES=(qemu-user valgrind gcc
+    gcc-aarch64-linux-gnu libc6-dev-arm64-cross
+    gcc-powerpc-linux-gnu libc6-dev-powerpc-cross
+    gcc-i686-linux-gnu libc6-dev-i386-cross)
+APT_UPDATED=0
+apt_install() {
+    local missing=()
+    for p in "$@"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" ||
+            missing+=("$p")
+    done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    if [ "$APT_UPDATED" -eq 0 ]; then
+        $SUDO apt-get update -qq
+        APT_UPDATED=1
+    fi
+    echo "installing: ${missing[*]}"
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
+        "${missing[@]}" >/dev/null
+}
+apt_install "${APT_PACKAGES[@]}"
+
+# qemu-system-arm, unpacked privately, with only its shared-library dependencies installed.
+QEMU_ROOT="$TOOLS/qemu-system-arm"
+QEMU_SYSTEM_ARM="$QEMU_ROOT/usr/bin/qemu-system-arm"
+if [ ! -x "$QEMU_SYSTEM_ARM" ]; then
+    if [ "$APT_UPDATED" -eq 0 ]; then
+        $SUDO apt-get update -qq
+        APT_UPDATED=1
+    fi
+    mkdir -p "$QEMU_ROOT"
+    (cd "$WORK" && apt-get download -qq qemu-system-arm 2>/dev/null)
+    dpkg -x "$WORK"/qemu-system-arm_*.deb "$QEMU_ROOT"
+fi
+mapfile -t QEMU_LIBS < <(apt-cache depends --important qemu-system-arm 2>/dev/null |
+    awk '$1 == "Depends:" && $2 !~ /^[<]/ && $2 !~ /^qemu-/ {print $2}' | sort -u)
+apt_install "${QEMU_LIBS[@]}"
+if ldd "$QEMU_SYSTEM_ARM" | grep -q "not found"; then
+    ldd "$QEMU_SYSTEM_ARM" | grep "not found"
+    fail "qemu-system-arm is missing shared libraries"
+    exit 1
+fi
+"$QEMU_SYSTEM_ARM" -machine help | grep -q '^mps2-an386 ' ||
+    { echo "FAIL: this qemu-system-arm has no mps2-an386"; exit 1; }
+echo "qemu-system-arm: $("$QEMU_SYSTEM_ARM" --version | head -n 1) ($QEMU_SYSTEM_ARM)"
+
+# The instruction-count plugin (Debian ships plugin support but no plugins or headers).
+PLUGIN="$TOOLS/frame_insns.so"
+if [ ! -f "$PLUGIN" ] || [ "$ROOT/firmware/qemu/frame_insns.c" -nt "$PLUGIN" ]; then
+    cc -O2 -Wall -Wextra -Werror -shared -fPIC -fvisibility=hidden \
+        -o "$PLUGIN" "$ROOT/firmware/qemu/frame_insns.c"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "golden data is what the baker makes; the runtime never allocates (host)"
+
+if cargo test -q -p facebake-tests --test golden --test no_alloc >"$WORK/host.log" 2>&1; then
+    pass "golden files equal a fresh bake byte for byte; bake is deterministic; no allocation in load + deform"
+else
+    cat "$WORK/host.log"
+    fail "golden/no_alloc host tests"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "bit-identical on every architecture"
+
+# Runs the runtime's tests (unit tests with the fixed-point golden vectors, and the golden hash
+# test) for target $1 and checks the golden test really ran.
+runtime_tests() {
+    local target=$1 log="$WORK/runtime-$1.log"
+    local args=(-p facebake-runtime)
+    [ "$target" = "$HOST" ] || args+=(--target "$target")
+    if cargo test "${args[@]}" >"$log" 2>&1 &&
+        grep -q "k4_coefficients_rig_is_bit_identical_to_the_golden_hashes ... ok" "$log" &&
+        grep -q "round_shift_golden ... ok" "$log"; then
+        pass "$target: every golden frame hash and fixed-point golden vector matches"
+    else
+        tail -n 40 "$log"
+        fail "$target: runtime golden tests"
+    fi
+}
+
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_LINKER=aarch64-linux-gnu-gcc
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER="qemu-aarch64 -L /usr/aarch64-linux-gnu"
+export CARGO_TARGET_POWERPC_UNKNOWN_LINUX_GNU_LINKER=powerpc-linux-gnu-gcc
+export CARGO_TARGET_POWERPC_UNKNOWN_LINUX_GNU_RUNNER="qemu-ppc -L /usr/powerpc-linux-gnu"
+export CARGO_TARGET_I686_UNKNOWN_LINUX_GNU_LINKER=i686-linux-gnu-gcc
+export CARGO_TARGET_I686_UNKNOWN_LINUX_GNU_RUNNER="qemu-i386 -L /usr/i686-linux-gnu"
+runtime_tests "$HOST"
+for t in "${CROSS_TARGETS[@]}"; do runtime_tests "$t"; done
+
+# ---------------------------------------------------------------------------------------------
+section "Cortex-M4 firmware under QEMU"
+
+# The canary builds below share this target directory (their features touch only the firmware
+# crate, so dependencies are built once) and overwrite its binaries: every binary checked is
+# copied out first.
+fw_cargo() { (cd "$ROOT/firmware" && CARGO_TARGET_DIR="$FW_TARGET_DIR" cargo "$@"); }
+FW_OUT="$FW_TARGET_DIR/$M4_TARGET/release/facebake-firmware"
+ELF="$WORK/facebake-firmware.elf"
+run_m4() { timeout 600 "$QEMU_SYSTEM_ARM" -machine mps2-an386 -cpu cortex-m4 -nographic \
+    -semihosting-config enable=on,target=native -kernel "$@"; }
+
+if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.log" 2>&1; then
+    pass "firmware builds for $M4_TARGET"
+    cp "$FW_OUT" "$ELF"
+    sym() { "$LLVM_BIN/llvm-nm" -C "$ELF" |
+        awk -v want="facebake_firmware::$1" '$3 == want || index($3, want "::h") == 1 {print $1}'; }
+    START_ADDR=$(sym frame_start)
+    END_ADDR=$(sym frame_end)
+    rc=0
+    run_m4 "$ELF" -plugin "$PLUGIN,start=0x$START_ADDR,end=0x$END_ADDR" -d plugin \
+        >"$WORK/fw.out" 2>"$WORK/fw.err" || rc=$?
+    grep -v '^frame_insns ' "$WORK/fw.err" >&2 || true
+    grep -E '^(figures|firmware|FAIL)' "$WORK/fw.out" || true
+    golden_lines() { grep -E '^[a-z0-9_]+ (frame [0-9]+|sequence) [0-9a-f]{16}$' "$1"; }
+    if [ "$rc" -ne 0 ]; then
+        fail "firmware exited with status $rc under QEMU"
+    elif ! grep -qx "firmware: done" "$WORK/fw.out"; then
+        fail "firmware did not finish"
+    elif ! diff <(golden_lines fixtures/golden/hashes.txt) <(golden_lines "$WORK/fw.out") \
+        >"$WORK/fw.diff"; then
+        head -n 20 "$WORK/fw.diff"
+        fail "Cortex-M4 frame hashes differ from hashes.txt"
+    else
+        pass "Cortex-M4: all $(golden_lines "$WORK/fw.out" | grep -c ' frame ') frame hashes and every sequence hash equal hashes.txt"
+    fi
+
+    # Instructions per frame, in firmware order: one count per deform call.
+    mapfile -t COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
+    FRAMES=$(( $(stat -c %s fixtures/golden/facecap_markers.bin) / (40 * 12) ))
+    if [ "${#COUNTS[@]}" -ne $(( FRAMES * ${#RIGS[@]} )) ]; then
+        fail "instruction counter saw ${#COUNTS[@]} frames, expected $(( FRAMES * ${#RIGS[@]} ))"
+    else
+        for i in "${!RIGS[@]}"; do
+            distinct=$(printf '%s\n' "${COUNTS[@]:$(( i * FRAMES )):$FRAMES}" | sort -u)
+            if [ "$(wc -l <<<"$distinct")" -eq 1 ]; then
+                M4_INSNS[${RIGS[$i]}]=$distinct
+                pass "Cortex-M4 ${RIGS[$i]}: $distinct instructions in every one of $FRAMES frames (rest, truth, saturated alike)"
+            else
+                fail "Cortex-M4 ${RIGS[$i]}: instructions per frame vary: $(tr '\n' ' ' <<<"$distinct")"
+            fi
+        done
+    fi
+
+    # Flash and RAM.
+    read -r TEXT DATA BSS < <("$LLVM_BIN/llvm-size" "$ELF" | awk 'NR == 2 {print $1, $2, $3}')
+    read -r CODE RODATA < <("$LLVM_BIN/llvm-size" -A "$ELF" |
+        awk '$1 == ".text" {t = $2} $1 == ".rodata" {r = $2} END {print t, r}')
+    figure "firmware flash $(( TEXT + DATA )) bytes: code $CODE, read-only data $RODATA (the blobs and markers), data $DATA; static RAM $(( DATA + BSS )) bytes; budget 1 MiB flash, 128 KiB RAM (memory.x)"
+    for f in fixtures/golden/*.fbk fixtures/golden/facecap_markers.bin; do
+        figure "$(basename "$f") $(stat -c %s "$f") bytes"
+    done
+    # Stack: the frames of the path main → Rig::deform (the output buffer is on main's stack).
+    "$LLVM_BIN/llvm-objdump" -d --no-show-raw-insn -C "$ELF" | awk '
+        function hex(h,   i, d, n) { n = 0; h = tolower(substr(h, 3))
+            for (i = 1; i <= length(h); i++) n = n * 16 + index("0123456789abcdef", substr(h, i, 1)) - 1
+            return n }
+        /^[0-9a-f]+ </ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn); sub(/::h[0-9a-f]+$/, "", fn) }
+        /\tsub(\.w)?\tsp, (sp, )?#0x/ { n = $NF; sub(/^#/, "", n); frame[fn] += hex(n) }
+        /\tpush(\.w)?\t\{/ { regs = $0; sub(/.*\{/, "", regs); frame[fn] += 4 * split(regs, r, ",") }
+        END {
+            m = frame["facebake_firmware::__cortex_m_rt_main"]; d = frame["facebake_runtime::rig::Rig::deform"]
+            printf "FIGURE: stack: main %d bytes (holds the 3072-vertex output buffer), Rig::deform %d bytes (marker and coefficient scratch); main + deform %d bytes of the 128 KiB RAM\n", m, d, m + d
+        }'
+else
+    cat "$WORK/fw-build.log"
+    fail "firmware build"
+fi
+
+# A panic must fail the check: the panic canary must report and exit non-zero.
+if fw_cargo build --locked --release --bin facebake-firmware --features panic-canary \
+    >"$WORK/panic-build.log" 2>&1; then
+    rc=0
+    run_m4 "$FW_OUT" >"$WORK/panic.out" 2>&1 || rc=$?
+    if [ "$rc" -ne 0 ] && grep -q "FAIL: firmware panicked" "$WORK/panic.out"; then
+        pass "a firmware panic is reported over semihosting and exits non-zero ($rc)"
+    else
+        cat "$WORK/panic.out"
+        fail "the panic canary exited $rc"
+    fi
+else
+    cat "$WORK/panic-build.log"
+    fail "panic canary build"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "never allocates: no allocator in the firmware"
+
+if fw_cargo build --locked --release --bin facebake-firmware --features alloc-canary \
+    >"$WORK/alloc.log" 2>&1; then
+    fail "firmware with alloc-canary linked: an allocation would go unnoticed"
+elif grep -q "no global memory allocator found" "$WORK/alloc.log"; then
+    pass "firmware using alloc fails to link (no global allocator), the real firmware links"
+else
+    cat "$WORK/alloc.log"
+    fail "alloc-canary build failed for another reason"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "no float on the load and per-frame path ($NOFPU_TARGET, no FPU)"
+
+SOFT_FLOAT='^(__aeabi_(f|d|[ui]?l?2[fd]|[fd]2)|__(add|sub|mul|div|neg|cmp|eq|ne|lt|le|gt|ge|unord|pow[i]?)[sdt]f[23]|__(fix|float)(uns)?[sdt]?[sdt]?[sdti]f|__(extend|trunc)[sdt]f)'
+soft_float_symbols() { "$LLVM_BIN/llvm-nm" "$1" | awk '{print $NF}' | grep -E "$SOFT_FLOAT" || true; }
+NF="$FW_TARGET_DIR/$NOFPU_TARGET/release/nofloat"
+NF_CANARY="$WORK/nofloat-canary.elf"
+if fw_cargo build --locked --release --bin nofloat --target "$NOFPU_TARGET" --features float-canary \
+    >"$WORK/nf.log" 2>&1 && cp "$NF" "$NF_CANARY" &&
+    fw_cargo build --locked --release --bin nofloat --target "$NOFPU_TARGET" >>"$WORK/nf.log" 2>&1; then
+    found=$(soft_float_symbols "$NF")
+    canary=$(soft_float_symbols "$NF_CANARY")
+    if [ -z "$canary" ]; then
+        fail "the float canary links no soft-float symbol: the check cannot see floats"
+    elif [ -n "$found" ]; then
+        fail "Rig::from_bytes + Rig::deform link soft-float routines: $(tr '\n' ' ' <<<"$found")"
+    elif ! "$LLVM_BIN/llvm-nm" -C "$NF" | grep -q "facebake_runtime::format::decode"; then
+        fail "the nofloat harness does not contain the runtime's loader"
+    else
+        pass "Rig::from_bytes + Rig::deform link no soft-float routine (the canary links $(tr '\n' ' ' <<<"$canary"))"
+    fi
+else
+    cat "$WORK/nf.log"
+    fail "nofloat harness build"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "bounded cost: host instructions per frame (callgrind)"
+
+if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.log" 2>&1; then
+    FC="$CARGO_TARGET_DIR/release/examples/frame_cost"
+    for rig in "${RIGS[@]}"; do
+        per_class=()
+        for poses in truth rest extreme; do
+            out="$WORK/cg.$rig.$poses"
+            valgrind --tool=callgrind --toggle-collect='*deform_frame*' \
+                --callgrind-out-file="$out" "$FC" "$rig" "$poses" >"$out.log" 2>&1
+            total=$(awk '/^(summary|totals):/ {print $2; exit}' "$out")
+            per_class+=("$poses=$(( total / 32 ))")
+            HOST_IR[$rig.$poses]=$(( total / 32 ))
+        done
+        read -r _ influences <<<"$("$FC" "$rig" rest | awk '{print $1, $(NF-1)}')"
+        if [ "${HOST_IR[$rig.truth]}" -gt 0 ] &&
+            [ "${HOST_IR[$rig.truth]}" -eq "${HOST_IR[$rig.rest]}" ] &&
+            [ "${HOST_IR[$rig.truth]}" -eq "${HOST_IR[$rig.extreme]}" ]; then
+            pass "host $rig: ${HOST_IR[$rig.truth]} instructions per frame for truth, rest and extreme poses alike"
+            figure "host ($HOST) $rig: ${HOST_IR[$rig.truth]} Ir/frame, $(awk -v i="${HOST_IR[$rig.truth]}" -v n="$influences" 'BEGIN {printf "%.1f", i / n}') Ir per vertex-influence ($influences influences)"
+        else
+            fail "host $rig: instructions per frame depend on the markers: ${per_class[*]}"
+        fi
+    done
+else
+    cat "$WORK/fc.log"
+    fail "frame_cost example build"
+fi
+
+# ---------------------------------------------------------------------------------------------
+section "what a frame costs on a 168 MHz Cortex-M4"
+
+if [ -n "${M4_INSNS[coefficients]:-}" ] && [ -n "${M4_INSNS[coefficients_k4]:-}" ]; then
+    # Coefficients form: insns ≈ V × (a + K·b). The K = 8 and K = 4 rigs share everything but K,
+    # so b = (I8 − I4) / (4V); a takes the per-vertex work plus the (small) per-frame stage 1.
+    awk -v i8="${M4_INSNS[coefficients]}" -v i4="${M4_INSNS[coefficients_k4]}" \
+        -v iw="${M4_INSNS[weights]:-0}" -v v=2694 'BEGIN {
+        b = (i8 - i4) / (4 * v); a = i4 / v - 4 * b
+        printf "FIGURE: M4 coefficients form: %.1f instructions per vertex + %.1f per influence (from K = 8: %d, K = 4: %d per frame, 2694 vertices)\n", a, b, i8, i4
+        if (iw > 0) printf "FIGURE: M4 weights form, K = 8: %d instructions per frame, %.1f per vertex\n", iw, iw / v
+        n = split("2000 4 10000 8", c, " ")
+        for (j = 1; j < n; j += 2) {
+            vv = c[j]; k = c[j + 1]; ins = vv * (a + k * b); ms = ins / 168e6 * 1e3
+            printf "FIGURE: M4 estimate %d vertices, K = %d: %.0f instructions = %.2f ms at 168 MHz (cycles ~ instructions), %.0f%% of a 16.7 ms frame\n", vv, k, ins, ms, 100 * ms / (1000 / 60)
+        }
+    }'
+else
+    fail "no Cortex-M4 instruction counts to estimate from"
+fi
+
+section "done"
+echo "cross.sh took $((SECONDS - START)) s"
+echo "$PASSED passed, $FAILED failed"
+[ "$FAILED" -eq 0 ]

@@ -1,0 +1,144 @@
+//! Plays the golden FaceCap rigs through the facebake runtime on a Cortex-M4 (QEMU
+//! `mps2-an386`) and reports over semihosting:
+//!
+//! * one line per frame, `<rig> frame <n> <fnv1a64>`, and `<rig> sequence <fnv1a64>`, in the
+//!   format of `fixtures/golden/hashes.txt`, so `.ci/cross.sh` can compare them line for line;
+//! * the rig's figures (`Rig::cost`, frames played, blob size).
+//!
+//! It exits with status 0 after the last rig, and non-zero on any panic (the handler reports
+//! the panic over semihosting first). The blobs and markers are compiled into flash; the only
+//! large RAM use is the output buffer on the stack.
+//!
+//! `frame_start` / `frame_end` bracket every `deform` call so the QEMU plugin in `qemu/` can count
+//! the instructions of each frame.
+#![no_std]
+#![no_main]
+
+#[cfg(feature = "alloc-canary")]
+extern crate alloc;
+
+use core::hint::black_box;
+use core::panic::PanicInfo;
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use facebake_runtime::checksum::Fnv1a64;
+use facebake_runtime::format::MAX_MARKERS;
+use facebake_runtime::Rig;
+
+/// The golden rigs, by the names `hashes.txt` uses.
+const RIGS: [(&str, &[u8]); 3] = [
+    (
+        "coefficients",
+        include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+    ),
+    (
+        "weights",
+        include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+    ),
+    (
+        "coefficients_k4",
+        include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+    ),
+];
+
+/// Every frame's markers: frames × markers × 3 `i32` LE, Q8.24.
+const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+
+/// Most vertices a rig may have here: the output buffer lives on the stack (12 bytes a vertex).
+const MAX_VERTICES: usize = 3072;
+
+/// Marks the start of a measured frame (the instruction counter reads here). Not inlined, and
+/// different in body from [`frame_end`] so the two are never merged into one address.
+#[inline(never)]
+fn frame_start(frame: usize) {
+    black_box(frame);
+}
+
+/// Marks the end of a measured frame.
+#[inline(never)]
+fn frame_end(frame: usize) {
+    black_box(!frame);
+}
+
+/// Markers of frame `f` into `buf`; `None` past the last frame.
+fn frame_markers(f: usize, markers: usize, buf: &mut [[i32; 3]; MAX_MARKERS]) -> Option<()> {
+    let bytes = MARKERS.get(f * markers * 12..(f + 1) * markers * 12)?;
+    for (m, b) in buf.iter_mut().zip(bytes.chunks_exact(12)) {
+        for (c, w) in m.iter_mut().zip(b.chunks_exact(4)) {
+            *c = i32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+        }
+    }
+    Some(())
+}
+
+fn play(name: &str, blob: &[u8], out: &mut [[i32; 3]; MAX_VERTICES]) {
+    let rig = match Rig::from_bytes(blob) {
+        Ok(rig) => rig,
+        Err(e) => panic!("{name}: the golden rig does not load: {e}"),
+    };
+    let (m, v) = (rig.marker_count(), rig.vertex_count());
+    assert!(
+        v <= MAX_VERTICES,
+        "{name}: {v} vertices, room for {MAX_VERTICES}"
+    );
+    let out = &mut out[..v];
+    let mut markers = [[0i32; 3]; MAX_MARKERS];
+    let mut sequence = Fnv1a64::new();
+    let mut frames = 0;
+    while frame_markers(frames, m, &mut markers).is_some() {
+        frame_start(frames);
+        let done = rig.deform(&markers[..m], out);
+        frame_end(frames);
+        if let Err(e) = done {
+            panic!("{name} frame {frames}: {e}");
+        }
+        let mut h = Fnv1a64::new();
+        h.write_positions(out);
+        sequence.write_positions(out);
+        hprintln!("{} frame {} {:016x}", name, frames, h.finish());
+        frames += 1;
+    }
+    hprintln!("{} sequence {:016x}", name, sequence.finish());
+    hprintln!(
+        "figures {}: {} frames, blob {} bytes, per frame {}",
+        name,
+        frames,
+        blob.len(),
+        rig.cost()
+    );
+}
+
+#[entry]
+fn main() -> ! {
+    #[cfg(feature = "alloc-canary")]
+    {
+        // Must not link: there is no global allocator (see the feature's comment).
+        let v = alloc::vec![0u8; 4];
+        black_box(&v);
+    }
+    #[cfg(feature = "panic-canary")]
+    if black_box(true) {
+        panic!("panic-canary: a deliberate panic");
+    }
+    let mut out = [[0i32; 3]; MAX_VERTICES];
+    for (name, blob) in RIGS {
+        play(name, blob, &mut out);
+    }
+    hprintln!("firmware: done");
+    debug::exit(debug::EXIT_SUCCESS);
+    // Without a debugger or semihosting host, exit returns: park.
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Report the panic over semihosting and exit non-zero, so a panic fails the check.
+#[panic_handler]
+fn panic(info: &PanicInfo) -> ! {
+    hprintln!("FAIL: firmware panicked: {}", info);
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

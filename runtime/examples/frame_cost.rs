@@ -1,0 +1,77 @@
+//! Per-frame cost on the host, for `valgrind --tool=callgrind --toggle-collect='*deform_frame*'`:
+//! plays one golden rig through `FRAMES` frames of one pose class, each frame through
+//! [`deform_frame`], so callgrind counts exactly the instructions of the per-frame call.
+//!
+//! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses>`
+//!
+//! * `<rig>`: `coefficients`, `weights` or `coefficients_k4` (the golden rigs);
+//! * `<poses>`: `truth` (the 32 ground-truth frames), `rest` (the rest pose, 32 times) or
+//!   `extreme` (the 6 saturated and ±120-unit edge frames, cycled to 32).
+//!
+//! Every class plays the same number of frames, so if the cost does not depend on the marker
+//! data, callgrind's totals are equal across classes. `.ci/cross.sh` checks that.
+
+use std::hint::black_box;
+
+use facebake_runtime::Rig;
+
+/// Frames played per run, whatever the pose class.
+const FRAMES: usize = 32;
+/// Ground-truth frames at the start of the marker file; the edge frames follow (rest first).
+const TRUTH_FRAMES: usize = 32;
+
+const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+
+/// One frame: the call callgrind measures.
+#[inline(never)]
+fn deform_frame(rig: &Rig<'_>, markers: &[[i32; 3]], out: &mut [[i32; 3]]) {
+    rig.deform(black_box(markers), out)
+        .expect("a golden frame deforms");
+    black_box(out);
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [rig_name, poses] = args.as_slice() else {
+        eprintln!("usage: frame_cost <coefficients|weights|coefficients_k4> <truth|rest|extreme>");
+        std::process::exit(2);
+    };
+    let blob: &[u8] = match rig_name.as_str() {
+        "coefficients" => include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+        "weights" => include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+        "coefficients_k4" => include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+        other => panic!("unknown rig {other}"),
+    };
+    let rig = Rig::from_bytes(blob).expect("golden rig loads");
+    let m = rig.marker_count();
+    let words: Vec<i32> = MARKERS
+        .chunks_exact(4)
+        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let all: Vec<&[i32]> = words.chunks_exact(3 * m).collect();
+    let chosen: Vec<&[i32]> = match poses.as_str() {
+        "truth" => all[..TRUTH_FRAMES].to_vec(),
+        "rest" => vec![all[TRUTH_FRAMES]; FRAMES],
+        "extreme" => all[TRUTH_FRAMES + 1..]
+            .iter()
+            .copied()
+            .cycle()
+            .take(FRAMES)
+            .collect(),
+        other => panic!("unknown pose class {other}"),
+    };
+    assert_eq!(chosen.len(), FRAMES);
+    let frames: Vec<Vec<[i32; 3]>> = chosen
+        .iter()
+        .map(|f| f.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+        .collect();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    for markers in &frames {
+        deform_frame(&rig, markers, &mut out);
+    }
+    let cost = rig.cost();
+    println!(
+        "{rig_name} {poses}: {FRAMES} frames, {} vertices, {} influences",
+        cost.vertices, cost.influences
+    );
+}

@@ -1,0 +1,112 @@
+//! Bit-identical output on every architecture: the committed golden rigs and marker sequence
+//! (`fixtures/golden/`, derived from the baker by `tests/tests/golden.rs`) must give exactly the
+//! frame hashes in `hashes.txt`.
+//!
+//! This test needs only the runtime crate, so it cross-builds in seconds and runs under
+//! qemu-user on aarch64, 32-bit big-endian PowerPC and i686 (`.ci/cross.sh`). The data is
+//! compiled in, so the test binary needs no file access on the emulated target.
+
+use facebake_runtime::checksum::Fnv1a64;
+use facebake_runtime::Rig;
+
+const COEFFICIENTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients.fbk");
+const WEIGHTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_weights.fbk");
+const COEFFICIENTS_K4: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk");
+const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
+
+/// Ground-truth frames (32) plus edge frames (7): what the golden generator writes.
+const EXPECTED_FRAMES: usize = 39;
+
+/// The expected hash of `rig`'s frame `what` ("frame N" or "sequence") from `hashes.txt`.
+fn expected(rig: &str, what: &str) -> u64 {
+    let key = format!("{rig} {what} ");
+    let line = HASHES
+        .lines()
+        .find(|l| l.starts_with(&key))
+        .unwrap_or_else(|| panic!("hashes.txt has no line for {rig} {what}"));
+    u64::from_str_radix(&line[key.len()..], 16).expect("a 64-bit hex hash")
+}
+
+/// The marker sequence: frames of `markers` × 3 `i32` LE.
+fn frames(markers: usize) -> Vec<Vec<[i32; 3]>> {
+    let words: Vec<i32> = MARKERS
+        .chunks_exact(4)
+        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    assert_eq!(words.len() % (3 * markers), 0, "whole frames only");
+    words
+        .chunks_exact(3 * markers)
+        .map(|f| f.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+        .collect()
+}
+
+fn check(name: &str, blob: &[u8]) {
+    let rig = Rig::from_bytes(blob).expect("golden rig loads");
+    let frames = frames(rig.marker_count());
+    assert_eq!(frames.len(), EXPECTED_FRAMES);
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut sequence = Fnv1a64::new();
+    let mut wrong = Vec::new();
+    for (f, markers) in frames.iter().enumerate() {
+        rig.deform(markers, &mut out).unwrap();
+        let mut h = Fnv1a64::new();
+        h.write_positions(&out);
+        sequence.write_positions(&out);
+        let want = expected(name, &format!("frame {f}"));
+        if h.finish() != want {
+            wrong.push(format!("frame {f}: {:016x}, want {want:016x}", h.finish()));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{name}: frames differ on this target:\n{}",
+        wrong.join("\n")
+    );
+    assert_eq!(sequence.finish(), expected(name, "sequence"), "{name}");
+}
+
+#[test]
+fn coefficients_rig_is_bit_identical_to_the_golden_hashes() {
+    check("coefficients", COEFFICIENTS);
+}
+
+#[test]
+fn weights_rig_is_bit_identical_to_the_golden_hashes() {
+    check("weights", WEIGHTS);
+}
+
+#[test]
+fn k4_coefficients_rig_is_bit_identical_to_the_golden_hashes() {
+    check("coefficients_k4", COEFFICIENTS_K4);
+}
+
+/// The fixed-point primitives at their range edges, beyond the unit tests in `fixed.rs`
+/// (which run on every target too): the extreme shifts and bit patterns.
+#[test]
+fn fixed_point_primitives_at_the_extremes() {
+    use facebake_runtime::fixed::{
+        mul_acc, pack_influence, round_shift_sat, unpack_influence, widen_rest,
+    };
+    assert_eq!(round_shift_sat(1, 1), 1); // ½ rounds up
+    assert_eq!(round_shift_sat(-1, 1), 0); // −½ rounds up
+    assert_eq!(round_shift_sat(-3, 1), -1);
+    assert_eq!(round_shift_sat(i64::MAX, 1), i32::MAX);
+    assert_eq!(round_shift_sat(i64::MIN, 1), i32::MIN);
+    // Adding ½ saturates at i64::MAX, so the very top rounds down (accumulators stay below 2⁶⁰,
+    // so the kernels never get there); pinned because it is still the contract on every target.
+    assert_eq!(round_shift_sat(i64::MAX, 62), 1);
+    assert_eq!(round_shift_sat(i64::MIN, 62), -2);
+    assert_eq!(round_shift_sat(1 << 61, 62), 1);
+    assert_eq!(round_shift_sat((1 << 61) - 1, 62), 0);
+    assert_eq!(unpack_influence(0xFFFF_FFFF), (255, -1));
+    assert_eq!(unpack_influence(0x8000_0000), (0, -(1 << 23)));
+    assert_eq!(unpack_influence(0x7FFF_FF00), (0, (1 << 23) - 1));
+    assert_eq!(pack_influence(255, -1), Some(0xFFFF_FFFF));
+    assert_eq!(widen_rest(0), 0);
+    assert_eq!(widen_rest(1), 512);
+    assert_eq!(widen_rest(i16::MIN + 1), -(1 << 24) + 512);
+    assert_eq!(mul_acc(i64::MAX - 1, 1, 1), i64::MAX);
+    assert_eq!(mul_acc(0, -1, i32::MIN), 1 << 31);
+    assert_eq!(mul_acc(-5, 3, -7), -26);
+}

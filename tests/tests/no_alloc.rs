@@ -1,0 +1,106 @@
+//! The runtime never allocates: loading a rig, asking its cost and marker names, and deforming
+//! many frames of both golden rigs make no heap allocation.
+//!
+//! A counting global allocator wraps the system one and counts allocations made by this thread
+//! while a thread-local flag is set, so the test harness's other threads do not disturb it.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use facebake_runtime::Rig;
+
+struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note_allocation() {
+    // `try_with`: thread-local storage may already be gone while a thread shuts down.
+    let _ = COUNTING.try_with(|on| {
+        if on.get() {
+            let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
+        }
+    });
+}
+
+// SAFETY: every call is forwarded unchanged to `System`, which upholds `GlobalAlloc`'s contract;
+// the counting touches only thread-local `Cell`s and never allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        // SAFETY: `ptr` came from this allocator, i.e. from `System`, with `layout`.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from this allocator, i.e. from `System`, with `layout`.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Allocations `f` makes on this thread.
+fn allocations_in<R>(f: impl FnOnce() -> R) -> (usize, R) {
+    ALLOCATIONS.with(|n| n.set(0));
+    COUNTING.with(|on| on.set(true));
+    let r = f();
+    COUNTING.with(|on| on.set(false));
+    (ALLOCATIONS.with(Cell::get), r)
+}
+
+const BLOBS: [&[u8]; 3] = [
+    include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+    include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+    include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+];
+const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+
+#[test]
+fn the_counter_sees_an_allocation() {
+    // The control: without it, a broken counter would make the real test pass vacuously.
+    let (n, v) = allocations_in(|| vec![0u8; 4]);
+    assert_eq!(n, 1);
+    assert_eq!(v.len(), 4);
+}
+
+#[test]
+fn loading_and_deforming_never_allocate() {
+    // Inputs and outputs are prepared before counting starts.
+    let words: Vec<i32> = MARKERS
+        .chunks_exact(4)
+        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let frames: Vec<[i32; 3]> = words.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let mut out = vec![[0i32; 3]; 4096];
+    let mut played = 0usize;
+    for blob in BLOBS {
+        let (n, ()) = allocations_in(|| {
+            let rig = Rig::from_bytes(blob).expect("golden rig loads");
+            let (m, v) = (rig.marker_count(), rig.vertex_count());
+            assert!(rig.cost().influences > 0);
+            assert_eq!(rig.marker_names().count(), m);
+            assert_eq!(rig.marker_index("M07"), Some(7));
+            let out = &mut out[..v];
+            // Every frame of the golden sequence, three times over.
+            for markers in frames.chunks_exact(m).cycle().take(3 * frames.len() / m) {
+                rig.deform(markers, out).unwrap();
+                played += 1;
+            }
+        });
+        assert_eq!(n, 0, "the runtime allocated {n} times");
+    }
+    assert_eq!(played, 3 * 3 * 39);
+}
