@@ -193,9 +193,6 @@ impl Heat {
             .map(|&(i, j, k)| (i, j, time * k))
             .collect();
         let massless: Vec<bool> = live.iter().map(|h| !h).collect();
-        let (d, o) = hold(&heat_diag, &heat_off, &massless);
-        let heat_neumann = Ldlt::new(&d, &o, order.clone())?;
-
         let mut on_boundary = massless.clone();
         let mut any_boundary = false;
         for e in topology.edges.iter().filter(|e| e.triangles == 1) {
@@ -206,19 +203,30 @@ impl Heat {
                 }
             }
         }
-        let heat_dirichlet = if any_boundary {
-            let (d, o) = hold(&heat_diag, &heat_off, &on_boundary);
-            Some((Ldlt::new(&d, &o, order.clone())?, on_boundary))
-        } else {
-            None
-        };
-
         // Hold each piece's root (its smallest vertex) and the massless vertices.
         let poisson_held: Vec<bool> = (0..n)
             .map(|v| piece[v] == NO_PIECE || piece[v] == v as u32)
             .collect();
-        let (d, o) = hold(&stiff_diag, &stiff_off, &poisson_held);
-        let poisson = Ldlt::new(&d, &o, order)?;
+        let factor = |diag: &[f64], off: &[(u32, u32, f64)], held: &[bool]| {
+            let (d, o) = hold(diag, off, held);
+            Ldlt::new(&d, &o, order.clone())
+        };
+        // The three factorisations are independent: the Poisson one on a second thread.
+        let (heat_neumann, heat_dirichlet, poisson) = std::thread::scope(|scope| {
+            let poisson = scope.spawn(|| factor(&stiff_diag, &stiff_off, &poisson_held));
+            let neumann = factor(&heat_diag, &heat_off, &massless);
+            let dirichlet = any_boundary.then(|| factor(&heat_diag, &heat_off, &on_boundary));
+            let poisson = poisson
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e));
+            (neumann, dirichlet, poisson)
+        });
+        let heat_neumann = heat_neumann?;
+        let heat_dirichlet = match heat_dirichlet {
+            Some(f) => Some((f?, on_boundary)),
+            None => None,
+        };
+        let poisson = poisson?;
         Ok(Heat {
             elements,
             piece,
