@@ -3,6 +3,7 @@
 pub mod bake;
 pub mod blob;
 pub mod cli;
+pub mod geodesic;
 pub mod ground_truth;
 pub mod io;
 pub mod mesh;
