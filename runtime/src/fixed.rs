@@ -59,6 +59,19 @@ pub fn round_shift_sat(acc: i64, frac: u32) -> i32 {
     }
 }
 
+/// [`round_shift_sat`] for a kernel accumulator, whose magnitude is bounded by design:
+/// `(acc + 2^(frac−1)) >> frac`, saturated to `i32`, with no saturation check on the addition.
+///
+/// Every accumulator the kernels form is below 2⁶² in magnitude (sums of at most 64 products of a
+/// 24-bit and a 32-bit value, or of at most 256 products of a 16-bit and a 32-bit value, or three
+/// products of two 32-bit values with |rest| ≤ 2²⁴), and `frac` ≤ 48, so adding the half cannot
+/// overflow and the result is bit for bit that of [`round_shift_sat`]; the golden vectors check it.
+#[inline(always)]
+pub fn round_shift_bounded(acc: i64, frac: u32) -> i32 {
+    let shifted = (acc + (1i64 << (frac - 1))) >> frac;
+    shifted.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
 /// Unpack an influence word: (marker index, weight as a sign-extended 24-bit integer).
 #[inline(always)]
 pub fn unpack_influence(word: u32) -> (u8, i32) {
@@ -107,6 +120,42 @@ mod tests {
             assert_eq!(round_shift_sat(acc, frac), want, "acc={acc} frac={frac}");
         }
         assert_eq!(round_shift_sat(i64::MIN, 22), i32::MIN);
+    }
+
+    #[test]
+    fn bounded_round_shift_equals_the_saturating_one_within_its_bound() {
+        let bound = (1i64 << 62) - 1;
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for frac in [1u32, 8, 20, 22, 24, 30, 48] {
+            for acc in [
+                0,
+                1,
+                -1,
+                bound,
+                -bound,
+                1 << 61,
+                -(1 << 61),
+                (1 << (frac - 1)) - 1,
+                -(1 << (frac - 1)),
+            ] {
+                assert_eq!(
+                    round_shift_bounded(acc, frac),
+                    round_shift_sat(acc, frac),
+                    "{acc} >> {frac}"
+                );
+            }
+            for _ in 0..1000 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let acc = (x as i64) >> 2; // |acc| < 2^62
+                assert_eq!(
+                    round_shift_bounded(acc, frac),
+                    round_shift_sat(acc, frac),
+                    "{acc} >> {frac}"
+                );
+            }
+        }
     }
 
     #[test]

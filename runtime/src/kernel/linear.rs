@@ -13,25 +13,10 @@
 //! influences are split off as one slice, so the inner loop has a single trip counter; each
 //! influence word is read as one `[u8; 4]`, so it is one 32-bit load rather than byte loads; and
 //! the rounding half is added without a saturation check, which cannot be reached (see
-//! [`narrow`]). The results are bit for bit those of
-//! [`round_shift_sat`](crate::fixed::round_shift_sat)'s definition.
+//! [`round_shift_bounded`]).
 
-use crate::fixed::{mul_acc, unpack_influence, widen_rest};
+use crate::fixed::{mul_acc, round_shift_bounded, unpack_influence, widen_rest};
 use crate::format::MAX_MARKERS;
-
-/// [`round_shift_sat`](crate::fixed::round_shift_sat) for a kernel accumulator:
-/// `(acc + half) >> frac`, saturated to `i32`.
-///
-/// `half` is `1 << (frac - 1)`, hoisted out of the loop. An accumulator is a sum of at most
-/// [`MAX_INFLUENCES`](crate::fixed::MAX_INFLUENCES) products of a 24-bit weight and an `i32`, so
-/// `|acc| < 2⁶⁰` and adding `half ≤ 2²¹` cannot overflow: the saturating add of
-/// [`round_shift_sat`](crate::fixed::round_shift_sat) is a plain add here, with identical
-/// results.
-#[inline(always)]
-fn narrow(acc: i64, half: i64, frac: u32) -> i32 {
-    let shifted = (acc + half) >> frac;
-    shifted.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-}
 
 /// Write deformed positions for every vertex.
 ///
@@ -47,7 +32,6 @@ pub(crate) fn deform(
     out: &mut [[i32; 3]],
 ) {
     let frac = u32::from(weight_frac_bits);
-    let half = 1i64 << (frac - 1);
     let mut words = influences;
     for ((o, r), &count) in out.iter_mut().zip(rest.chunks_exact(6)).zip(counts) {
         // The loader checked that the counts add up to the section; the fallback is never taken.
@@ -68,7 +52,7 @@ pub(crate) fn deform(
         }
         for c in 0..3 {
             let rest_c = widen_rest(i16::from_le_bytes([r[2 * c], r[2 * c + 1]]));
-            o[c] = rest_c.saturating_add(narrow(acc[c], half, frac));
+            o[c] = rest_c.saturating_add(round_shift_bounded(acc[c], frac));
         }
     }
 }

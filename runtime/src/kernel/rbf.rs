@@ -12,7 +12,7 @@
 //! below 2⁴⁶ and at most 256 of them are summed, so the `i64` accumulator cannot overflow; stage 2
 //! is bounded as in [`crate::fixed`]. No branch depends on marker data.
 
-use crate::fixed::{mul_acc, round_shift_sat, unpack_influence, widen_rest, POS_FRAC_BITS};
+use crate::fixed::{mul_acc, round_shift_bounded, unpack_influence, widen_rest, POS_FRAC_BITS};
 use crate::format::{RbfCoefficients, MAX_MARKERS};
 
 /// Coefficient rows the scratch table holds: one per marker plus the four affine rows.
@@ -38,7 +38,7 @@ pub(crate) fn coefficients(
             acc[1] = mul_acc(acc[1], q, d[1]);
             acc[2] = mul_acc(acc[2], q, d[2]);
         }
-        *c = acc.map(|a| round_shift_sat(a, u32::from(shift)));
+        *c = acc.map(|a| round_shift_bounded(a, u32::from(shift)));
     }
 }
 
@@ -84,9 +84,9 @@ pub(crate) fn deform(
             for (b, &x) in beta.iter().zip(&rest_v) {
                 lin = mul_acc(lin, b[c], x);
             }
-            let affine = beta0[c].saturating_add(round_shift_sat(lin, POS_FRAC_BITS));
+            let affine = beta0[c].saturating_add(round_shift_bounded(lin, POS_FRAC_BITS));
             o[c] = rest_v[c]
-                .saturating_add(round_shift_sat(acc[c], frac))
+                .saturating_add(round_shift_bounded(acc[c], frac))
                 .saturating_add(affine);
         }
     }
