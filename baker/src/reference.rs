@@ -5,8 +5,8 @@
 //! * [`SparseF64`]: the baked rig evaluated in f64 from the blob's own (quantised) numbers, so the
 //!   runtime's fixed-point arithmetic can be compared with exact arithmetic on identical data.
 
-use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
-use facebake_runtime::format::Deformer;
+use facebake_runtime::fixed::POS_FRAC_BITS;
+use facebake_runtime::format::{read_influence, Deformer, INFLUENCE_BYTES};
 use facebake_runtime::{Rig, Space};
 
 use crate::rbf::RbfSystem;
@@ -63,14 +63,14 @@ fn dequantise_rows(
     counts: impl Iterator<Item = usize>,
     scale: f64,
 ) -> Vec<Vec<(usize, f64)>> {
-    let mut words = words.chunks_exact(4);
+    let mut words = words.chunks_exact(INFLUENCE_BYTES);
     counts
         .map(|count| {
             words
                 .by_ref()
                 .take(count)
                 .map(|w| {
-                    let (m, q) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                    let (m, q) = read_influence(w);
                     (usize::from(m), f64::from(q) / scale)
                 })
                 .collect()

@@ -49,7 +49,9 @@ use serde::de::{Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 
 use crate::checksum::crc32;
-use crate::fixed::{unpack_influence, MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS};
+use crate::fixed::{
+    unpack_influence, widen_rest, MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS,
+};
 
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
@@ -362,6 +364,37 @@ pub fn header_for(payload: &[u8]) -> Result<[u8; HEADER_LEN], PayloadTooLarge> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PayloadTooLarge;
 
+/// Bytes of one stored vertex rest position.
+pub const REST_BYTES: usize = 6;
+/// Bytes of one stored Q8.24 position (marker rest).
+pub const POSITION_BYTES: usize = 12;
+/// Bytes of one packed influence.
+pub const INFLUENCE_BYTES: usize = 4;
+
+/// Decode one `vertex_rest` item (3 × `i16` LE, Q0.15) as Q8.24. Takes a [`REST_BYTES`]-long
+/// chunk of the section (from `chunks_exact`); each section's layout is read only here.
+#[inline(always)]
+pub fn read_rest(b: &[u8]) -> [i32; 3] {
+    // Always six bytes: the fallback folds away, and the read is one load.
+    let b: [u8; REST_BYTES] = b.try_into().unwrap_or([0; REST_BYTES]);
+    [0, 1, 2].map(|c| widen_rest(i16::from_le_bytes([b[2 * c], b[2 * c + 1]])))
+}
+
+/// Decode one `marker_rest` item (3 × `i32` LE, Q8.24) from a [`POSITION_BYTES`]-long chunk.
+#[inline(always)]
+pub fn read_position(b: &[u8]) -> [i32; 3] {
+    let b: [u8; POSITION_BYTES] = b.try_into().unwrap_or([0; POSITION_BYTES]);
+    [0, 1, 2].map(|c| i32::from_le_bytes([b[4 * c], b[4 * c + 1], b[4 * c + 2], b[4 * c + 3]]))
+}
+
+/// Decode one packed influence (marker or centre index, signed 24-bit weight) from an
+/// [`INFLUENCE_BYTES`]-long chunk.
+#[inline(always)]
+pub fn read_influence(b: &[u8]) -> (u8, i32) {
+    let b: [u8; INFLUENCE_BYTES] = b.try_into().unwrap_or([0; INFLUENCE_BYTES]);
+    unpack_influence(u32::from_le_bytes(b))
+}
+
 fn le_u16(b: &[u8], at: usize) -> u16 {
     u16::from_le_bytes([b[at], b[at + 1]])
 }
@@ -547,9 +580,14 @@ fn validate_rbf(
             return Err(LoadError::CoefficientsNotNormalised { row });
         }
     }
-    for (vertex, words) in rbf.influences.0.chunks_exact(4 * k).enumerate() {
-        for w in words.chunks_exact(4) {
-            let (marker, _) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+    for (vertex, words) in rbf
+        .influences
+        .0
+        .chunks_exact(INFLUENCE_BYTES * k)
+        .enumerate()
+    {
+        for w in words.chunks_exact(INFLUENCE_BYTES) {
+            let (marker, _) = read_influence(w);
             if usize::from(marker) >= markers {
                 return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
             }
@@ -577,14 +615,14 @@ fn validate_linear(
     let total: usize = lin.influence_counts.0.iter().map(|&c| usize::from(c)).sum();
     expect_len(Section::Influences, lin.influences, total, 4)?;
     let one = 1i64 << lin.weight_frac_bits;
-    let mut words = lin.influences.0.chunks_exact(4);
+    let mut words = lin.influences.0.chunks_exact(INFLUENCE_BYTES);
     for (vertex, &count) in lin.influence_counts.0.iter().enumerate() {
         if count > lin.max_influences {
             return Err(LoadError::TooManyInfluences { vertex, count });
         }
         let mut sum = 0i64;
         for w in words.by_ref().take(usize::from(count)) {
-            let (marker, weight) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            let (marker, weight) = read_influence(w);
             if usize::from(marker) >= markers {
                 return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
             }

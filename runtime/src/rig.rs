@@ -1,7 +1,9 @@
 //! [`Rig`]: a validated, zero-copy view of a rig blob, and the per-frame call.
 
-use crate::fixed::widen_rest;
-use crate::format::{self, Deformer, LoadError, RigData, Space, MAX_MARKERS};
+use crate::format::{
+    self, read_position, read_rest, Deformer, LoadError, RigData, Space, MAX_MARKERS,
+    POSITION_BYTES, REST_BYTES,
+};
 use crate::kernel;
 
 /// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
@@ -140,25 +142,22 @@ impl<'a> Rig<'a> {
 
     /// Rest position of marker `i` on the character (Q8.24), or `None` past the last marker.
     pub fn marker_rest(&self, i: usize) -> Option<[i32; 3]> {
-        let b = self
-            .data
+        self.data
             .marker_rest
             .0
-            .get(i.checked_mul(12)?..i.checked_mul(12)? + 12)?;
-        Some(
-            [0, 1, 2]
-                .map(|c| i32::from_le_bytes([b[4 * c], b[4 * c + 1], b[4 * c + 2], b[4 * c + 3]])),
-        )
+            .chunks_exact(POSITION_BYTES)
+            .nth(i)
+            .map(read_position)
     }
 
     /// Rest position of vertex `i` (Q8.24), or `None` past the last vertex.
     pub fn vertex_rest(&self, i: usize) -> Option<[i32; 3]> {
-        let b = self
-            .data
+        self.data
             .vertex_rest
             .0
-            .get(i.checked_mul(6)?..i.checked_mul(6)? + 6)?;
-        Some([0, 1, 2].map(|c| widen_rest(i16::from_le_bytes([b[2 * c], b[2 * c + 1]]))))
+            .chunks_exact(REST_BYTES)
+            .nth(i)
+            .map(read_rest)
     }
 
     /// The deformer section.
@@ -235,11 +234,11 @@ impl<'a> Rig<'a> {
         for ((d, m), r) in displacements
             .iter_mut()
             .zip(markers)
-            .zip(self.data.marker_rest.0.chunks_exact(12))
+            .zip(self.data.marker_rest.0.chunks_exact(POSITION_BYTES))
         {
+            let rest = read_position(r);
             for c in 0..3 {
-                let rest = i32::from_le_bytes([r[4 * c], r[4 * c + 1], r[4 * c + 2], r[4 * c + 3]]);
-                d[c] = m[c].saturating_sub(rest);
+                d[c] = m[c].saturating_sub(rest[c]);
             }
         }
         match &self.data.deformer {

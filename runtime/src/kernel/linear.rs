@@ -15,8 +15,8 @@
 //! the rounding half is added without a saturation check, which cannot be reached (see
 //! [`round_shift_bounded`]).
 
-use crate::fixed::{mul_acc, round_shift_bounded, unpack_influence, widen_rest};
-use crate::format::MAX_MARKERS;
+use crate::fixed::{mul_acc, round_shift_bounded};
+use crate::format::{read_influence, read_rest, INFLUENCE_BYTES, MAX_MARKERS, REST_BYTES};
 
 /// Write deformed positions for every vertex.
 ///
@@ -33,26 +33,28 @@ pub(crate) fn deform(
 ) {
     let frac = u32::from(weight_frac_bits);
     let mut words = influences;
-    for ((o, r), &count) in out.iter_mut().zip(rest.chunks_exact(6)).zip(counts) {
+    for ((o, r), &count) in out
+        .iter_mut()
+        .zip(rest.chunks_exact(REST_BYTES))
+        .zip(counts)
+    {
         // The loader checked that the counts add up to the section; the fallback is never taken.
         let (mine, tail) = words
             .split_at_checked(4 * usize::from(count))
             .unwrap_or((words, &[]));
         words = tail;
         let mut acc = [0i64; 3];
-        for w in mine.chunks_exact(4) {
-            // Always four bytes: the fallback folds away.
-            let word: [u8; 4] = w.try_into().unwrap_or([0; 4]);
-            let (marker, weight) = unpack_influence(u32::from_le_bytes(word));
+        for w in mine.chunks_exact(INFLUENCE_BYTES) {
+            let (marker, weight) = read_influence(w);
             // A u8 index into a 256-entry array: in range by construction.
             let d = &displacements[usize::from(marker)];
             acc[0] = mul_acc(acc[0], weight, d[0]);
             acc[1] = mul_acc(acc[1], weight, d[1]);
             acc[2] = mul_acc(acc[2], weight, d[2]);
         }
+        let rest = read_rest(r);
         for c in 0..3 {
-            let rest_c = widen_rest(i16::from_le_bytes([r[2 * c], r[2 * c + 1]]));
-            o[c] = rest_c.saturating_add(round_shift_bounded(acc[c], frac));
+            o[c] = rest[c].saturating_add(round_shift_bounded(acc[c], frac));
         }
     }
 }

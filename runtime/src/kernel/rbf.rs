@@ -12,8 +12,10 @@
 //! below 2⁴⁶ and at most 256 of them are summed, so the `i64` accumulator cannot overflow; stage 2
 //! is bounded as in [`crate::fixed`]. No branch depends on marker data.
 
-use crate::fixed::{mul_acc, round_shift_bounded, unpack_influence, widen_rest, POS_FRAC_BITS};
-use crate::format::{RbfCoefficients, MAX_MARKERS};
+use crate::fixed::{mul_acc, round_shift_bounded, POS_FRAC_BITS};
+use crate::format::{
+    read_influence, read_rest, RbfCoefficients, INFLUENCE_BYTES, MAX_MARKERS, REST_BYTES,
+};
 
 /// Coefficient rows the scratch table holds: one per marker plus the four affine rows.
 pub(crate) const MAX_ROWS: usize = MAX_MARKERS + 4;
@@ -63,21 +65,19 @@ pub(crate) fn deform(
     };
     let vertices = out
         .iter_mut()
-        .zip(rest.chunks_exact(6))
-        .zip(rbf.influences.0.chunks_exact(4 * k));
+        .zip(rest.chunks_exact(REST_BYTES))
+        .zip(rbf.influences.0.chunks_exact(INFLUENCE_BYTES * k));
     for ((o, r), words) in vertices {
         let mut acc = [0i64; 3];
-        for w in words.chunks_exact(4) {
-            // Always four bytes, read as one word: the fallback folds away.
-            let word: [u8; 4] = w.try_into().unwrap_or([0; 4]);
-            let (centre, phi) = unpack_influence(u32::from_le_bytes(word));
+        for w in words.chunks_exact(INFLUENCE_BYTES) {
+            let (centre, phi) = read_influence(w);
             // A u8 index into a 260-entry table: in range by construction.
             let c = &table[usize::from(centre)];
             acc[0] = mul_acc(acc[0], phi, c[0]);
             acc[1] = mul_acc(acc[1], phi, c[1]);
             acc[2] = mul_acc(acc[2], phi, c[2]);
         }
-        let rest_v = [0, 1, 2].map(|c| widen_rest(i16::from_le_bytes([r[2 * c], r[2 * c + 1]])));
+        let rest_v = read_rest(r);
         for c in 0..3 {
             // Affine: β₀ + Σ_a β_a · rest_a, with rest in Q8.24 and |rest| ≤ 2²⁴.
             let mut lin = 0i64;
