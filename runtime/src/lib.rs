@@ -25,6 +25,7 @@ pub mod format;
 mod kernel;
 pub mod rig;
 pub mod space;
+pub mod sqrt;
 
 pub use format::{LoadError, Space};
 pub use rig::{Cost, FrameError, Rig};

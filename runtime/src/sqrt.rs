@@ -1,0 +1,130 @@
+//! Integer square roots and vector normalisation, in a fixed number of steps.
+//!
+//! The per-frame stages that need lengths (rigid fits, retargeting kernels, planar-bone frames)
+//! build on these two primitives. Both are pure integer arithmetic, so they give the same bits on
+//! every platform, and both run a fixed number of iterations whatever their input.
+
+/// Fractional bits of a unit vector returned by [`normalize3`] (Q1.30: 1.0 is 2³⁰).
+pub const UNIT_FRAC_BITS: u32 = 30;
+
+/// ⌊√x⌋, exact for every `u64`.
+///
+/// The digit-by-digit method: 32 iterations, each deciding one bit of the root, whatever `x` is.
+pub fn isqrt_u64(x: u64) -> u32 {
+    let mut rem = x;
+    let mut root = 0u64;
+    let mut bit = 1u64 << 62;
+    for _ in 0..32 {
+        let trial = root + bit;
+        if rem >= trial {
+            rem -= trial;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    // The root of a u64 is below 2³², so this cannot truncate.
+    root as u32
+}
+
+/// The unit vector along `v` in Q1.30 ([`UNIT_FRAC_BITS`]), or `None` for the zero vector.
+///
+/// `v` may have any scale: it is first shifted (exactly, by a power of two chosen from its
+/// largest component) so that the largest component lies in [2³⁰, 2³¹), then divided by its
+/// length ⌊√(x² + y² + z²)⌋ with rounding to nearest. The length is at least 2³⁰ and the floor
+/// loses less than one unit of it, so each component is within 2 LSB (2⁻²⁹) of the exact unit
+/// vector of the shifted input; a right shift of a very large input drops at most its low bits,
+/// a relative change below 2⁻³⁰.
+pub fn normalize3(v: [i64; 3]) -> Option<[i32; 3]> {
+    let largest = v.iter().map(|c| c.unsigned_abs()).max().unwrap_or(0);
+    if largest == 0 {
+        return None;
+    }
+    // Bring the largest magnitude into [2^30, 2^31): its highest set bit to bit 30.
+    let top = 63 - largest.leading_zeros() as i32;
+    let shift = top - 30;
+    let scaled = v.map(|c| if shift >= 0 { c >> shift } else { c << -shift });
+    // |c| < 2^31 for every component, so the sum of squares is below 3 · 2^62 < 2^64.
+    let sum = scaled
+        .iter()
+        .map(|&c| (c * c) as u64)
+        .fold(0u64, u64::wrapping_add);
+    let len = i64::from(isqrt_u64(sum));
+    // len ≥ 2^30 (the largest component alone gives it) and |c| · 2^30 < 2^61: no overflow.
+    let half = len / 2;
+    Some(scaled.map(|c| {
+        let num = c << UNIT_FRAC_BITS;
+        let q = if num >= 0 {
+            (num + half) / len
+        } else {
+            -((-num + half) / len)
+        };
+        // |c| ≤ len, so |q| ≤ 2^30: fits i32.
+        q as i32
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn isqrt_is_exact_at_the_edges_and_on_squares() {
+        for (x, want) in [
+            (0u64, 0u32),
+            (1, 1),
+            (2, 1),
+            (3, 1),
+            (4, 2),
+            (15, 3),
+            (16, 4),
+            (u64::MAX, u32::MAX),
+            ((1u64 << 62) - 1, (1u32 << 31) - 1),
+            (1u64 << 62, 1u32 << 31),
+        ] {
+            assert_eq!(isqrt_u64(x), want, "isqrt({x})");
+        }
+        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..10_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let r = u64::from(isqrt_u64(s));
+            assert!(r * r <= s, "isqrt({s}) = {r} too large");
+            assert!(
+                (r + 1).checked_mul(r + 1).is_none_or(|sq| sq > s),
+                "isqrt({s}) = {r} too small"
+            );
+            let root = (s >> 32) as u32;
+            assert_eq!(isqrt_u64(u64::from(root) * u64::from(root)), root);
+        }
+    }
+
+    #[test]
+    fn normalize3_gives_unit_vectors_within_two_lsb() {
+        assert_eq!(normalize3([0, 0, 0]), None);
+        assert_eq!(normalize3([5, 0, 0]), Some([1 << 30, 0, 0]));
+        assert_eq!(normalize3([0, -7 << 40, 0]), Some([0, -(1 << 30), 0]));
+        assert_eq!(normalize3([i64::MIN, 0, 0]), Some([-(1 << 30), 0, 0]));
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..10_000 {
+            let mut v = [0i64; 3];
+            for c in &mut v {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                *c = (s as i64) >> (s % 60);
+            }
+            let Some(u) = normalize3(v) else {
+                assert_eq!(v, [0, 0, 0]);
+                continue;
+            };
+            let len = v.iter().map(|&c| (c as f64).powi(2)).sum::<f64>().sqrt();
+            for (c, q) in v.iter().zip(u) {
+                let exact = *c as f64 / len * f64::from(1u32 << 30);
+                assert!((f64::from(q) - exact).abs() <= 2.0, "{v:?} → {u:?}");
+            }
+        }
+    }
+}
