@@ -3,6 +3,9 @@
 use facebake_runtime::format::{
     self, Bytes, Deformer, LinearInfluences, RbfCoefficients, RigData, Space, MAX_MARKERS,
 };
+use facebake_runtime::pipeline::{Retarget, Stages};
+
+use crate::stages::StagesBytes;
 
 /// The blob could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -200,6 +203,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
         deformer,
+        stages: None,
     };
     let payload = postcard::to_allocvec(&data)?;
     let header =
@@ -213,4 +217,37 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         other_bytes_per_vertex: (blob.len() - words.len()) as f64 / c.vertices.len().max(1) as f64,
     };
     Ok((blob, sizes))
+}
+
+/// A sealed blob with the capture stages `stages` added (or replaced): the rig is decoded through
+/// the runtime's own loader, so `blob` must be a valid rig.
+pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
+    let payload =
+        format::open(blob).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    let mut data =
+        format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    data.stages = Some(Stages {
+        actor_space: stages.actor_space,
+        actor_neutral: Bytes(&stages.actor_neutral),
+        head_markers: Bytes(&stages.head_markers),
+        max_displacement: stages.max_displacement,
+        fill: Bytes(&stages.fill),
+        retarget: Retarget {
+            radii: Bytes(&stages.radii),
+            alpha_shift: stages.alpha_shift,
+            alpha: Bytes(&stages.alpha),
+            linear_shift: stages.linear_shift,
+            linear: stages.linear,
+            offset: stages.offset,
+        },
+    });
+    let payload = postcard::to_allocvec(&data)?;
+    let header =
+        format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
+    let mut out = header.to_vec();
+    out.extend_from_slice(&payload);
+    // The stages must pass the runtime's own checks too.
+    facebake_runtime::Rig::from_bytes(&out)
+        .map_err(|e| BlobError::Limits(format!("the capture stages do not load: {e}")))?;
+    Ok(out)
 }

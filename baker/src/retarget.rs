@@ -9,7 +9,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::rbf::{KernelKind, RbfSystem, SolveError};
+use crate::rbf::{Kernel, KernelKind, RbfSystem, SolveError};
 
 /// An RBF map from actor space to character space.
 pub struct RetargetMap {
@@ -34,6 +34,20 @@ impl RetargetMap {
     /// A point of actor space in character space.
     pub fn map(&self, p: &[f64; 3]) -> [f64; 3] {
         self.system.evaluate(&self.coefficients, p)
+    }
+
+    /// The per-centre kernel radii rᵢ (actor units): φᵢ(d) = 1/√(d² + rᵢ²).
+    pub fn radii(&self) -> &[f64] {
+        match self.system.kernel() {
+            Kernel::InverseMultiquadric { radii } => radii,
+            _ => &[],
+        }
+    }
+
+    /// The coefficients `[α; β₀; βx; βy; βz]`, one column per output coordinate:
+    /// f(p) = Σᵢ αᵢ φᵢ(‖p − uᵢ‖) + β₀ + βx pₓ + βy p_y + βz p_z.
+    pub fn coefficients(&self) -> &DMatrix<f64> {
+        &self.coefficients
     }
 
     /// 1-norm condition estimate of the map's system.

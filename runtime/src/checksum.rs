@@ -69,6 +69,23 @@ impl Fnv1a64 {
         }
     }
 
+    /// Feed one frame of the capture stages as the golden hashes record it: the character's
+    /// markers, the deformed vertices, then (RMS head residual, markers rebuilt, markers held).
+    pub fn write_capture_frame(
+        &mut self,
+        markers: &[[i32; 3]],
+        vertices: &[[i32; 3]],
+        report: &crate::pipeline::FrameReport,
+    ) {
+        self.write_positions(markers);
+        self.write_positions(vertices);
+        self.write_positions(&[[
+            report.rigid_residual,
+            report.rebuilt.len() as i32,
+            report.held.len() as i32,
+        ]]);
+    }
+
     /// The hash of everything fed so far.
     pub const fn finish(&self) -> u64 {
         self.0

@@ -1,7 +1,7 @@
 //! The rig blob: the one definition of the format, used by the runtime to read it and by the
 //! baker to write it.
 //!
-//! # Layout (format version 1)
+//! # Layout (format version 2)
 //!
 //! ```text
 //! offset  size  field
@@ -44,6 +44,10 @@
 //! The integer entries of every kernel row and of βx, βy, βz sum to 0, and those of β₀ sum to
 //! `2^s`; the loader checks it. A uniform translation then gives exactly zero kernel coefficients
 //! and β₀ equal to the translation, so it too moves every vertex by exactly that translation.
+//!
+//! Version 2 added the optional capture stages after the deformer ([`crate::pipeline::Stages`]:
+//! head-motion compensation, fill and retargeting of an actor's raw markers); version 1 blobs are
+//! rejected with [`LoadError::UnsupportedVersion`] (re-bake them).
 
 use serde::de::{Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
@@ -52,11 +56,12 @@ use crate::checksum::crc32;
 use crate::fixed::{
     unpack_influence, widen_rest, MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS,
 };
+use crate::pipeline::{Stages, StagesError};
 
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate reads and writes.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 /// Size of the fixed header that precedes the payload.
 pub const HEADER_LEN: usize = 20;
 /// Most markers a rig may have (a marker index is one byte).
@@ -153,7 +158,7 @@ pub enum Deformer<'a> {
     RbfCoefficients(RbfCoefficients<'a>),
 }
 
-/// The payload of a rig blob (format version 1).
+/// The payload of a rig blob (format version 2).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigData<'a> {
     /// Rig units in the asset's space.
@@ -174,6 +179,10 @@ pub struct RigData<'a> {
     /// The deformer.
     #[serde(borrow)]
     pub deformer: Deformer<'a>,
+    /// Optional capture stages (compensation, fill, retargeting) that turn an actor's raw markers
+    /// into this rig's markers at run time.
+    #[serde(borrow)]
+    pub stages: Option<Stages<'a>>,
 }
 
 /// Why a byte string is not a loadable rig. Every variant is a distinct failure.
@@ -273,6 +282,8 @@ pub enum LoadError {
         /// The row.
         row: usize,
     },
+    /// The capture stages are invalid.
+    BadStages(StagesError),
 }
 
 /// A section of the payload, for [`LoadError::SectionLength`].
@@ -344,6 +355,7 @@ impl core::fmt::Display for LoadError {
                 f,
                 "coefficient row {row} does not sum to what exact translation needs"
             ),
+            Self::BadStages(e) => write!(f, "capture stages: {e}"),
         }
     }
 }
@@ -474,12 +486,12 @@ fn expect_len(
 
 /// `x.is_finite()`, on the IEEE-754 bits: the exponent is not all ones. Integer-only, so loading
 /// a rig needs no floating-point code on a core without an FPU (no soft-float routines linked).
-fn f32_is_finite(x: f32) -> bool {
+pub(crate) fn f32_is_finite(x: f32) -> bool {
     x.to_bits() & 0x7F80_0000 != 0x7F80_0000
 }
 
 /// `x > 0.0`, on the IEEE-754 bits: sign clear, not ±0, not NaN.
-fn f32_is_positive(x: f32) -> bool {
+pub(crate) fn f32_is_positive(x: f32) -> bool {
     let bits = x.to_bits();
     bits & 0x8000_0000 == 0 && bits != 0 && bits <= 0x7F80_0000
 }
@@ -503,9 +515,13 @@ fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
     expect_len(Section::MarkerRest, d.marker_rest, markers, 12)?;
     expect_len(Section::VertexRest, d.vertex_rest, vertices, 6)?;
     match d.deformer {
-        Deformer::Linear(lin) => validate_linear(&lin, vertices, markers),
-        Deformer::RbfCoefficients(rbf) => validate_rbf(&rbf, vertices, markers),
+        Deformer::Linear(lin) => validate_linear(&lin, vertices, markers)?,
+        Deformer::RbfCoefficients(rbf) => validate_rbf(&rbf, vertices, markers)?,
     }
+    if let Some(stages) = &d.stages {
+        stages.validate(markers).map_err(LoadError::BadStages)?;
+    }
+    Ok(())
 }
 
 fn validate_names(names: Bytes<'_>, markers: usize) -> Result<(), LoadError> {

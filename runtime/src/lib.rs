@@ -23,10 +23,12 @@ pub mod checksum;
 pub mod fixed;
 pub mod format;
 mod kernel;
+pub mod pipeline;
 pub mod rig;
 pub mod space;
 pub mod sqrt;
 
 pub use format::{LoadError, Space};
+pub use pipeline::{FrameReport, PlayState};
 pub use rig::{Cost, FrameError, Rig};
 pub use space::ConvertError;

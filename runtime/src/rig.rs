@@ -5,6 +5,7 @@ use crate::format::{
     POSITION_BYTES, REST_BYTES,
 };
 use crate::kernel;
+use crate::pipeline::{FrameReport, PlayState, Stages};
 
 /// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
 /// nothing; loading validated every index and length once.
@@ -23,6 +24,8 @@ pub enum FrameError {
         /// Entries given.
         found: usize,
     },
+    /// [`Rig::play`] on a rig baked without capture stages.
+    NoStages,
     /// The output slice does not have one entry per vertex.
     OutputLength {
         /// Vertices the rig has.
@@ -41,6 +44,7 @@ impl core::fmt::Display for FrameError {
                     "{found} marker positions given, the rig has {expected} markers"
                 )
             }
+            Self::NoStages => f.write_str("the rig has no capture stages (bake it with a capture)"),
             Self::OutputLength { expected, found } => {
                 write!(
                     f,
@@ -258,5 +262,41 @@ impl<'a> Rig<'a> {
             }
         }
         Ok(())
+    }
+
+    /// The capture stages, if the rig was baked with them.
+    pub fn stages(&self) -> Option<&Stages<'a>> {
+        self.data.stages.as_ref()
+    }
+
+    /// Play one captured frame through the capture stages and the deformer: `actor` holds the
+    /// actor's raw markers in actor units (Q8.24, [`Stages::actor_space`]; `None` where a marker
+    /// is missing), one per rig marker; `out` receives one position per vertex (Q8.24 rig
+    /// units). The report says which markers were rejected, rebuilt or held and how the head
+    /// motion was found. `state` carries the last good values from frame to frame.
+    pub fn play(
+        &self,
+        state: &mut PlayState,
+        actor: &[Option<[i32; 3]>],
+        out: &mut [[i32; 3]],
+    ) -> Result<FrameReport, FrameError> {
+        let stages = self.data.stages.as_ref().ok_or(FrameError::NoStages)?;
+        let m = self.marker_count();
+        if actor.len() != m {
+            return Err(FrameError::MarkerCount {
+                expected: m,
+                found: actor.len(),
+            });
+        }
+        if out.len() != self.vertex_count() {
+            return Err(FrameError::OutputLength {
+                expected: self.vertex_count(),
+                found: out.len(),
+            });
+        }
+        let mut markers = [[0i32; 3]; MAX_MARKERS];
+        let report = stages.solve(state, actor, &mut markers[..m]);
+        self.deform(&markers[..m], out)?;
+        Ok(report)
     }
 }

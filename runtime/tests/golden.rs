@@ -110,3 +110,45 @@ fn fixed_point_primitives_at_the_extremes() {
     assert_eq!(mul_acc(0, -1, i32::MIN), 1 << 31);
     assert_eq!(mul_acc(-5, 3, -7), -26);
 }
+
+const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
+const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
+
+/// The capture golden: actor frames through compensation, fill, retargeting and deformation.
+#[test]
+fn capture_stages_are_bit_identical_to_the_golden_hashes() {
+    let rig = Rig::from_bytes(CAPTURE).expect("golden capture rig loads");
+    let stages = rig.stages().expect("the golden capture rig has stages");
+    let m = rig.marker_count();
+    let record = 1 + 12;
+    assert_eq!(ACTOR.len() % (m * record), 0, "whole frames only");
+    let mut state = facebake_runtime::PlayState::new();
+    let mut markers = vec![[0i32; 3]; m];
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut sequence = Fnv1a64::new();
+    let mut wrong = Vec::new();
+    for (f, frame) in ACTOR.chunks_exact(m * record).enumerate() {
+        let actor: Vec<Option<[i32; 3]>> = frame
+            .chunks_exact(record)
+            .map(|r| {
+                let w = |i: usize| i32::from_le_bytes([r[i], r[i + 1], r[i + 2], r[i + 3]]);
+                (r[0] == 1).then(|| [w(1), w(5), w(9)])
+            })
+            .collect();
+        let report = stages.solve(&mut state, &actor, &mut markers);
+        rig.deform(&markers, &mut out).unwrap();
+        let mut h = Fnv1a64::new();
+        h.write_capture_frame(&markers, &out, &report);
+        sequence.write_capture_frame(&markers, &out, &report);
+        let want = expected("capture", &format!("frame {f}"));
+        if h.finish() != want {
+            wrong.push(format!("frame {f}: {:016x}, want {want:016x}", h.finish()));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "capture: frames differ on this target:\n{}",
+        wrong.join("\n")
+    );
+    assert_eq!(sequence.finish(), expected("capture", "sequence"));
+}

@@ -81,3 +81,58 @@ pub fn reseal(blob: &mut [u8]) {
     let crc = facebake_runtime::checksum::crc32(&blob[header_len..]);
     blob[16..20].copy_from_slice(&crc.to_le_bytes());
 }
+
+/// The JawMoCap capture on the FaceCap head: everything the capture tests and benches need.
+pub struct JawMoCapRig {
+    /// The FaceCap head.
+    pub mesh: facebake::io::gltf_mesh::FaceMesh,
+    /// The capture (JawMoCap.trc, centimetres).
+    pub capture: facebake::io::capture::Capture,
+    /// The capture's frames in rig marker order, metres.
+    pub frames: Vec<Vec<Option<[f64; 3]>>>,
+    /// The deformation bake (default configuration, the layout's 41 markers).
+    pub baked: Baked,
+    /// The capture stages and their f64 reference.
+    pub stages: facebake::stages::BakedStages,
+    /// The blob with the stages.
+    pub blob: Vec<u8>,
+}
+
+/// Bake FaceCap with `fixtures/facecap_jawmocap_layout.toml` and the JawMoCap capture's stages
+/// (neutral frame 0, the baker's own choice of head markers).
+pub fn jawmocap_rig(stages: &facebake::stages::StagesConfig) -> JawMoCapRig {
+    use facebake::cli::bake::bake_layout;
+    let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
+        .expect("FaceCap head loads");
+    let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
+        .expect("layout reads");
+    let capture =
+        facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
+    let (baked, placed) =
+        bake_layout(&mesh, &layout, &BakeConfig::default(), None).expect("FaceCap bakes");
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+    let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("rig loads");
+    let space = rig.space();
+    let stages = facebake::stages::bake_stages(&capture, &names, &character, &space, stages)
+        .expect("stages bake");
+    let blob = facebake::blob::with_stages(&baked.blob, &stages.bytes).expect("stages attach");
+    let columns: Vec<usize> = names
+        .iter()
+        .map(|n| capture.marker_index(n).expect("capture has the marker"))
+        .collect();
+    let frames = capture
+        .in_metres()
+        .frames
+        .iter()
+        .map(|f| columns.iter().map(|&c| f[c]).collect())
+        .collect();
+    JawMoCapRig {
+        mesh,
+        capture,
+        frames,
+        baked,
+        stages,
+        blob,
+    }
+}

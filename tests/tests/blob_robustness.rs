@@ -109,12 +109,16 @@ fn every_header_error_is_distinct() {
     let mut c = b.clone();
     c[0] = b'X';
     assert_eq!(Rig::from_bytes(&c).unwrap_err(), LoadError::BadMagic);
-    let mut c = b.clone();
-    c[8] = 2;
-    assert_eq!(
-        Rig::from_bytes(&c).unwrap_err(),
-        LoadError::UnsupportedVersion { found: 2 }
-    );
+    for old_or_new in [1u8, 3] {
+        let mut c = b.clone();
+        c[8] = old_or_new;
+        assert_eq!(
+            Rig::from_bytes(&c).unwrap_err(),
+            LoadError::UnsupportedVersion {
+                found: u16::from(old_or_new)
+            }
+        );
+    }
     let mut c = b.clone();
     c[10] = 1;
     assert_eq!(Rig::from_bytes(&c).unwrap_err(), LoadError::BadReserved);

@@ -12,18 +12,194 @@
 //! | `facecap_weights.fbk` | the weights bake (IMQ, K = 8) |
 //! | `facecap_coefficients_k4.fbk` | the default bake at K = 4, so per-frame cost can be split into per-vertex and per-influence parts |
 //! | `facecap_markers.bin` | frames × 40 markers × 3 `i32` LE, Q8.24: every ground-truth frame, then [`EDGE_FRAMES`] |
-//! | `hashes.txt` | per rig: FNV-1a-64 of each frame's output (`i32` LE, x y z per vertex), then of the whole sequence |
+//! | `jawmocap_capture.fbk` | FaceCap with the JawMoCap layout (41 markers) and the capture stages baked from JawMoCap (head markers [`JAWMOCAP_HEAD_MARKERS`]) |
+//! | `jawmocap_actor.bin` | frames × 41 markers × (`u8` present, 3 × `i32` LE Q8.24 actor units): every 20th JawMoCap frame with markers knocked out, then [`CAPTURE_EDGE_FRAMES`] |
+//! | `hashes.txt` | per rig: FNV-1a-64 of each frame's output (`i32` LE, x y z per vertex), then of the whole sequence; for `capture`, of the character markers, the vertices and (residual, rebuilt, held) |
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use facebake::bake::{BakeConfig, Baked};
+use facebake::cli::demo::JAWMOCAP_HEAD_MARKERS;
+use facebake::stages::{HeadMarkers, StagesConfig};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::fixed::POS_ONE;
+use facebake_runtime::PlayState;
 use facebake_runtime::Rig;
 use facebake_tests::{
-    bake_truth, facecap_default, facecap_weights, fixture, weights_config, FACECAP_MARKERS,
+    bake_truth, facecap_default, facecap_weights, fixture, jawmocap_rig, weights_config,
+    JawMoCapRig, FACECAP_MARKERS,
 };
+
+/// The capture edge frames appended after the JawMoCap frames, in order.
+const CAPTURE_EDGE_FRAMES: [&str; 6] = [
+    "every marker missing",
+    "every head marker missing (the last fit is held)",
+    "the last frame turned 90 degrees about the vertical and moved 1 m",
+    "one head marker 10 cm off (dropped from the fit), one marker 20 cm off (rejected)",
+    "a coordinate at i32::MAX (rejected as out of range)",
+    "every coordinate at +/- 60 actor units",
+];
+
+/// The capture rig, built once per test binary.
+fn capture_rig() -> &'static JawMoCapRig {
+    static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        jawmocap_rig(&StagesConfig {
+            head: HeadMarkers::Named(JAWMOCAP_HEAD_MARKERS.map(str::to_string).to_vec()),
+            ..StagesConfig::default()
+        })
+    })
+}
+
+/// The actor frames of the capture golden (Q8.24 actor units, `None` = missing).
+fn actor_frames(j: &JawMoCapRig) -> Vec<Vec<Option<[i32; 3]>>> {
+    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let stages = rig.stages().unwrap();
+    let space = stages.actor_space;
+    let head: Vec<usize> = stages
+        .head_markers()
+        .iter()
+        .map(|&h| usize::from(h))
+        .collect();
+    let to_q = |p: &[f64; 3]| space.to_rig_f64(*p).expect("capture fits actor units");
+    let mut frames: Vec<Vec<Option<[i32; 3]>>> = j
+        .frames
+        .iter()
+        .step_by(20)
+        .enumerate()
+        .map(|(i, f)| {
+            f.iter()
+                .enumerate()
+                .map(|(m, p)| {
+                    // Every third frame loses a few markers (a different few each time).
+                    let knocked = i % 3 == 2 && (m + i) % 6 == 0;
+                    if knocked {
+                        None
+                    } else {
+                        p.as_ref().map(to_q)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let last: Vec<[f64; 3]> = j
+        .frames
+        .last()
+        .unwrap()
+        .iter()
+        .map(|p| p.unwrap())
+        .collect();
+    let n = last.len();
+    let mut edge = Vec::new();
+    edge.push(vec![None; n]);
+    edge.push(
+        (0..n)
+            .map(|m| {
+                if head.contains(&m) {
+                    None
+                } else {
+                    Some(to_q(&last[m]))
+                }
+            })
+            .collect(),
+    );
+    edge.push(
+        last.iter()
+            .map(|p| Some(to_q(&[p[2] + 1.0, p[1], -p[0]])))
+            .collect(),
+    );
+    edge.push(
+        last.iter()
+            .enumerate()
+            .map(|(m, p)| {
+                let off = if m == head[0] {
+                    0.1
+                } else if m == n - 1 {
+                    0.2
+                } else {
+                    0.0
+                };
+                Some(to_q(&[p[0] + off, p[1], p[2]]))
+            })
+            .collect(),
+    );
+    edge.push(
+        last.iter()
+            .enumerate()
+            .map(|(m, p)| {
+                let mut q = to_q(p);
+                if m == 5 {
+                    q[1] = i32::MAX;
+                }
+                Some(q)
+            })
+            .collect(),
+    );
+    edge.push(
+        (0..n)
+            .map(|m| {
+                Some([0, 1, 2].map(|c| {
+                    if (m + c) % 2 == 0 {
+                        60 << 24
+                    } else {
+                        -(60 << 24)
+                    }
+                }))
+            })
+            .collect(),
+    );
+    assert_eq!(edge.len(), CAPTURE_EDGE_FRAMES.len());
+    frames.extend(edge);
+    frames
+}
+
+/// `jawmocap_actor.bin`: per frame and marker a presence byte and three `i32` LE.
+fn actor_bytes(frames: &[Vec<Option<[i32; 3]>>]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for p in frames.iter().flatten() {
+        out.push(u8::from(p.is_some()));
+        for c in p.unwrap_or([0; 3]) {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// The `capture` lines of `hashes.txt`.
+fn capture_hashes(blob: &[u8], frames: &[Vec<Option<[i32; 3]>>]) -> String {
+    let rig = Rig::from_bytes(blob).expect("capture rig loads");
+    let stages = rig.stages().expect("capture stages");
+    let mut s = String::new();
+    writeln!(
+        s,
+        "# capture: JawMoCap frames 0, 20, 40, ... with markers knocked out, then:"
+    )
+    .unwrap();
+    for (i, name) in CAPTURE_EDGE_FRAMES.iter().enumerate() {
+        writeln!(
+            s,
+            "#   {:2} {name}",
+            frames.len() - CAPTURE_EDGE_FRAMES.len() + i
+        )
+        .unwrap();
+    }
+    writeln!(s, "# capture stages per frame: {:?}", stages.cost()).unwrap();
+    let mut state = PlayState::new();
+    let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut sequence = Fnv1a64::new();
+    for (f, actor) in frames.iter().enumerate() {
+        let report = stages.solve(&mut state, actor, &mut markers);
+        rig.deform(&markers, &mut out).unwrap();
+        let mut h = Fnv1a64::new();
+        h.write_capture_frame(&markers, &out, &report);
+        sequence.write_capture_frame(&markers, &out, &report);
+        writeln!(s, "capture frame {f} {:016x}", h.finish()).unwrap();
+    }
+    writeln!(s, "capture sequence {:016x}", sequence.finish()).unwrap();
+    s
+}
 
 /// The edge frames appended after the ground-truth frames, in order.
 const EDGE_FRAMES: [&str; 7] = [
@@ -183,12 +359,17 @@ fn golden_files_match_the_baker_byte_for_byte() {
         ("weights", weights),
         ("coefficients_k4", k4),
     ];
-    let files: [(&str, Vec<u8>); 5] = [
+    let capture = capture_rig();
+    let actor = actor_frames(capture);
+    let hashes = hashes_txt(&rigs, &frames) + &capture_hashes(&capture.blob, &actor);
+    let files: [(&str, Vec<u8>); 7] = [
         ("facecap_coefficients.fbk", coefficients.to_vec()),
         ("facecap_weights.fbk", weights.to_vec()),
         ("facecap_coefficients_k4.fbk", k4.to_vec()),
         ("facecap_markers.bin", markers),
-        ("hashes.txt", hashes_txt(&rigs, &frames).into_bytes()),
+        ("jawmocap_capture.fbk", capture.blob.clone()),
+        ("jawmocap_actor.bin", actor_bytes(&actor)),
+        ("hashes.txt", hashes.into_bytes()),
     ];
     let dir = golden_dir();
     if std::env::var_os("FACEBAKE_BLESS").is_some_and(|v| v == "1") {
@@ -223,4 +404,50 @@ fn golden_files_match_the_baker_byte_for_byte() {
          intended):\n{}",
         stale.join("\n")
     );
+}
+
+#[test]
+fn capture_edge_frames_do_what_they_say() {
+    use facebake_runtime::pipeline::{rigid::FitFailure, RigidStatus};
+    let capture = capture_rig();
+    let frames = actor_frames(capture);
+    let rig = Rig::from_bytes(&capture.blob).unwrap();
+    let stages = rig.stages().unwrap();
+    let mut state = PlayState::new();
+    let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let reports: Vec<_> = frames
+        .iter()
+        .map(|a| stages.solve(&mut state, a, &mut markers))
+        .collect();
+    let edge = &reports[reports.len() - CAPTURE_EDGE_FRAMES.len()..];
+    let n = rig.marker_count();
+    for r in edge {
+        println!("{r:?}");
+    }
+    assert_eq!(edge[0].rigid, RigidStatus::Held(FitFailure::TooFew));
+    assert_eq!(
+        edge[0].held.len(),
+        n,
+        "nothing to rebuild from: every marker held"
+    );
+    assert_eq!(edge[1].rigid, RigidStatus::Held(FitFailure::TooFew));
+    assert_eq!(
+        edge[1].rebuilt.len(),
+        4,
+        "the four head markers rebuilt from neighbours"
+    );
+    assert!(matches!(
+        edge[2].rigid,
+        RigidStatus::Fitted { head_markers: 4 }
+    ));
+    assert!(edge[2].rejected.is_empty() && edge[2].rebuilt.is_empty());
+    assert_eq!(edge[3].head_markers_dropped, 1);
+    assert!(matches!(
+        edge[3].rigid,
+        RigidStatus::Fitted { head_markers: 3 }
+    ));
+    assert!(edge[3].rejected.contains(n - 1));
+    assert!(edge[4].rejected.contains(5) && edge[4].rebuilt.contains(5));
+    // Far out of the face: everything rejected, every marker held at its last value.
+    assert_eq!(edge[5].held.len() + edge[5].rebuilt.len(), n);
 }

@@ -43,6 +43,13 @@ pub const GLB_FRAMES: [&str; 6] = [
     "surprise",
     "blend 0",
 ];
+/// The JawMoCap capture's head markers: forehead and the top of the nose, which no expression
+/// moves much.
+pub const JAWMOCAP_HEAD_MARKERS: [&str; 4] = ["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"];
+/// The JawMoCap capture, in the fixtures folder.
+pub const JAWMOCAP_FILE: &str = "JawMoCap.trc";
+/// FaceCap's marker layout for the JawMoCap markers, in the fixtures folder.
+pub const JAWMOCAP_LAYOUT: &str = "facecap_jawmocap_layout.toml";
 /// Frame rate written to the demo's capture file.
 pub const CAPTURE_RATE_HZ: f64 = 30.0;
 

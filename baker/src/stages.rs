@@ -1,0 +1,628 @@
+//! Baking the capture stages (head-motion compensation, fill, retargeting) that the runtime runs
+//! on an actor's raw markers, and their f64 reference.
+//!
+//! From a capture (its neutral frame or range) and the character's marker positions this module
+//! builds [`facebake_runtime::pipeline::Stages`]: the actor's space and neutral markers, the head
+//! markers (named, or the most rigid subset of the neutral range), the neighbours each marker is
+//! rebuilt from when missing, and the retargeting map (inverse multiquadric with per-centre radius
+//! plus affine, [`RetargetMap`]) from actor space to the character's rig space.
+//!
+//! [`StagesF64`] runs the same steps in f64 with the unquantised map and Kabsch fits: the
+//! reference the runtime is compared with.
+
+use std::ops::Range;
+
+use facebake_runtime::fixed::pack_influence;
+use facebake_runtime::format::Space;
+use facebake_runtime::pipeline::{
+    FILL_FRAC_BITS, FILL_NEIGHBOURS, MAX_ALPHA_SHIFT, MAX_HEAD_MARKERS, NEUTRAL_LIMIT,
+};
+
+use crate::blob::{space_for, to_rig_units};
+use crate::io::capture::Capture;
+use crate::mesh::distance;
+use crate::rbf::SolveError;
+use crate::retarget::RetargetMap;
+use crate::rigid::{kabsch, most_rigid_subset, RigidError, RigidTransform};
+
+/// Which markers carry the head's rigid motion.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeadMarkers {
+    /// These markers, by name.
+    Named(Vec<String>),
+    /// The this-many markers whose mutual distances vary least over the capture's complete
+    /// frames (every frame where all the rig's markers are present, at most 600 of them evenly
+    /// spread): head markers stay rigid through every expression, not only the neutral one.
+    MostRigid(usize),
+    /// No compensation (the capture is already in the head's frame).
+    None,
+}
+
+/// How to bake the capture stages.
+#[derive(Clone, Debug)]
+pub struct StagesConfig {
+    /// Frames averaged into the actor's neutral pose (frame 0 by default).
+    pub neutral: Range<usize>,
+    /// Head markers.
+    pub head: HeadMarkers,
+    /// Largest plausible displacement of a compensated marker from neutral, as a fraction of the
+    /// actor's half extent (half the largest side of the neutral markers' bounds).
+    pub max_displacement: f64,
+}
+
+impl Default for StagesConfig {
+    fn default() -> Self {
+        Self {
+            neutral: 0..1,
+            head: HeadMarkers::MostRigid(4),
+            max_displacement: 0.5,
+        }
+    }
+}
+
+/// The capture stages could not be baked.
+#[derive(Debug, thiserror::Error)]
+pub enum StagesError {
+    /// A rig marker the capture does not have.
+    #[error(
+        "{file}: the capture has no marker {name:?}, which the layout places on the character"
+    )]
+    MissingMarker {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+    },
+    /// The neutral range is empty or past the end.
+    #[error("{file}: neutral frames {start}..{end} are not inside the capture's {frames} frames")]
+    NeutralRange {
+        /// The capture file.
+        file: String,
+        /// First neutral frame.
+        start: usize,
+        /// One past the last.
+        end: usize,
+        /// Frames in the capture.
+        frames: usize,
+    },
+    /// A marker is missing in a neutral frame.
+    #[error("{file}: marker {name:?} is missing in neutral frame {frame} (choose another neutral range)")]
+    NeutralIncomplete {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+        /// The frame (0-based).
+        frame: usize,
+    },
+    /// A named head marker is not a rig marker.
+    #[error("head marker {0:?} is not one of the rig's markers")]
+    UnknownHeadMarker(String),
+    /// Head markers: too few, too many, or repeated.
+    #[error("{0} head markers given; compensation needs 3 to {MAX_HEAD_MARKERS} distinct ones")]
+    HeadMarkerCount(usize),
+    /// The head markers cannot carry a rigid motion.
+    #[error("head markers: {0}")]
+    Rigid(#[from] RigidError),
+    /// The retargeting system could not be solved.
+    #[error("retargeting map: {0}")]
+    Retarget(#[from] SolveError),
+    /// A value does not fit the runtime's formats.
+    #[error("{0}")]
+    OutOfRange(String),
+}
+
+/// What was baked, for reports.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StagesReport {
+    /// Head markers used for compensation, by name.
+    pub head_markers: Vec<String>,
+    /// Whether the baker picked them (most rigid subset).
+    pub head_markers_picked: bool,
+    /// Mean standard deviation of the head markers' mutual distances, metres: over the
+    /// frames they were picked from, or over the neutral range for named markers (0 for one
+    /// frame).
+    pub head_spread: f64,
+    /// Frames averaged into the neutral pose.
+    pub neutral_frames: Range<usize>,
+    /// Capture markers the rig does not use.
+    pub unused_capture_markers: Vec<String>,
+    /// Actor half extent, metres.
+    pub actor_half_extent: f64,
+    /// The capture's own length unit (the stages work in metres).
+    pub units: String,
+    /// 1-norm condition estimate of the retargeting system.
+    pub retarget_condition: f64,
+    /// Largest rounding of a retarget coefficient, character rig units.
+    pub max_alpha_rounding: f64,
+}
+
+/// The stages' sections, encoded for the blob (see [`crate::blob::with_stages`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StagesBytes {
+    /// Actor space.
+    pub actor_space: Space,
+    /// Neutral markers, 12 bytes each.
+    pub actor_neutral: Vec<u8>,
+    /// Head marker indices.
+    pub head_markers: Vec<u8>,
+    /// Q8.24 actor units.
+    pub max_displacement: i32,
+    /// Fill words.
+    pub fill: Vec<u8>,
+    /// Radii, `i32` LE.
+    pub radii: Vec<u8>,
+    /// Coefficient scale exponent.
+    pub alpha_shift: u8,
+    /// Coefficients, 3 × `i32` LE per centre.
+    pub alpha: Vec<u8>,
+    /// Linear scale exponent.
+    pub linear_shift: u8,
+    /// Linear part, row-major.
+    pub linear: [i32; 9],
+    /// Offset, Q8.24.
+    pub offset: [i32; 3],
+}
+
+/// The baked stages: bytes for the blob, the f64 reference and a report.
+pub struct BakedStages {
+    /// For [`crate::blob::with_stages`].
+    pub bytes: StagesBytes,
+    /// The f64 reference.
+    pub reference: StagesF64,
+    /// What was baked.
+    pub report: StagesReport,
+}
+
+/// The capture stages in f64, unquantised: the reference for the runtime.
+pub struct StagesF64 {
+    /// Actor space (metres).
+    pub actor_space: Space,
+    /// Neutral markers, actor units.
+    pub neutral: Vec<[f64; 3]>,
+    /// Head marker indices.
+    pub head: Vec<usize>,
+    /// Actor units.
+    pub max_displacement: f64,
+    /// Per marker, (neighbour, weight) pairs.
+    pub fill: Vec<Vec<(usize, f64)>>,
+    /// Actor units → character rig units.
+    pub map: RetargetMap,
+}
+
+/// What the reference did with one frame (mirrors the runtime's report).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameReportF64 {
+    /// The head fit of this frame, if one was made.
+    pub fit: Option<RigidTransform>,
+    /// RMS residual of the fitted head markers, actor units.
+    pub residual: f64,
+    /// Rejected markers.
+    pub rejected: Vec<usize>,
+    /// Rebuilt markers.
+    pub rebuilt: Vec<usize>,
+    /// Held markers.
+    pub held: Vec<usize>,
+}
+
+/// State the reference keeps between frames.
+#[derive(Clone, Debug, Default)]
+pub struct StateF64 {
+    last: Vec<Option<[f64; 3]>>,
+    fit: Option<RigidTransform>,
+}
+
+fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+impl StagesF64 {
+    /// One frame (metres, `None` = missing) → the character's markers in rig units.
+    pub fn solve(
+        &self,
+        state: &mut StateF64,
+        frame: &[Option<[f64; 3]>],
+    ) -> (Vec<[f64; 3]>, FrameReportF64) {
+        let n = self.neutral.len();
+        state.last.resize(n, None);
+        let mut report = FrameReportF64::default();
+        let limit = 64.0;
+        let mut actor: Vec<Option<[f64; 3]>> = (0..n)
+            .map(|j| {
+                let p = frame.get(j).copied().flatten()?;
+                let a = to_rig_units(&self.actor_space, &p);
+                if a.iter().all(|c| c.is_finite() && c.abs() <= limit) {
+                    Some(a)
+                } else {
+                    report.rejected.push(j);
+                    None
+                }
+            })
+            .collect();
+
+        let fit = if self.head.is_empty() {
+            RigidTransform::identity()
+        } else {
+            let mut used: Vec<usize> = self
+                .head
+                .iter()
+                .copied()
+                .filter(|&h| actor[h].is_some())
+                .collect();
+            let fit_of = |used: &[usize]| {
+                let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
+                let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
+                kabsch(&from, &to)
+            };
+            let mut fitted = fit_of(&used);
+            if let Ok(fit) = &fitted {
+                let before = used.len();
+                used.retain(|&h| {
+                    let q = actor[h].unwrap_or_default();
+                    distance(&fit.apply(&self.neutral[h]), &q) <= self.max_displacement
+                });
+                if used.len() < before {
+                    fitted = fit_of(&used);
+                }
+            }
+            match fitted {
+                Ok(fit) => {
+                    let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
+                    let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
+                    report.residual = fit.rms_residual(&from, &to);
+                    report.fit = Some(fit);
+                    state.fit = Some(fit);
+                    fit
+                }
+                Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),
+            }
+        };
+
+        let mut disp: Vec<Option<[f64; 3]>> = vec![None; n];
+        for j in 0..n {
+            let Some(a) = actor[j] else { continue };
+            let d = sub(&fit.apply_inverse(&a), &self.neutral[j]);
+            if d.iter().map(|c| c * c).sum::<f64>().sqrt() > self.max_displacement {
+                report.rejected.push(j);
+                actor[j] = None;
+            } else {
+                disp[j] = Some(d);
+            }
+        }
+        let present = disp.clone();
+        for j in 0..n {
+            if let Some(d) = present[j] {
+                state.last[j] = Some(d);
+                continue;
+            }
+            let (mut acc, mut total) = ([0.0; 3], 0.0);
+            for &(k, w) in &self.fill[j] {
+                if let Some(d) = present[k] {
+                    total += w;
+                    (0..3).for_each(|c| acc[c] += w * d[c]);
+                }
+            }
+            disp[j] = Some(if total > 0.0 {
+                report.rebuilt.push(j);
+                acc.map(|a| a / total)
+            } else {
+                report.held.push(j);
+                state.last[j].unwrap_or([0.0; 3])
+            });
+        }
+        report.rejected.sort_unstable();
+        let out = (0..n)
+            .map(|j| {
+                let d = disp[j].unwrap_or_default();
+                let a = [0, 1, 2].map(|c| self.neutral[j][c] + d[c]);
+                self.map.map(&a)
+            })
+            .collect();
+        (out, report)
+    }
+}
+
+/// Bake the stages for a rig whose markers are `marker_names` at `character` (asset units, in
+/// the rig's `space`), driven by `capture` (any unit; the stages work in metres). Fill
+/// neighbours: the four nearest markers on the actor's neutral face, weighted by 1/d² (on
+/// JawMoCap this predicts a marker from its neighbours to 1.6 mm on average; 1/d, three or six
+/// neighbours, rigid group motion and least-squares weights did no better than ±0.5 mm).
+pub fn bake_stages(
+    capture: &Capture,
+    marker_names: &[String],
+    character: &[[f64; 3]],
+    space: &Space,
+    config: &StagesConfig,
+) -> Result<BakedStages, StagesError> {
+    // Actor space is kept in metres, whatever the capture's unit, so any capture of the same
+    // markers in any unit plays through the rig.
+    let original_units = capture.units;
+    let capture = &capture.in_metres();
+    let file = capture.source.display().to_string();
+    let columns: Vec<usize> = marker_names
+        .iter()
+        .map(|name| {
+            capture
+                .marker_index(name)
+                .ok_or_else(|| StagesError::MissingMarker {
+                    file: file.clone(),
+                    name: name.clone(),
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    let range = config.neutral.clone();
+    if range.is_empty() || range.end > capture.frame_count() {
+        return Err(StagesError::NeutralRange {
+            file,
+            start: range.start,
+            end: range.end,
+            frames: capture.frame_count(),
+        });
+    }
+    // The neutral frames, rig marker order, capture units.
+    let neutral_frames: Vec<Vec<[f64; 3]>> = range
+        .clone()
+        .map(|f| {
+            columns
+                .iter()
+                .zip(marker_names)
+                .map(|(&c, name)| {
+                    capture.frames[f][c].ok_or_else(|| StagesError::NeutralIncomplete {
+                        file: file.clone(),
+                        name: name.clone(),
+                        frame: f,
+                    })
+                })
+                .collect()
+        })
+        .collect::<Result<_, _>>()?;
+    let count = neutral_frames.len() as f64;
+    let neutral_capture: Vec<[f64; 3]> = (0..marker_names.len())
+        .map(|j| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[j][c]).sum::<f64>() / count))
+        .collect();
+    let actor_space = space_for(&neutral_capture);
+    let neutral: Vec<[f64; 3]> = neutral_capture
+        .iter()
+        .map(|p| to_rig_units(&actor_space, p))
+        .collect();
+
+    let (head, picked, head_spread) = match &config.head {
+        HeadMarkers::None => (Vec::new(), false, 0.0),
+        HeadMarkers::Named(names) => {
+            let mut idx: Vec<usize> = names
+                .iter()
+                .map(|n| {
+                    marker_names
+                        .iter()
+                        .position(|m| m == n)
+                        .ok_or_else(|| StagesError::UnknownHeadMarker(n.clone()))
+                })
+                .collect::<Result<_, _>>()?;
+            idx.sort_unstable();
+            idx.dedup();
+            if idx.len() != names.len() || !(3..=MAX_HEAD_MARKERS).contains(&idx.len()) {
+                return Err(StagesError::HeadMarkerCount(names.len()));
+            }
+            let spread = spread_of(&neutral_frames, &idx);
+            (idx, false, spread)
+        }
+        HeadMarkers::MostRigid(size) => {
+            if !(3..=MAX_HEAD_MARKERS).contains(size) {
+                return Err(StagesError::HeadMarkerCount(*size));
+            }
+            let complete: Vec<Vec<[f64; 3]>> = capture
+                .frames
+                .iter()
+                .filter_map(|f| columns.iter().map(|&c| f[c]).collect::<Option<Vec<_>>>())
+                .collect();
+            let step = complete.len().div_ceil(600).max(1);
+            let sample: Vec<Vec<[f64; 3]>> = complete.into_iter().step_by(step).collect();
+            let (idx, spread) = most_rigid_subset(&sample, *size)?;
+            (idx, true, spread)
+        }
+    };
+    if !head.is_empty() {
+        // Refuse collinear head markers now rather than holding the identity at run time.
+        let pts: Vec<[f64; 3]> = head.iter().map(|&h| neutral[h]).collect();
+        kabsch(&pts, &pts)?;
+    }
+
+    let fill: Vec<Vec<(usize, f64)>> = (0..neutral.len())
+        .map(|j| {
+            let mut others: Vec<(usize, f64)> = (0..neutral.len())
+                .filter(|&k| k != j)
+                .map(|k| (k, distance(&neutral[j], &neutral[k])))
+                .collect();
+            others.sort_by(|a, b| a.1.total_cmp(&b.1));
+            others.truncate(FILL_NEIGHBOURS);
+            let inv: Vec<(usize, f64)> = others
+                .iter()
+                .map(|&(k, d)| (k, 1.0 / d.max(1e-9).powi(2)))
+                .collect();
+            let total: f64 = inv.iter().map(|p| p.1).sum();
+            inv.into_iter().map(|(k, w)| (k, w / total)).collect()
+        })
+        .collect();
+
+    let character_rig: Vec<[f64; 3]> = character.iter().map(|p| to_rig_units(space, p)).collect();
+    let map = RetargetMap::new(&neutral, &character_rig)?;
+
+    let bytes = encode(
+        &actor_space,
+        &neutral,
+        &head,
+        config.max_displacement,
+        &fill,
+        &map,
+    )?;
+    let max_alpha_rounding = alpha_rounding(&map, bytes.alpha_shift);
+    let reference = StagesF64 {
+        actor_space,
+        neutral,
+        head: head.clone(),
+        max_displacement: config.max_displacement,
+        fill,
+        map,
+    };
+    let report = StagesReport {
+        head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
+        head_markers_picked: picked,
+        head_spread,
+        neutral_frames: range,
+        unused_capture_markers: capture
+            .marker_names
+            .iter()
+            .filter(|n| !marker_names.contains(n))
+            .cloned()
+            .collect(),
+        actor_half_extent: f64::from(actor_space.half_extent),
+        units: original_units.symbol().to_string(),
+        retarget_condition: reference.map.condition(),
+        max_alpha_rounding,
+    };
+    Ok(BakedStages {
+        bytes,
+        reference,
+        report,
+    })
+}
+
+/// Mean standard deviation of the pairwise distances of `idx` over `frames`.
+fn spread_of(frames: &[Vec<[f64; 3]>], idx: &[usize]) -> f64 {
+    let mut total = 0.0;
+    let mut pairs = 0usize;
+    for (a, &i) in idx.iter().enumerate() {
+        for &j in &idx[a + 1..] {
+            let d: Vec<f64> = frames.iter().map(|f| distance(&f[i], &f[j])).collect();
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            total += (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+            pairs += 1;
+        }
+    }
+    total / pairs.max(1) as f64
+}
+
+/// α̃ᵢ = αᵢ / rᵢ for the normalised kernel, per output coordinate.
+fn normalised_alpha(map: &RetargetMap) -> Vec<[f64; 3]> {
+    let c = map.coefficients();
+    map.radii()
+        .iter()
+        .enumerate()
+        .map(|(i, r)| [0, 1, 2].map(|k| c[(i, k)] / r))
+        .collect()
+}
+
+fn alpha_rounding(map: &RetargetMap, shift: u8) -> f64 {
+    let scale = 2f64.powi(i32::from(shift));
+    normalised_alpha(map)
+        .iter()
+        .flatten()
+        .map(|a| ((a * scale).round() / scale - a).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The largest shift s ≤ `max` with |v| · 2^s ≤ `limit` for every v.
+fn shift_for(values: impl Iterator<Item = f64>, limit: f64, max: u8) -> u8 {
+    let largest = values.map(f64::abs).fold(0.0, f64::max);
+    (0..=max)
+        .rev()
+        .find(|&s| largest * 2f64.powi(i32::from(s)) <= limit)
+        .unwrap_or(0)
+}
+
+fn q824(v: f64) -> Result<i32, StagesError> {
+    let q = (v * f64::from(1u32 << 24)).round();
+    if q.is_finite() && q.abs() <= f64::from(i32::MAX) {
+        Ok(q as i32)
+    } else {
+        Err(StagesError::OutOfRange(format!("{v} does not fit Q8.24")))
+    }
+}
+
+fn encode(
+    actor_space: &Space,
+    neutral: &[[f64; 3]],
+    head: &[usize],
+    max_displacement: f64,
+    fill: &[Vec<(usize, f64)>],
+    map: &RetargetMap,
+) -> Result<StagesBytes, StagesError> {
+    let limit = f64::from(NEUTRAL_LIMIT) / f64::from(1u32 << 24);
+    let mut actor_neutral = Vec::new();
+    for p in neutral {
+        for &c in p {
+            actor_neutral.extend_from_slice(&q824(c)?.to_le_bytes());
+        }
+    }
+    let head_markers = head
+        .iter()
+        .map(|&h| u8::try_from(h).map_err(|_| StagesError::OutOfRange(format!("head marker {h}"))))
+        .collect::<Result<Vec<u8>, _>>()?;
+    if !(max_displacement > 0.0 && max_displacement <= 64.0) {
+        return Err(StagesError::OutOfRange(format!(
+            "max displacement {max_displacement} must be in (0, 64] actor units"
+        )));
+    }
+    let mut fill_bytes = Vec::new();
+    for row in fill {
+        for slot in 0..FILL_NEIGHBOURS {
+            let word = match row.get(slot) {
+                Some(&(k, w)) => {
+                    let q = (w * f64::from(1u32 << FILL_FRAC_BITS)).round().max(1.0) as i32;
+                    pack_influence(k as u8, q)
+                        .ok_or_else(|| StagesError::OutOfRange(format!("fill weight {w}")))?
+                }
+                None => 0,
+            };
+            fill_bytes.extend_from_slice(&word.to_le_bytes());
+        }
+    }
+    let mut radii = Vec::new();
+    for &r in map.radii() {
+        if !(r > 0.0 && r <= limit) {
+            return Err(StagesError::OutOfRange(format!(
+                "retarget radius {r} actor units is outside (0, {limit}]"
+            )));
+        }
+        radii.extend_from_slice(&q824(r)?.max(1).to_le_bytes());
+    }
+    let alpha_f = normalised_alpha(map);
+    let alpha_limit = f64::from((1 << 23) - 1);
+    let alpha_shift = shift_for(
+        alpha_f.iter().flatten().copied(),
+        alpha_limit,
+        MAX_ALPHA_SHIFT,
+    );
+    let scale = 2f64.powi(i32::from(alpha_shift));
+    let mut alpha = Vec::new();
+    for a in alpha_f.iter().flatten() {
+        let q = (a * scale).round();
+        if q.abs() > alpha_limit {
+            return Err(StagesError::OutOfRange(format!(
+                "retarget coefficient {a} is too large for the runtime's 24-bit format"
+            )));
+        }
+        alpha.extend_from_slice(&(q as i32).to_le_bytes());
+    }
+    let c = map.coefficients();
+    let n = neutral.len();
+    // L[row][axis] = β_axis[row]; b = β₀.
+    let linear_f: [f64; 9] = core::array::from_fn(|i| c[(n + 1 + i % 3, i / 3)]);
+    let linear_shift = shift_for(linear_f.iter().copied(), f64::from(i32::MAX), 40).max(1);
+    let ls = 2f64.powi(i32::from(linear_shift));
+    let linear = linear_f.map(|v| (v * ls).round() as i32);
+    let offset = [q824(c[(n, 0)])?, q824(c[(n, 1)])?, q824(c[(n, 2)])?];
+    Ok(StagesBytes {
+        actor_space: *actor_space,
+        actor_neutral,
+        head_markers,
+        max_displacement: q824(max_displacement)?,
+        fill: fill_bytes,
+        radii,
+        alpha_shift,
+        alpha,
+        linear_shift,
+        linear,
+        offset,
+    })
+}

@@ -1,0 +1,448 @@
+//! Head-motion compensation in fixed point: the least-squares rotation and translation carrying
+//! the neutral head markers onto the current ones (Horn's quaternion method), so that every
+//! marker can be brought back into the neutral head's frame.
+//!
+//! # Method, and why it is bounded
+//!
+//! With the centred neutral points pᵢ and current points qᵢ, the cross-covariance
+//! S = Σ pᵢ qᵢᵀ gives Horn's symmetric 4 × 4 matrix N; the rotation's quaternion is N's
+//! eigenvector of the largest eigenvalue. Shifting N by its Gershgorin bound σ makes every
+//! eigenvalue of A = N + σI non-negative, so that eigenvector is A's dominant one, and
+//! [`SQUARINGS`] repeated squarings A ← A² (each renormalised by a power of two) raise A to the
+//! power 2³²: every other direction shrinks by (λ₂/λ₁)^(2³²). Any column of the result is then
+//! the eigenvector up to scale; the one with the largest diagonal entry is taken and normalised
+//! ([`crate::sqrt::normalize`]). No loop depends on the data; the cost is fixed.
+//!
+//! Formats: positions Q8.24 (actor units), centred coordinates clamped to ±2²⁸ (16 units: a head
+//! is at most a few units across), S in `i64` (at most 32 products below 2⁵⁶), N and A
+//! renormalised to entries below 2³⁰ (products of four below 2⁶²), the quaternion and the
+//! rotation matrix Q1.30.
+
+use crate::fixed::round_shift_sat;
+use crate::sqrt::{isqrt_u64, normalize, UNIT_FRAC_BITS};
+
+/// Squarings of Horn's shifted matrix: it is raised to the power 2^SQUARINGS.
+pub const SQUARINGS: usize = 32;
+/// Centred coordinates are clamped to this magnitude (16 actor units in Q8.24) before products.
+const CENTRED_LIMIT: i64 = 1 << 28;
+/// Output positions are clamped to this magnitude (64 actor units), the input limit.
+const POSITION_LIMIT: i64 = 1 << 30;
+
+/// A rigid motion from the neutral head to the current frame: `q = R (p − c_n) + c_q`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RigidFit {
+    /// R, row-major, Q1.30.
+    pub rotation: [[i32; 3]; 3],
+    /// Centroid of the fitted neutral head markers, Q8.24.
+    pub neutral_centroid: [i32; 3],
+    /// Centroid of the same markers in the current frame, Q8.24.
+    pub current_centroid: [i32; 3],
+}
+
+impl RigidFit {
+    /// No motion.
+    pub const IDENTITY: Self = Self {
+        rotation: [[1 << 30, 0, 0], [0, 1 << 30, 0], [0, 0, 1 << 30]],
+        neutral_centroid: [0; 3],
+        current_centroid: [0; 3],
+    };
+
+    /// A current-frame point in the neutral head's frame: `Rᵀ (q − c_q) + c_n`, saturated to
+    /// ±64 actor units.
+    pub fn compensate(&self, q: [i32; 3]) -> [i32; 3] {
+        let r = &self.rotation;
+        transform(
+            |i, j| r[j][i],
+            q,
+            self.current_centroid,
+            self.neutral_centroid,
+        )
+    }
+
+    /// A neutral-frame point moved with the head: `R (p − c_n) + c_q`, saturated like
+    /// [`Self::compensate`].
+    pub fn apply(&self, p: [i32; 3]) -> [i32; 3] {
+        let r = &self.rotation;
+        transform(
+            |i, j| r[i][j],
+            p,
+            self.neutral_centroid,
+            self.current_centroid,
+        )
+    }
+}
+
+/// `M (p − from) + to` for a Q1.30 matrix given entry by entry, saturated to ±64 units.
+fn transform(
+    m: impl Fn(usize, usize) -> i32,
+    p: [i32; 3],
+    from: [i32; 3],
+    to: [i32; 3],
+) -> [i32; 3] {
+    let d = [0, 1, 2].map(|c| {
+        (i64::from(p[c]) - i64::from(from[c])).clamp(-i64::from(i32::MAX), i64::from(i32::MAX))
+    });
+    [0, 1, 2].map(|i| {
+        // |d| < 2^31, |m| ≤ 2^30: three products below 2^63.
+        let acc: i64 = (0..3).map(|j| i64::from(m(i, j)) * d[j]).sum();
+        let v = i64::from(round_shift_sat(acc, UNIT_FRAC_BITS)) + i64::from(to[i]);
+        v.clamp(-POSITION_LIMIT, POSITION_LIMIT) as i32
+    })
+}
+
+/// Why no rigid motion could be fitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FitFailure {
+    /// Fewer than three head markers present.
+    TooFew,
+    /// The present head markers are (nearly) collinear in the neutral frame: a rotation about
+    /// their line is undetermined.
+    Collinear,
+}
+
+/// Corresponding head-marker positions: neutral and current, Q8.24, at most
+/// [`super::MAX_HEAD_MARKERS`].
+pub struct HeadPairs {
+    neutral: [[i32; 3]; super::MAX_HEAD_MARKERS],
+    current: [[i32; 3]; super::MAX_HEAD_MARKERS],
+    len: usize,
+}
+
+impl Default for HeadPairs {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl HeadPairs {
+    /// No pairs.
+    pub const fn new() -> Self {
+        Self {
+            neutral: [[0; 3]; super::MAX_HEAD_MARKERS],
+            current: [[0; 3]; super::MAX_HEAD_MARKERS],
+            len: 0,
+        }
+    }
+
+    /// Add a pair; ignored beyond [`super::MAX_HEAD_MARKERS`] (the loader caps head markers
+    /// there, so it never happens with a loaded rig).
+    pub fn push(&mut self, neutral: [i32; 3], current: [i32; 3]) {
+        if self.len < super::MAX_HEAD_MARKERS {
+            self.neutral[self.len] = neutral;
+            self.current[self.len] = current;
+            self.len += 1;
+        }
+    }
+
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Keep only the pairs for which `keep(index)` holds, in order.
+    pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
+        let mut out = 0;
+        for i in 0..self.len {
+            if keep(i) {
+                self.neutral[out] = self.neutral[i];
+                self.current[out] = self.current[i];
+                out += 1;
+            }
+        }
+        self.len = out;
+    }
+
+    /// Per pair, the distance between the fitted neutral point and the current one, Q8.24
+    /// (saturated to 2²⁸).
+    pub fn residual(&self, fit: &RigidFit, i: usize) -> i32 {
+        let moved = fit.apply(self.neutral[i]);
+        let sq: u64 = (0..3)
+            .map(|c| {
+                let d = (i64::from(moved[c]) - i64::from(self.current[i][c]))
+                    .clamp(-CENTRED_LIMIT, CENTRED_LIMIT);
+                (d * d) as u64
+            })
+            .sum();
+        isqrt_u64(sq) as i32
+    }
+
+    /// Root-mean-square residual over all pairs, Q8.24.
+    pub fn rms_residual(&self, fit: &RigidFit) -> i32 {
+        if self.len == 0 {
+            return 0;
+        }
+        // Each squared residual is below 3 · 2^56; 32 of them fit a u64.
+        let sum: u64 = (0..self.len)
+            .map(|i| {
+                let r = u64::from(self.residual(fit, i).unsigned_abs());
+                r * r
+            })
+            .sum();
+        isqrt_u64(sum / self.len as u64) as i32
+    }
+
+    /// The least-squares rigid motion carrying the neutral points onto the current ones.
+    pub fn fit(&self) -> Result<RigidFit, FitFailure> {
+        let n = self.len;
+        if n < 3 {
+            return Err(FitFailure::TooFew);
+        }
+        let cn = centroid(&self.neutral[..n]);
+        let cq = centroid(&self.current[..n]);
+        let centred = |p: [i32; 3], c: [i32; 3]| {
+            [0, 1, 2]
+                .map(|k| (i64::from(p[k]) - i64::from(c[k])).clamp(-CENTRED_LIMIT, CENTRED_LIMIT))
+        };
+        if collinear(self.neutral[..n].iter().map(|&p| centred(p, cn))) {
+            return Err(FitFailure::Collinear);
+        }
+        let mut s = [[0i64; 3]; 3];
+        for (p, q) in self.neutral[..n].iter().zip(&self.current[..n]) {
+            let p = centred(*p, cn);
+            let q = centred(*q, cq);
+            for a in 0..3 {
+                for b in 0..3 {
+                    s[a][b] += p[a] * q[b];
+                }
+            }
+        }
+        let quaternion = dominant_quaternion(&s).ok_or(FitFailure::Collinear)?;
+        Ok(RigidFit {
+            rotation: rotation_from(quaternion),
+            neutral_centroid: cn,
+            current_centroid: cq,
+        })
+    }
+}
+
+/// Mean of at most 32 points, rounded to nearest.
+fn centroid(points: &[[i32; 3]]) -> [i32; 3] {
+    let n = points.len().max(1) as i64;
+    [0, 1, 2].map(|c| {
+        let sum: i64 = points.iter().map(|p| i64::from(p[c])).sum();
+        let half = if sum >= 0 { n / 2 } else { -(n / 2) };
+        ((sum + half) / n) as i32
+    })
+}
+
+/// Whether centred points lie within about 3.6° of one line through their centroid: every
+/// point's cross product with the farthest point is below 1/16 of that point's squared length.
+fn collinear(points: impl Iterator<Item = [i64; 3]> + Clone) -> bool {
+    // Coarse coordinates (2^-10 units) keep the products small; a head spans thousands of them.
+    let coarse = |p: [i64; 3]| p.map(|c| c >> 14);
+    let sq = |p: [i64; 3]| p.iter().map(|c| c * c).sum::<i64>();
+    let Some(far) = points.clone().map(coarse).max_by_key(|&p| sq(p)) else {
+        return true;
+    };
+    let far_sq = sq(far) as u128;
+    if far_sq == 0 {
+        return true;
+    }
+    let widest = points
+        .map(coarse)
+        .map(|p| {
+            let x = [
+                far[1] * p[2] - far[2] * p[1],
+                far[2] * p[0] - far[0] * p[2],
+                far[0] * p[1] - far[1] * p[0],
+            ];
+            sq(x) as u128
+        })
+        .max()
+        .unwrap_or(0);
+    widest * 256 < far_sq * far_sq
+}
+
+/// Horn's quaternion (w, x, y, z) of the rotation maximising Σ qᵢ · R pᵢ, Q1.30, w ≥ 0.
+fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
+    // Bring S to entries below 2^28 so N's sums of three stay below 2^30.
+    let s = renormalise3(s)?;
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+    let n = [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ];
+    // Gershgorin: every eigenvalue is at least −max_i Σ_j |N_ij|.
+    let sigma = n
+        .iter()
+        .map(|row| row.iter().map(|v| v.abs()).sum::<i64>())
+        .max()
+        .unwrap_or(0);
+    let mut a = n;
+    for (i, row) in a.iter_mut().enumerate() {
+        row[i] += sigma;
+    }
+    let mut a = renormalise4(&a)?;
+    for _ in 0..SQUARINGS {
+        let mut sq = [[0i64; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                sq[i][j] = (0..4).map(|k| a[i][k] * a[k][j]).sum();
+            }
+        }
+        a = renormalise4(&sq)?;
+    }
+    let col = (0..4).max_by_key(|&j| a[j][j]).unwrap_or(0);
+    let mut q = normalize([a[0][col], a[1][col], a[2][col], a[3][col]])?;
+    if q[0] < 0 {
+        q = q.map(|c| -c);
+    }
+    Some(q)
+}
+
+/// Shift so the largest magnitude has its top bit at `bits − 1` (exact for left shifts, floor
+/// for right shifts); `None` for an all-zero matrix.
+fn shift_for(largest: u64, bits: i32) -> Option<i32> {
+    if largest == 0 {
+        return None;
+    }
+    Some((64 - largest.leading_zeros() as i32) - bits)
+}
+
+fn apply_shift(v: i64, shift: i32) -> i64 {
+    if shift >= 0 {
+        v >> shift
+    } else {
+        v << -shift
+    }
+}
+
+fn renormalise3(m: &[[i64; 3]; 3]) -> Option<[[i64; 3]; 3]> {
+    let largest = m
+        .iter()
+        .flatten()
+        .map(|v| v.unsigned_abs())
+        .max()
+        .unwrap_or(0);
+    let shift = shift_for(largest, 28)?;
+    Some(m.map(|row| row.map(|v| apply_shift(v, shift))))
+}
+
+fn renormalise4(m: &[[i64; 4]; 4]) -> Option<[[i64; 4]; 4]> {
+    let largest = m
+        .iter()
+        .flatten()
+        .map(|v| v.unsigned_abs())
+        .max()
+        .unwrap_or(0);
+    let shift = shift_for(largest, 30)?;
+    Some(m.map(|row| row.map(|v| apply_shift(v, shift))))
+}
+
+/// The rotation matrix of a unit quaternion (w, x, y, z), both Q1.30.
+fn rotation_from(q: [i32; 4]) -> [[i32; 3]; 3] {
+    let [w, x, y, z] = q.map(i64::from);
+    // Products are Q2.60 below 2^60; sums of four below 2^62.
+    let r = |acc: i64| round_shift_sat(acc, UNIT_FRAC_BITS);
+    [
+        [
+            r(w * w + x * x - y * y - z * z),
+            r(2 * (x * y - w * z)),
+            r(2 * (x * z + w * y)),
+        ],
+        [
+            r(2 * (x * y + w * z)),
+            r(w * w - x * x + y * y - z * z),
+            r(2 * (y * z - w * x)),
+        ],
+        [
+            r(2 * (x * z - w * y)),
+            r(2 * (y * z + w * x)),
+            r(w * w - x * x - y * y + z * z),
+        ],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rot(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        let [x, y, z] = axis.map(|a| a / n);
+        let (s, c) = angle.sin_cos();
+        let t = 1.0 - c;
+        [
+            [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+            [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+        ]
+    }
+
+    fn q824(v: f64) -> i32 {
+        (v * f64::from(1 << 24)).round() as i32
+    }
+
+    /// Known rotations (up to 170°) and translations are recovered to a few LSB of Q1.30.
+    #[test]
+    fn recovers_known_rigid_motions() {
+        let head = [
+            [0.10, 0.90, 0.30],
+            [0.45, 0.80, 0.20],
+            [-0.35, 0.85, 0.25],
+            [0.00, 0.55, 0.50],
+            [0.30, 0.50, 0.40],
+        ];
+        let cases = [
+            ([0.0, 1.0, 0.0], 0.0, [0.0, 0.0, 0.0]),
+            ([0.0, 1.0, 0.0], 0.3, [0.5, -0.2, 1.0]),
+            ([1.0, 0.2, -0.4], -1.1, [-3.0, 2.0, 0.1]),
+            ([0.3, -0.8, 0.5], 2.9, [10.0, 0.0, -7.5]),
+            ([0.0, 0.0, 1.0], 1e-4, [0.0, 1e-5, 0.0]),
+        ];
+        for (axis, angle, t) in cases {
+            let r = rot(axis, angle);
+            let mut pairs = HeadPairs::new();
+            for p in head {
+                let q = [0, 1, 2].map(|i| (0..3).map(|j| r[i][j] * p[j]).sum::<f64>() + t[i]);
+                pairs.push(p.map(q824), q.map(q824));
+            }
+            let fit = pairs.fit().expect("five spread markers fit");
+            for (i, (row, got_row)) in r.iter().zip(&fit.rotation).enumerate() {
+                for (j, (want, got)) in row.iter().zip(got_row).enumerate() {
+                    let want = want * f64::from(1 << 30);
+                    let got = f64::from(*got);
+                    // The inputs are rounded to 2^-24, which alone moves R by ~2^-23.
+                    assert!(
+                        (got - want).abs() < 2f64.powi(9),
+                        "{axis:?} {angle}: R[{i}][{j}]"
+                    );
+                }
+            }
+            // Every marker maps back to its neutral position within a few LSB of Q8.24.
+            for k in 0..pairs.len() {
+                let back = fit.compensate(pairs.current[k]);
+                for c in 0..3 {
+                    assert!((back[c] - pairs.neutral[k][c]).abs() <= 4, "{back:?}");
+                }
+            }
+            assert!(pairs.rms_residual(&fit) <= 4);
+        }
+    }
+
+    #[test]
+    fn too_few_or_collinear_head_markers_are_reported() {
+        let mut pairs = HeadPairs::new();
+        pairs.push([0; 3], [0; 3]);
+        pairs.push([1 << 24, 0, 0], [1 << 24, 0, 0]);
+        assert_eq!(pairs.fit(), Err(FitFailure::TooFew));
+        pairs.push([2 << 24, 1, 0], [2 << 24, 0, 0]);
+        assert_eq!(pairs.fit(), Err(FitFailure::Collinear));
+        pairs.push([0, 1 << 24, 0], [0, 1 << 24, 0]);
+        assert!(pairs.fit().is_ok());
+    }
+
+    #[test]
+    fn identity_compensation_is_exact() {
+        let p = [123_456, -7_654_321, 1 << 29];
+        assert_eq!(RigidFit::IDENTITY.compensate(p), p);
+        assert_eq!(RigidFit::IDENTITY.apply(p), p);
+    }
+}

@@ -1,0 +1,153 @@
+//! The capture stages' part of the loader: every invalid field is rejected with its own error,
+//! and random damage to the stages section never makes loading or playing panic.
+
+use facebake::ground_truth::SplitMix64;
+use facebake::stages::StagesConfig;
+use facebake_runtime::format::{self, Bytes, LoadError, RigData, HEADER_LEN};
+use facebake_runtime::pipeline::{StagesError, StagesSection};
+use facebake_runtime::{PlayState, Rig};
+use facebake_tests::{jawmocap_rig, reseal, JawMoCapRig};
+
+fn rig() -> &'static JawMoCapRig {
+    static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| jawmocap_rig(&StagesConfig::default()))
+}
+
+fn seal(data: &RigData<'_>) -> Vec<u8> {
+    let payload = postcard::to_allocvec(data).unwrap();
+    let mut out = format::header_for(&payload).unwrap().to_vec();
+    out.extend_from_slice(&payload);
+    out
+}
+
+fn stages_error(data: &RigData<'_>) -> StagesError {
+    match Rig::from_bytes(&seal(data)) {
+        Err(LoadError::BadStages(e)) => e,
+        other => panic!("expected a stages error, got {other:?}"),
+    }
+}
+
+#[test]
+fn every_stages_error_is_distinct() {
+    let blob = &rig().blob;
+    let good = *Rig::from_bytes(blob).unwrap().data();
+    let s = good.stages.expect("stages");
+    let with = |f: &dyn Fn(&mut format::RigData<'_>)| {
+        let mut d = good;
+        f(&mut d);
+        stages_error(&d)
+    };
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().actor_space.half_extent = f32::NAN),
+        StagesError::BadActorSpace
+    );
+    let short = &s.actor_neutral.0[..12];
+    assert!(matches!(
+        with(&|d| d.stages.as_mut().unwrap().actor_neutral = Bytes(short)),
+        StagesError::SectionLength {
+            section: StagesSection::ActorNeutral,
+            ..
+        }
+    ));
+    let mut far = s.actor_neutral.0.to_vec();
+    far[12..16].copy_from_slice(&(5i32 << 24).to_le_bytes());
+    let far: &'static [u8] = far.leak();
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().actor_neutral = Bytes(far)),
+        StagesError::NeutralOutOfRange { marker: 1 }
+    );
+    for head in [&[0u8, 1][..], &[2, 1, 3], &[0, 1, 200], &[0; 33]] {
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().head_markers = Bytes(head)),
+            StagesError::BadHeadMarkers,
+            "{head:?}"
+        );
+    }
+    for bad in [0, -1, (1 << 30) + 1] {
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().max_displacement = bad),
+            StagesError::BadMaxDisplacement
+        );
+    }
+    let mut fill = s.fill.0.to_vec();
+    fill[16..20].copy_from_slice(&((1u32 << 16) << 8 | 1).to_le_bytes()); // marker 1 from itself
+    let fill: &'static [u8] = fill.leak();
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().fill = Bytes(fill)),
+        StagesError::BadFillNeighbour { marker: 1 }
+    );
+    let mut radii = s.retarget.radii.0.to_vec();
+    radii[8..12].copy_from_slice(&0i32.to_le_bytes());
+    let radii: &'static [u8] = radii.leak();
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().retarget.radii = Bytes(radii)),
+        StagesError::BadRadius { marker: 2 }
+    );
+    let mut alpha = s.retarget.alpha.0.to_vec();
+    alpha[36..40].copy_from_slice(&(1i32 << 23).to_le_bytes());
+    let alpha: &'static [u8] = alpha.leak();
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().retarget.alpha = Bytes(alpha)),
+        StagesError::AlphaOutOfRange { marker: 3 }
+    );
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().retarget.alpha_shift = 49),
+        StagesError::BadShift
+    );
+    assert_eq!(
+        with(&|d| d.stages.as_mut().unwrap().retarget.linear_shift = 0),
+        StagesError::BadShift
+    );
+    assert!(matches!(
+        with(&|d| d.stages.as_mut().unwrap().retarget.radii = Bytes(&[])),
+        StagesError::SectionLength {
+            section: StagesSection::Radii,
+            ..
+        }
+    ));
+}
+
+/// Random bytes written over the stages section (the payload's tail), resealed: loading never
+/// panics, and whatever loads plays frames (complete, empty, extreme) without panicking.
+#[test]
+fn resealed_damage_to_the_stages_never_panics() {
+    let blob = &rig().blob;
+    let good = *Rig::from_bytes(blob).unwrap().data();
+    let without = seal(&RigData {
+        stages: None,
+        ..good
+    });
+    let stages_len = blob.len() - without.len() + 1;
+    let start = blob.len() - stages_len;
+    assert!(start > HEADER_LEN);
+    let markers = good.marker_count as usize;
+    let frames: [Vec<Option<[i32; 3]>>; 4] = [
+        vec![Some([1 << 20, -(1 << 21), 3]); markers],
+        vec![None; markers],
+        vec![Some([i32::MAX, i32::MIN, 0]); markers],
+        (0..markers)
+            .map(|m| (m % 3 != 0).then_some([(m as i32) << 22, -(1 << 23), 1 << 24]))
+            .collect(),
+    ];
+    let mut rng = SplitMix64(7);
+    let mut loaded = 0;
+    for round in 0..4000 {
+        let mut c = blob.clone();
+        for _ in 0..1 + round % 3 {
+            let at = start + (rng.next_u64() % stages_len as u64) as usize;
+            c[at] = rng.next_u64() as u8;
+        }
+        reseal(&mut c);
+        if let Ok(rig) = Rig::from_bytes(&c) {
+            loaded += 1;
+            let mut state = PlayState::new();
+            let mut out = vec![[0; 3]; rig.vertex_count()];
+            for f in &frames {
+                if rig.stages().is_some() {
+                    rig.play(&mut state, f, &mut out).unwrap();
+                }
+            }
+        }
+    }
+    assert!(loaded > 100, "only {loaded} of 4000 damaged stages loaded");
+}
