@@ -261,7 +261,7 @@ fn collinear(points: impl Iterator<Item = [i64; 3]> + Clone) -> bool {
 /// Horn's quaternion (w, x, y, z) of the rotation maximising Σ qᵢ · R pᵢ, Q1.30, w ≥ 0.
 fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     // Bring S to entries below 2^28 so N's sums of three stay below 2^30.
-    let s = renormalise3(s)?;
+    let s = renormalise(s, 28)?;
     let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
     let n = [
         [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
@@ -279,7 +279,7 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     for (i, row) in a.iter_mut().enumerate() {
         row[i] += sigma;
     }
-    let mut a = renormalise4(&a)?;
+    let mut a = renormalise(&a, 30)?;
     for _ in 0..SQUARINGS {
         let mut sq = [[0i64; 4]; 4];
         for i in 0..4 {
@@ -287,7 +287,7 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
                 sq[i][j] = (0..4).map(|k| a[i][k] * a[k][j]).sum();
             }
         }
-        a = renormalise4(&sq)?;
+        a = renormalise(&sq, 30)?;
     }
     let col = (0..4).max_by_key(|&j| a[j][j]).unwrap_or(0);
     let mut q = normalize([a[0][col], a[1][col], a[2][col], a[3][col]])?;
@@ -314,25 +314,15 @@ fn apply_shift(v: i64, shift: i32) -> i64 {
     }
 }
 
-fn renormalise3(m: &[[i64; 3]; 3]) -> Option<[[i64; 3]; 3]> {
+/// Shift every entry so the largest has its top bit at `bits − 1`; `None` for all zeros.
+fn renormalise<const N: usize>(m: &[[i64; N]; N], bits: i32) -> Option<[[i64; N]; N]> {
     let largest = m
         .iter()
         .flatten()
         .map(|v| v.unsigned_abs())
         .max()
         .unwrap_or(0);
-    let shift = shift_for(largest, 28)?;
-    Some(m.map(|row| row.map(|v| apply_shift(v, shift))))
-}
-
-fn renormalise4(m: &[[i64; 4]; 4]) -> Option<[[i64; 4]; 4]> {
-    let largest = m
-        .iter()
-        .flatten()
-        .map(|v| v.unsigned_abs())
-        .max()
-        .unwrap_or(0);
-    let shift = shift_for(largest, 30)?;
+    let shift = shift_for(largest, bits)?;
     Some(m.map(|row| row.map(|v| apply_shift(v, shift))))
 }
 
