@@ -119,9 +119,8 @@ pub struct StagesReport {
     pub head_markers: Vec<String>,
     /// Whether the baker picked them (most rigid subset).
     pub head_markers_picked: bool,
-    /// Mean standard deviation of the head markers' mutual distances, metres: over the
-    /// frames they were picked from, or over the neutral range for named markers (0 for one
-    /// frame).
+    /// Mean standard deviation of the head markers' mutual distances over the capture's
+    /// complete frames, metres.
     pub head_spread: f64,
     /// Frames averaged into the neutral pose.
     pub neutral_frames: Range<usize>,
@@ -403,21 +402,14 @@ pub fn bake_stages(
             if idx.len() != names.len() || !(3..=MAX_HEAD_MARKERS).contains(&idx.len()) {
                 return Err(StagesError::HeadMarkerCount(names.len()));
             }
-            let spread = spread_of(&neutral_frames, &idx);
+            let spread = spread_of(&complete_sample(capture, &columns), &idx);
             (idx, false, spread)
         }
         HeadMarkers::MostRigid(size) => {
             if !(3..=MAX_HEAD_MARKERS).contains(size) {
                 return Err(StagesError::HeadMarkerCount(*size));
             }
-            let complete: Vec<Vec<[f64; 3]>> = capture
-                .frames
-                .iter()
-                .filter_map(|f| columns.iter().map(|&c| f[c]).collect::<Option<Vec<_>>>())
-                .collect();
-            let step = complete.len().div_ceil(600).max(1);
-            let sample: Vec<Vec<[f64; 3]>> = complete.into_iter().step_by(step).collect();
-            let (idx, spread) = most_rigid_subset(&sample, *size)?;
+            let (idx, spread) = most_rigid_subset(&complete_sample(capture, &columns), *size)?;
             (idx, true, spread)
         }
     };
@@ -485,6 +477,18 @@ pub fn bake_stages(
         reference,
         report,
     })
+}
+
+/// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in
+/// rig marker order.
+fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
+    let complete: Vec<Vec<[f64; 3]>> = capture
+        .frames
+        .iter()
+        .filter_map(|f| columns.iter().map(|&c| f[c]).collect::<Option<Vec<_>>>())
+        .collect();
+    let step = complete.len().div_ceil(600).max(1);
+    complete.into_iter().step_by(step).collect()
 }
 
 /// Mean standard deviation of the pairwise distances of `idx` over `frames`.

@@ -6,12 +6,16 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::{emit, print_json, weight_format, write_file, CliError};
+use std::ops::Range;
+
+use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
+use crate::io::capture::{read_capture_with_units, Units};
 use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
 use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
+use crate::stages::{bake_stages, HeadMarkers, StagesConfig, StagesReport};
 
 /// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
 /// bounding-box diagonal.
@@ -59,6 +63,25 @@ pub struct BakeArgs {
     /// (default: 1% of the mesh's bounding-box diagonal).
     #[arg(long, value_name = "D")]
     pub max_snap: Option<f64>,
+    /// The actor's capture (.c3d, .trc or .csv): also bake the capture stages (head-motion
+    /// compensation, fill, retargeting onto the layout's markers) from it, so that `play`
+    /// takes this actor's raw captures. Its markers are matched to the layout's by name.
+    #[arg(long, value_name = "CAPTURE")]
+    pub capture: Option<PathBuf>,
+    /// Units of the capture's numbers, overriding what the file says.
+    #[arg(long, value_name = "UNITS", value_parser = parse_units, requires = "capture")]
+    pub capture_units: Option<Units>,
+    /// The actor's neutral pose: a frame `N` or a range `A..B` averaged (0-based, B excluded).
+    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames, requires = "capture")]
+    pub neutral: Range<usize>,
+    /// Head markers for compensation: comma-separated names, `auto` (the 4 most rigid over
+    /// the capture), `auto:N`, or `none` (the capture is already head-stabilised).
+    #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head, requires = "capture")]
+    pub head_markers: HeadMarkers,
+    /// A compensated marker further than this from its neutral position is rejected and
+    /// rebuilt, as a fraction of the actor's half extent.
+    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, requires = "capture")]
+    pub max_displacement: f64,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -109,6 +132,8 @@ pub struct BakeSummary {
     pub bytes_per_influence: f64,
     /// The bake's own report.
     pub report: BakeReport,
+    /// The capture stages, if a capture was given.
+    pub stages: Option<StagesReport>,
 }
 
 /// Place `layout` on `mesh` (snapping `point` markers at most `max_snap`, default 1% of the
@@ -146,8 +171,30 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     let layout = read_layout(&args.layout)?;
     let config = args.config();
     let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
-    write_file(&args.output, &baked.blob)?;
-    let report = baked.report;
+    let (blob, stages) = match &args.capture {
+        Some(path) => {
+            let capture = read_capture_with_units(path, args.capture_units)?;
+            let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+            let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+            let space = super::load_rig(&args.output, &baked.blob)?.space();
+            let config = StagesConfig {
+                neutral: args.neutral.clone(),
+                head: args.head_markers.clone(),
+                max_displacement: args.max_displacement,
+            };
+            let stages = bake_stages(&capture, &names, &character, &space, &config)
+                .map_err(|e| CliError::input(path, e.to_string()))?;
+            let blob = crate::blob::with_stages(&baked.blob, &stages.bytes)
+                .map_err(|e| CliError::input(path, e.to_string()))?;
+            (blob, Some(stages.report))
+        }
+        None => (baked.blob.clone(), None),
+    };
+    write_file(&args.output, &blob)?;
+    let mut report = baked.report;
+    report.sizes.total = blob.len();
+    report.sizes.other_bytes_per_vertex =
+        (blob.len() - report.sizes.influence_bytes) as f64 / mesh.positions.len().max(1) as f64;
     let summary = BakeSummary {
         output: args.output.clone(),
         mesh: args.mesh.clone(),
@@ -164,6 +211,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         bytes_per_influence: report.sizes.influence_bytes as f64
             / report.sizes.influences.max(1) as f64,
         report,
+        stages,
     };
     if args.json {
         print_json(&summary);
@@ -259,9 +307,82 @@ fn print_text(s: &BakeSummary) {
         s.bytes_per_influence,
         r.sizes.other_bytes_per_vertex
     );
+    if let Some(st) = &s.stages {
+        outln!(
+            out,
+            "  capture       neutral frames {:?}, actor half extent {:.1} mm (capture in {})",
+            st.neutral_frames,
+            st.actor_half_extent * 1000.0,
+            st.units
+        );
+        outln!(
+            out,
+            "  head markers  {} ({}; their distances vary by {:.3} mm)",
+            st.head_markers.join(", "),
+            if st.head_markers_picked {
+                "the most rigid, picked by the baker"
+            } else {
+                "as named"
+            },
+            st.head_spread * 1000.0
+        );
+        outln!(
+            out,
+            "  retargeting   IMQ + affine, condition {:.3e}, largest coefficient rounding {:.2e}",
+            st.retarget_condition,
+            st.max_alpha_rounding
+        );
+        if !st.unused_capture_markers.is_empty() {
+            outln!(
+                out,
+                "  not used      capture markers without a place on the character: {}",
+                st.unused_capture_markers.join(", ")
+            );
+        }
+    }
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
     outln!(out, "wrote {}", s.output.display());
     emit(&out);
+}
+
+/// Parse `--neutral`: `N` or `A..B`.
+pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("{t:?} is not a frame number"))
+    };
+    match s.split_once("..") {
+        Some((a, b)) => {
+            let (a, b) = (num(a)?, num(b)?);
+            if a < b {
+                Ok(a..b)
+            } else {
+                Err(format!("{s}: an empty range of frames"))
+            }
+        }
+        None => num(s).map(|n| n..n + 1),
+    }
+}
+
+/// Parse `--head-markers`: names, `auto`, `auto:N` or `none`.
+pub fn parse_head(s: &str) -> Result<HeadMarkers, String> {
+    match s.trim() {
+        "none" => Ok(HeadMarkers::None),
+        "auto" => Ok(HeadMarkers::MostRigid(4)),
+        t => match t.strip_prefix("auto:") {
+            Some(n) => n
+                .parse()
+                .map(HeadMarkers::MostRigid)
+                .map_err(|_| format!("{n:?} is not a number of head markers")),
+            None => Ok(HeadMarkers::Named(
+                t.split(',')
+                    .map(|n| n.trim().to_string())
+                    .filter(|n| !n.is_empty())
+                    .collect(),
+            )),
+        },
+    }
 }

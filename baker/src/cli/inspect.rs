@@ -83,6 +83,8 @@ pub struct Sections {
     pub matrix: usize,
     /// Influences (4 bytes each).
     pub influences: usize,
+    /// Capture stages' byte sections (neutral, head, fill, radii, coefficients).
+    pub stages: usize,
     /// Everything else: the space, counts and postcard length prefixes.
     pub other: usize,
 }
@@ -132,6 +134,21 @@ pub struct InspectSummary {
     pub other_bytes_per_vertex: f64,
     /// Per-frame cost.
     pub cost: CostSummary,
+    /// The capture stages, if the rig has them.
+    pub capture: Option<CaptureSummary>,
+}
+
+/// The capture stages of a rig, for `inspect`.
+#[derive(Debug, Serialize)]
+pub struct CaptureSummary {
+    /// Head markers, by name (empty: no compensation).
+    pub head_markers: Vec<String>,
+    /// The actor's half extent, metres.
+    pub actor_half_extent_m: f32,
+    /// Largest plausible compensated displacement, metres.
+    pub max_displacement_m: f64,
+    /// Per-frame work.
+    pub cost: String,
 }
 
 /// Describe a loaded rig whose blob is `bytes`.
@@ -155,7 +172,15 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             r.influences.0.len(),
         ),
     };
-    let known = HEADER_LEN
+    let stages_bytes = data.stages.map_or(0, |st| {
+        st.actor_neutral.0.len()
+            + st.head_markers.0.len()
+            + st.fill.0.len()
+            + st.retarget.radii.0.len()
+            + st.retarget.alpha.0.len()
+    });
+    let known = stages_bytes
+        + HEADER_LEN
         + data.marker_names.0.len()
         + data.marker_rest.0.len()
         + data.vertex_rest.0.len()
@@ -172,6 +197,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         row_shifts: shifts,
         matrix,
         influences,
+        stages: stages_bytes,
         other: bytes.len().saturating_sub(known),
     };
     let cost = rig.cost();
@@ -200,6 +226,24 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         other_bytes_per_vertex: (bytes.len() - sections.influences) as f64 / vertices.max(1) as f64,
         sections,
         cost: cost.into(),
+        capture: rig.stages().map(|st| {
+            let c = st.cost();
+            CaptureSummary {
+                head_markers: st
+                    .head_markers()
+                    .iter()
+                    .filter_map(|&h| rig.marker_names().nth(usize::from(h)))
+                    .map(str::to_string)
+                    .collect(),
+                actor_half_extent_m: st.actor_space.half_extent,
+                max_displacement_m: f64::from(st.max_displacement) / f64::from(1u32 << 24)
+                    * f64::from(st.actor_space.half_extent),
+                cost: format!(
+                    "{} markers: at most {} rigid fits of {} head markers ({} 4×4 squarings), {} fill terms, {} inverse-multiquadric kernels",
+                    c.markers, c.rigid_fits, c.head_markers, c.horn_squarings, c.fill_terms, c.retarget_kernels
+                ),
+            }
+        }),
     }
 }
 
@@ -281,5 +325,16 @@ fn print_text(s: &InspectSummary) {
         sec.other
     );
     outln!(out, "  per frame     {}", s.cost.text);
+    if let Some(c) = &s.capture {
+        outln!(
+            out,
+            "  capture       head markers {}; actor half extent {:.1} mm; rejects displacements over {:.1} mm; stages {} bytes",
+            if c.head_markers.is_empty() { "none".to_string() } else { c.head_markers.join(", ") },
+            c.actor_half_extent_m * 1000.0,
+            c.max_displacement_m * 1000.0,
+            sec.stages
+        );
+        outln!(out, "  per frame     + capture stages: {}", c.cost);
+    }
     emit(&out);
 }

@@ -24,8 +24,10 @@ pub struct PlayArgs {
     /// The rig blob (.fbk).
     #[arg(value_name = "RIG")]
     pub rig: PathBuf,
-    /// The marker capture (.csv, .trc or .c3d). Its markers are matched to the rig's by name;
-    /// it must be in the character's space (no solving for head motion yet).
+    /// The marker capture (.csv, .trc or .c3d). Its markers are matched to the rig's by name.
+    /// A rig baked with a capture (`bake --capture`) takes the actor's raw capture: head motion,
+    /// missing samples and retargeting are solved per frame by the runtime. A rig without
+    /// stages takes markers already in the character's space, with none missing.
     #[arg(long, value_name = "CAPTURE")]
     pub markers: PathBuf,
     /// Units of the capture's numbers, overriding what the file says (needed for a CSV
@@ -81,6 +83,80 @@ pub struct PlaySummary {
     pub glb: Option<PathBuf>,
     /// Frames in the `.glb`.
     pub glb_frames: Vec<usize>,
+    /// What the capture stages did, for a rig that has them.
+    pub stages: Option<StagesSummary>,
+}
+
+/// What the runtime's capture stages did over a whole capture.
+#[derive(Debug, Default, Serialize)]
+pub struct StagesSummary {
+    /// Samples missing in the capture.
+    pub missing_samples: usize,
+    /// Samples given but rejected (out of range, or implausibly far from neutral).
+    pub rejected_samples: usize,
+    /// Samples rebuilt from neighbouring markers.
+    pub rebuilt_samples: usize,
+    /// Samples held at their last good value.
+    pub held_samples: usize,
+    /// Frames whose head fit was held from an earlier frame.
+    pub frames_head_held: usize,
+    /// Mean RMS residual of the head fit, mm (over fitted frames).
+    pub head_residual_mean_mm: f64,
+    /// Largest RMS residual of the head fit, mm.
+    pub head_residual_max_mm: f64,
+}
+
+/// Play an actor's capture (metres) through a rig's capture stages: vertices per frame (asset
+/// units) and the summary.
+pub fn play_stages(
+    rig: &facebake_runtime::Rig<'_>,
+    path: &Path,
+    frames: &[Vec<Option<[f64; 3]>>],
+    mut each: impl FnMut(usize, &[[f64; 3]]),
+) -> Result<StagesSummary, CliError> {
+    use facebake_runtime::pipeline::RigidStatus;
+    let stages = rig
+        .stages()
+        .ok_or_else(|| CliError::input(path, "the rig has no capture stages"))?;
+    let actor_space = stages.actor_space;
+    let unit = f64::from(actor_space.half_extent) * 1000.0 / f64::from(1u32 << 24);
+    let space = rig.space();
+    let mut state = facebake_runtime::PlayState::new();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut s = StagesSummary::default();
+    let mut fitted = 0usize;
+    for (f, frame) in frames.iter().enumerate() {
+        let mut unconvertible = 0;
+        let actor: Vec<Option<[i32; 3]>> = frame
+            .iter()
+            .map(|p| {
+                let q = p.and_then(|p| actor_space.to_rig_f64(p).ok());
+                unconvertible += usize::from(p.is_some() && q.is_none());
+                q
+            })
+            .collect();
+        let report = rig
+            .play(&mut state, &actor, &mut out)
+            .map_err(|e| CliError::input(path, format!("frame {f}: {e}")))?;
+        s.missing_samples += frame.iter().filter(|p| p.is_none()).count();
+        s.rejected_samples += report.rejected.len() + unconvertible;
+        s.rebuilt_samples += report.rebuilt.len();
+        s.held_samples += report.held.len();
+        match report.rigid {
+            RigidStatus::Held(_) => s.frames_head_held += 1,
+            RigidStatus::Fitted { .. } => {
+                let r = f64::from(report.rigid_residual) * unit;
+                s.head_residual_mean_mm += r;
+                s.head_residual_max_mm = s.head_residual_max_mm.max(r);
+                fitted += 1;
+            }
+            RigidStatus::NotUsed => {}
+        }
+        let positions: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+        each(f, &positions);
+    }
+    s.head_residual_mean_mm /= fitted.max(1) as f64;
+    Ok(s)
 }
 
 /// Marker positions per frame in mesh units, from a capture whose markers are already in the
@@ -153,7 +229,12 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     let names = marker_names(&rig);
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let capture = read_capture_with_units(&args.markers, args.capture_units)?.select(&name_refs)?;
-    let frames = capture_frames(&capture, args.units)?;
+    let raw = capture.in_metres().frames;
+    let frames = match rig.stages() {
+        Some(_) => Vec::new(),
+        None => capture_frames(&capture, args.units)?,
+    };
+    let frame_count = capture.frame_count();
     let n = rig.vertex_count();
     // Check everything the .glb needs before the long part.
     let glb = match &args.glb {
@@ -164,15 +245,15 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             let mesh = load_matching_mesh(mesh_path, args.mesh_name.as_deref(), n)?;
             let chosen = match &args.frames {
                 Some(list) => list.clone(),
-                None => evenly_spaced(frames.len(), DEFAULT_GLB_FRAMES),
+                None => evenly_spaced(frame_count, DEFAULT_GLB_FRAMES),
             };
-            if let Some(&bad) = chosen.iter().find(|&&f| f >= frames.len()) {
+            if let Some(&bad) = chosen.iter().find(|&&f| f >= frame_count) {
                 return Err(CliError::input(
                     &args.markers,
                     format!(
                         "--frames asks for frame {bad}; the capture has {} (0 to {})",
-                        frames.len(),
-                        frames.len().saturating_sub(1)
+                        frame_count,
+                        frame_count.saturating_sub(1)
                     ),
                 ));
             }
@@ -180,18 +261,27 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         }
         None => None,
     };
-    let bar = progress(frames.len(), "playing", args.json);
+    let bar = progress(frame_count, "playing", args.json);
     let mut out = vec![[0i32; 3]; n];
-    let mut data: Vec<f32> = Vec::with_capacity(frames.len() * n * 3);
-    for (f, markers) in frames.iter().enumerate() {
-        let q = markers_to_rig(&rig, markers, f, &args.markers)?;
-        let positions = deform_to_asset(&rig, &args.rig, &q, &mut out)?;
-        data.extend(positions.iter().flatten().map(|&x| x as f32));
-        bar.inc(1);
-    }
+    let mut data: Vec<f32> = Vec::with_capacity(frame_count * n * 3);
+    let stages = if rig.stages().is_some() {
+        let summary = play_stages(&rig, &args.rig, &raw, |_, positions| {
+            data.extend(positions.iter().flatten().map(|&x| x as f32));
+            bar.inc(1);
+        })?;
+        Some(summary)
+    } else {
+        for (f, markers) in frames.iter().enumerate() {
+            let q = markers_to_rig(&rig, markers, f, &args.markers)?;
+            let positions = deform_to_asset(&rig, &args.rig, &q, &mut out)?;
+            data.extend(positions.iter().flatten().map(|&x| x as f32));
+            bar.inc(1);
+        }
+        None
+    };
     bar.finish_and_clear();
     ensure_parent(&args.output)?;
-    write_npy_f32(&args.output, &[frames.len(), n, 3], &data)
+    write_npy_f32(&args.output, &[frame_count, n, 3], &data)
         .map_err(|e| CliError::io(&args.output, e))?;
     let mut glb_frames = Vec::new();
     if let Some((path, mesh, chosen)) = &glb {
@@ -212,7 +302,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     let summary = PlaySummary {
         rig: args.rig.clone(),
         capture: args.markers.clone(),
-        frames: frames.len(),
+        frames: frame_count,
         vertices: n,
         markers: names.len(),
         rate_hz: capture.rate_hz,
@@ -221,6 +311,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         output: args.output.clone(),
         glb: glb.as_ref().map(|g| g.0.clone()),
         glb_frames,
+        stages,
     };
     if args.json {
         print_json(&summary);
@@ -243,6 +334,20 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             summary.frames,
             summary.vertices
         );
+        if let Some(st) = &summary.stages {
+            outln!(
+                out,
+                "capture stages: {} samples missing, {} rejected; {} rebuilt from neighbours, {} held; \
+                 head fit held in {} frames, head residual mean {:.3} mm, max {:.3} mm",
+                st.missing_samples,
+                st.rejected_samples,
+                st.rebuilt_samples,
+                st.held_samples,
+                st.frames_head_held,
+                st.head_residual_mean_mm,
+                st.head_residual_max_mm
+            );
+        }
         if let Some(path) = &summary.glb {
             outln!(
                 out,
