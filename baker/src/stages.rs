@@ -222,6 +222,17 @@ impl StagesF64 {
         state: &mut StateF64,
         frame: &[Option<[f64; 3]>],
     ) -> (Vec<[f64; 3]>, FrameReportF64) {
+        let (actor, report) = self.compensate(state, frame);
+        (actor.iter().map(|a| self.map.map(a)).collect(), report)
+    }
+
+    /// The first steps of [`Self::solve`]: one frame (metres) → every marker in the actor's
+    /// neutral head frame (actor units), missing ones rebuilt or held.
+    pub fn compensate(
+        &self,
+        state: &mut StateF64,
+        frame: &[Option<[f64; 3]>],
+    ) -> (Vec<[f64; 3]>, FrameReportF64) {
         let n = self.neutral.len();
         state.last.resize(n, None);
         let mut report = FrameReportF64::default();
@@ -313,8 +324,7 @@ impl StagesF64 {
         let out = (0..n)
             .map(|j| {
                 let d = disp[j].unwrap_or_default();
-                let a = [0, 1, 2].map(|c| self.neutral[j][c] + d[c]);
-                self.map.map(&a)
+                [0, 1, 2].map(|c| self.neutral[j][c] + d[c])
             })
             .collect();
         (out, report)

@@ -346,3 +346,101 @@ fn help_documents_the_exit_codes() {
         assert!(help.contains(command), "{command} missing from --help");
     }
 }
+
+#[test]
+fn demo_plays_the_capture_through_the_runtime_stages() {
+    let (dir, summary) = demo();
+    let m = &summary["mocap"];
+    assert_eq!(m["frames"], 1590, "{m}");
+    assert_eq!(m["markers"], 41);
+    assert!(m["runtime_vs_f64_fraction"].as_f64().unwrap() < 2e-5, "{m}");
+    let residual = m["stages"]["head_residual_mean_mm"].as_f64().unwrap();
+    assert!((0.2..0.4).contains(&residual), "{m}");
+    let (doc, _, _) = gltf::import(dir.join("jawmocap_demo.glb")).expect("the GLB loads");
+    let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
+    assert_eq!(primitive.morph_targets().count(), 6);
+    let names: Vec<&str> = m["glb_frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f[0].as_str().unwrap())
+        .collect();
+    assert!(
+        names.iter().any(|n| n.starts_with("mouth open")),
+        "{names:?}"
+    );
+    assert!(
+        names.iter().any(|n| n.starts_with("jaw sideways")),
+        "{names:?}"
+    );
+    let (shape, _) = read_npy_f32(&dir.join("jawmocap_frames.npy")).unwrap();
+    assert_eq!(shape, [1590, VERTICES, 3]);
+}
+
+#[test]
+fn bake_with_a_capture_then_play_a_take_with_gaps() {
+    let dir = temp_dir("capture");
+    let rig = dir.join("jaw.fbk");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let trc = fixture("JawMoCap.trc");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &[
+            "--mesh-name",
+            "head",
+            "--capture",
+            s(&trc),
+            "--head-markers",
+            "ForeHead_M,ForeHead_L,ForeHead_R,NoseTop",
+            "--json",
+        ],
+    );
+    let summary = json_ok(&out);
+    assert_eq!(summary["stages"]["head_markers"][3], "NoseTop", "{summary}");
+    // The same take with marker 7's sample blanked in frames 3 to 5.
+    let text = std::fs::read_to_string(&trc).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for frame in 3..6 {
+        let row = lines
+            .iter()
+            .position(|l| l.split('\t').next() == Some(&frame.to_string()))
+            .unwrap();
+        let mut cells: Vec<String> = lines[row].split('\t').map(str::to_string).collect();
+        for c in 0..3 {
+            cells[2 + 3 * 7 + c].clear();
+        }
+        lines[row] = cells.join("\t");
+    }
+    let gappy = dir.join("gappy.trc");
+    std::fs::write(&gappy, lines.join("\n") + "\n").unwrap();
+    let out = facebake(&[
+        "play",
+        s(&rig),
+        "--markers",
+        s(&gappy),
+        "-o",
+        s(&dir.join("gappy.npy")),
+        "--json",
+    ]);
+    let played = json_ok(&out);
+    assert_eq!(played["frames"], 1590);
+    assert_eq!(played["stages"]["missing_samples"], 3, "{played}");
+    assert_eq!(played["stages"]["rebuilt_samples"], 3, "{played}");
+    // A head marker the rig does not have is bad input naming the capture.
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &[
+            "--mesh-name",
+            "head",
+            "--capture",
+            s(&trc),
+            "--head-markers",
+            "Nose,Chin,Ear",
+        ],
+    );
+    assert_bad_input(&out, "JawMoCap.trc");
+}

@@ -65,6 +65,10 @@ pub struct DemoArgs {
     /// Times the whole sequence is played for the speed figures.
     #[arg(long, value_name = "N", default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
     pub repetitions: u32,
+    /// A capture (C3D, TRC or CSV) with JawMoCap's 41 marker names to play on the head instead
+    /// of the bundled JawMoCap.
+    #[arg(long, value_name = "FILE")]
+    pub mocap: Option<PathBuf>,
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
@@ -135,6 +139,8 @@ pub struct DemoSummary {
     pub speed: Speed,
     /// Files written.
     pub files: Vec<Written>,
+    /// The capture played through compensation, retargeting and deformation.
+    pub mocap: super::mocap::MocapSummary,
 }
 
 /// The source tree's fixtures folder.
@@ -276,6 +282,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         &format!("{} runtime frames as morph targets", morphs.len()),
     );
 
+    let mocap = super::mocap::run(&fixtures, args.mocap.as_deref(), dir, args.json)?;
     let summary = DemoSummary {
         mesh: mesh_path,
         vertices: n,
@@ -298,6 +305,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         dense_vs_truth: stats(&mut e_dense, 1.0),
         speed,
         files,
+        mocap,
     };
     if args.json {
         print_json(&summary);
@@ -387,6 +395,7 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
         .find(|w| w.path.extension().is_some_and(|e| e == "csv"))
         .map(|w| w.path.display().to_string())
         .unwrap_or_default();
+    out.push_str(&super::mocap::text(&s.mocap));
     outln!(out, "try:");
     outln!(out, "  facebake inspect {}", rig_path.display());
     outln!(
@@ -400,5 +409,13 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
         "  facebake play {} --markers {capture} -o frames.npy",
         rig_path.display()
     );
+    if let Some((rig, _)) = s.mocap.files.first() {
+        outln!(
+            out,
+            "  facebake play {} --markers {} -o mocap.npy",
+            rig.display(),
+            s.mocap.capture.display()
+        );
+    }
     emit(&out);
 }

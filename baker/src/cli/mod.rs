@@ -15,6 +15,7 @@ macro_rules! outln {
 pub mod bake;
 pub mod demo;
 pub mod inspect;
+pub mod mocap;
 pub mod play;
 pub mod verify;
 
