@@ -24,7 +24,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::format::MAX_MARKERS;
-use facebake_runtime::Rig;
+use facebake_runtime::{PlayState, Rig};
 
 /// The golden rigs, by the names `hashes.txt` uses.
 const RIGS: [(&str, &[u8]); 3] = [
@@ -44,6 +44,11 @@ const RIGS: [(&str, &[u8]); 3] = [
 
 /// Every frame's markers: frames × markers × 3 `i32` LE, Q8.24.
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+
+/// The capture golden: a rig with capture stages and actor frames (per marker a presence byte
+/// and three `i32` LE, Q8.24 actor units).
+const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
+const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
 
 /// Most vertices a rig may have here: the output buffer lives on the stack (12 bytes a vertex).
 const MAX_VERTICES: usize = 3072;
@@ -109,6 +114,54 @@ fn play(name: &str, blob: &[u8], out: &mut [[i32; 3]; MAX_VERTICES]) {
     );
 }
 
+/// Play the capture golden: per frame the capture stages (bracketed for the instruction
+/// counter, after the deform frames), then the deformation, hashed as `hashes.txt` records them.
+fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES]) {
+    let rig = match Rig::from_bytes(CAPTURE) {
+        Ok(rig) => rig,
+        Err(e) => panic!("capture: the golden rig does not load: {e}"),
+    };
+    let Some(stages) = rig.stages() else {
+        panic!("capture: the golden rig has no stages")
+    };
+    let (m, v) = (rig.marker_count(), rig.vertex_count());
+    assert!(
+        v <= MAX_VERTICES,
+        "capture: {v} vertices, room for {MAX_VERTICES}"
+    );
+    let out = &mut out[..v];
+    let mut state = PlayState::new();
+    let mut actor = [None; MAX_MARKERS];
+    let mut markers = [[0i32; 3]; MAX_MARKERS];
+    let mut sequence = Fnv1a64::new();
+    let record = 13;
+    let mut frames = 0;
+    for frame in ACTOR.chunks_exact(m * record) {
+        for (a, r) in actor.iter_mut().zip(frame.chunks_exact(record)) {
+            let w = |i: usize| i32::from_le_bytes([r[i], r[i + 1], r[i + 2], r[i + 3]]);
+            *a = (r[0] == 1).then(|| [w(1), w(5), w(9)]);
+        }
+        frame_start(frames);
+        let report = stages.solve(&mut state, &actor[..m], &mut markers[..m]);
+        frame_end(frames);
+        if let Err(e) = rig.deform(&markers[..m], out) {
+            panic!("capture frame {frames}: {e}");
+        }
+        let mut h = Fnv1a64::new();
+        h.write_capture_frame(&markers[..m], out, &report);
+        sequence.write_capture_frame(&markers[..m], out, &report);
+        hprintln!("capture frame {} {:016x}", frames, h.finish());
+        frames += 1;
+    }
+    hprintln!("capture sequence {:016x}", sequence.finish());
+    hprintln!(
+        "figures capture: {} frames, blob {} bytes, per frame stages {:?}",
+        frames,
+        CAPTURE.len(),
+        stages.cost()
+    );
+}
+
 #[entry]
 fn main() -> ! {
     #[cfg(feature = "alloc-canary")]
@@ -125,6 +178,7 @@ fn main() -> ! {
     for (name, blob) in RIGS {
         play(name, blob, &mut out);
     }
+    play_capture(&mut out);
     hprintln!("firmware: done");
     debug::exit(debug::EXIT_SUCCESS);
     // Without a debugger or semihosting host, exit returns: park.
