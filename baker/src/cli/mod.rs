@@ -13,6 +13,7 @@ macro_rules! outln {
 }
 
 pub mod bake;
+pub mod compensate;
 pub mod demo;
 pub mod inspect;
 pub mod mocap;
@@ -75,6 +76,10 @@ pub enum Command {
     /// Bake and play the bundled FaceCap head end to end and report size, accuracy and speed.
     #[command(after_help = EXIT_CODES)]
     Demo(demo::DemoArgs),
+    /// Remove the head's rigid motion from a capture (offline), report the head-fit residual
+    /// per frame and estimate the rotation pivot.
+    #[command(after_help = EXIT_CODES)]
+    Compensate(compensate::CompensateArgs),
 }
 
 /// Why a command failed. Every variant's message names the file it is about.
@@ -173,6 +178,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Inspect(a) => inspect::run(&a),
         Command::Verify(a) => verify::run(&a),
         Command::Demo(a) => demo::run(&a),
+        Command::Compensate(a) => compensate::run(&a),
     }
 }
 
