@@ -36,6 +36,24 @@ pub const INFLUENCE_INDEX_BITS: u32 = 8;
 pub const WEIGHT_INT_MAX: i32 = (1 << 23) - 1;
 /// Smallest packed weight (−2²³).
 pub const WEIGHT_INT_MIN: i32 = -(1 << 23);
+/// Largest Σ|w| over one vertex's weights, as integers, that the linear deformer accepts
+/// (`i16::MAX`). Every weight then fits in an `i16`, and every partial sum of products of the
+/// weights with a 16-bit value stays below 2³⁰: the linear kernel evaluates it in 32-bit lanes
+/// (see [`crate::kernel::linear`]).
+pub const LINEAR_WEIGHT_ABS_SUM_MAX: i32 = i16::MAX as i32;
+/// Largest number of fractional weight bits of the linear deformer: its weights sum to `2^F` and
+/// their magnitudes to at most [`LINEAR_WEIGHT_ABS_SUM_MAX`], so F ≤ 14.
+pub const LINEAR_MAX_WEIGHT_FRAC_BITS: u8 = 14;
+
+/// Largest marker displacement magnitude the linear kernel uses with weights of `frac`
+/// fractional bits: `2^(15 + frac)` (at F = 14, 32 rig units); larger displacements saturate to it.
+///
+/// With Σ|w| ≤ 2¹⁵ it bounds every weighted sum to `2^30` after the shift by F, so adding the
+/// rest position (|rest| ≤ 2²⁴) cannot overflow an `i32` and needs no saturation.
+#[inline(always)]
+pub fn linear_displacement_limit(frac: u32) -> i32 {
+    1 << (15 + frac)
+}
 
 /// Multiply-accumulate: `acc + w · d`, exact (see the module docs for why it cannot overflow).
 #[inline(always)]

@@ -230,20 +230,10 @@ impl<'a> Rig<'a> {
                 found: out.len(),
             });
         }
-        let mut displacements = [[0i32; 3]; MAX_MARKERS];
-        for ((d, m), r) in displacements
-            .iter_mut()
-            .zip(markers)
-            .zip(self.data.marker_rest.0.chunks_exact(POSITION_BYTES))
-        {
-            let rest = read_position(r);
-            for c in 0..3 {
-                d[c] = m[c].saturating_sub(rest[c]);
-            }
-        }
         match &self.data.deformer {
             Deformer::Linear(lin) => kernel::linear::deform(
-                &displacements,
+                markers,
+                self.data.marker_rest.0,
                 self.data.vertex_rest.0,
                 lin.influence_counts.0,
                 lin.influences.0,
@@ -251,6 +241,17 @@ impl<'a> Rig<'a> {
                 out,
             ),
             Deformer::RbfCoefficients(rbf) => {
+                let mut displacements = [[0i32; 3]; MAX_MARKERS];
+                for ((d, m), r) in displacements
+                    .iter_mut()
+                    .zip(markers)
+                    .zip(self.data.marker_rest.0.chunks_exact(POSITION_BYTES))
+                {
+                    let rest = read_position(r);
+                    for c in 0..3 {
+                        d[c] = m[c].saturating_sub(rest[c]);
+                    }
+                }
                 let mut table = [[0i32; 3]; kernel::rbf::MAX_ROWS];
                 let m = self.marker_count();
                 kernel::rbf::coefficients(rbf, m, &displacements, &mut table);
