@@ -146,9 +146,7 @@ pub(crate) mod portable {
         let frac = u32::from(rig.weight_frac_bits);
         let half = 1i64 << (frac - 1);
         for (o, r, words) in rig.vertices(out) {
-            let rest = read_rest(r);
-            // The rest position and the rounding half start the sum: one shift per axis at the end.
-            let mut acc = rest.map(|x| (i64::from(x) << frac) + half);
+            let mut acc = [0i64; 3];
             for w in words.chunks_exact(4) {
                 let (marker, weight) =
                     unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
@@ -158,8 +156,11 @@ pub(crate) mod portable {
                     acc[c] += i64::from(weight) * i64::from(d[c]);
                 }
             }
-            // Below 2^31 in magnitude by the module's bounds: the narrowing is exact.
-            *o = acc.map(|a| (a >> frac) as i32);
+            // Below 2^30 in magnitude after the shift, and below 2^31 with the rest position, by
+            // the module's bounds: the narrowing and the addition are exact (wrapping is never
+            // reached, and cannot panic).
+            let rest = read_rest(r);
+            *o = [0, 1, 2].map(|c| rest[c].wrapping_add(((acc[c] + half) >> frac) as i32));
         }
     }
 }
