@@ -218,68 +218,83 @@ pub(crate) mod sse2 {
         _mm_packs_epi32(w, w)
     }
 
-    /// See [`super::deform`]; `d` is the clamped displacement table.
-    #[target_feature(enable = "sse2")]
-    pub(crate) fn deform(d: &[[i32; 3]; MAX_MARKERS], rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        let frac = u32::from(rig.weight_frac_bits);
-        let mut table = [_mm_setzero_si128(); MAX_MARKERS];
-        for (t, &d) in table.iter_mut().zip(d) {
-            *t = entry(d);
+    /// The little-endian word at byte `at` of a chunk (in range: the callers' chunks are
+    /// fixed-size arrays).
+    #[inline(always)]
+    fn word<const N: usize>(chunk: &[u8; N], at: usize) -> u32 {
+        u32::from_le_bytes([chunk[at], chunk[at + 1], chunk[at + 2], chunk[at + 3]])
+    }
+
+    /// What every vertex of a frame reads: the displacement table and the rounding constants.
+    struct Frame {
+        /// One [`entry`] per marker index.
+        table: [__m128i; MAX_MARKERS],
+        /// 2^(F−1) in every 32-bit lane.
+        half: __m128i,
+        /// F, as a shift count.
+        shift_lo: __m128i,
+        /// 16 − F, as a shift count.
+        shift_hi: __m128i,
+    }
+
+    impl Frame {
+        #[target_feature(enable = "sse2")]
+        fn new(d: &[[i32; 3]; MAX_MARKERS], weight_frac_bits: u8) -> Self {
+            let frac = i32::from(weight_frac_bits);
+            let mut table = [_mm_setzero_si128(); MAX_MARKERS];
+            for (t, &d) in table.iter_mut().zip(d) {
+                *t = entry(d);
+            }
+            Self {
+                table,
+                half: _mm_set1_epi32(1 << (frac - 1)),
+                shift_lo: _mm_cvtsi32_si128(frac),
+                shift_hi: _mm_cvtsi32_si128(16 - frac),
+            }
         }
-        let t = |i: u8| table[usize::from(i)];
-        let half = _mm_set1_epi32(1 << (frac - 1));
-        let shift_lo = _mm_cvtsi32_si128(frac as i32);
-        let shift_hi = _mm_cvtsi32_si128(16 - frac as i32);
-        for (o, r, words) in rig.vertices(out) {
+
+        /// The table entry of marker `i`: a u8 index into a 256-entry array, in range by
+        /// construction.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        fn t(&self, i: u8) -> __m128i {
+            self.table[usize::from(i)]
+        }
+
+        /// One vertex: its influence words and rest bytes in, its position out.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        fn vertex(&self, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
             let mut acc = [_mm_setzero_si128(); 2];
             let mut quads = words.chunks_exact(16);
             for q in &mut quads {
                 let q: &[u8; 16] = q.try_into().unwrap_or(&[0; 16]);
-                let u =
-                    [0, 4, 8, 12].map(|i| u32::from_le_bytes([q[i], q[i + 1], q[i + 2], q[i + 3]]));
+                let u = [word(q, 0), word(q, 4), word(q, 8), word(q, 12)];
                 let w = weights16(_mm_set_epi32(
                     u[3] as i32,
                     u[2] as i32,
                     u[1] as i32,
                     u[0] as i32,
                 ));
-                let m = u.map(|u| u as u8);
-                madd_pair(
-                    &mut acc,
-                    t(m[0]),
-                    t(m[1]),
-                    _mm_shuffle_epi32::<0b00_00_00_00>(w),
-                );
-                madd_pair(
-                    &mut acc,
-                    t(m[2]),
-                    t(m[3]),
-                    _mm_shuffle_epi32::<0b01_01_01_01>(w),
-                );
+                let m = [u[0] as u8, u[1] as u8, u[2] as u8, u[3] as u8];
+                let pair01 = _mm_shuffle_epi32::<0b00_00_00_00>(w);
+                let pair23 = _mm_shuffle_epi32::<0b01_01_01_01>(w);
+                madd_pair(&mut acc, self.t(m[0]), self.t(m[1]), pair01);
+                madd_pair(&mut acc, self.t(m[2]), self.t(m[3]), pair23);
             }
-            let tail = quads.remainder();
-            let mut pairs = tail.chunks_exact(8);
+            let mut pairs = quads.remainder().chunks_exact(8);
             for p in &mut pairs {
                 let p: &[u8; 8] = p.try_into().unwrap_or(&[0; 8]);
-                let u = [0, 4].map(|i| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]));
+                let u = [word(p, 0), word(p, 4)];
                 let w = weights16(_mm_set_epi32(0, 0, u[1] as i32, u[0] as i32));
-                madd_pair(
-                    &mut acc,
-                    t(u[0] as u8),
-                    t(u[1] as u8),
-                    _mm_shuffle_epi32::<0>(w),
-                );
+                let (a, b) = (self.t(u[0] as u8), self.t(u[1] as u8));
+                madd_pair(&mut acc, a, b, _mm_shuffle_epi32::<0>(w));
             }
             if let Ok(single) = <&[u8; 4]>::try_from(pairs.remainder()) {
                 // The odd influence, paired with a zero weight on a zero entry.
                 let u = u32::from_le_bytes(*single);
-                let w = weights16(_mm_cvtsi32_si128(u as i32));
-                madd_pair(
-                    &mut acc,
-                    t(u as u8),
-                    _mm_setzero_si128(),
-                    _mm_shuffle_epi32::<0>(w),
-                );
+                let w = _mm_shuffle_epi32::<0>(weights16(_mm_cvtsi32_si128(u as i32)));
+                madd_pair(&mut acc, self.t(u as u8), _mm_setzero_si128(), w);
             }
             // rest (Q0.15) in the high halves of 32-bit lanes, shifted down to Q8.24.
             let r: &[u8; REST_BYTES] = r.try_into().unwrap_or(&[0; REST_BYTES]);
@@ -289,8 +304,8 @@ pub(crate) mod sse2 {
             let rest = _mm_srai_epi32::<{ 16 - crate::fixed::REST_SHIFT as i32 }>(
                 _mm_unpacklo_epi16(_mm_setzero_si128(), rest16),
             );
-            let lo = _mm_sra_epi32(_mm_add_epi32(acc[1], half), shift_lo);
-            let hi = _mm_sll_epi32(acc[0], shift_hi);
+            let lo = _mm_sra_epi32(_mm_add_epi32(acc[1], self.half), self.shift_lo);
+            let hi = _mm_sll_epi32(acc[0], self.shift_hi);
             let sum = _mm_add_epi32(_mm_add_epi32(hi, lo), rest);
             let xy = _mm_cvtsi128_si64(sum);
             *o = [
@@ -298,6 +313,38 @@ pub(crate) mod sse2 {
                 (xy >> 32) as i32,
                 _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(sum)),
             ];
+        }
+
+        /// Every vertex, when each has exactly `N / 4` influences: the words of a vertex are a
+        /// fixed-size chunk, so [`Self::vertex`] compiles without its tail handling.
+        #[target_feature(enable = "sse2")]
+        fn uniform<const N: usize>(&self, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+            let vertices = out
+                .iter_mut()
+                .zip(rig.rest.chunks_exact(REST_BYTES))
+                .zip(rig.influences.chunks_exact(N));
+            for ((o, r), words) in vertices {
+                let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
+                self.vertex(words, r, o);
+            }
+        }
+    }
+
+    /// See [`super::deform`]; `d` is the clamped displacement table.
+    #[target_feature(enable = "sse2")]
+    pub(crate) fn deform(d: &[[i32; 3]; MAX_MARKERS], rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        let frame = Frame::new(d, rig.weight_frac_bits);
+        // Bakes give every vertex K influences: the common K get a loop specialised for them.
+        // The choice depends on the rig only, never on the markers.
+        let k = rig.counts.first().copied().unwrap_or(0);
+        match k {
+            4 if rig.counts.iter().all(|&c| c == k) => frame.uniform::<16>(rig, out),
+            8 if rig.counts.iter().all(|&c| c == k) => frame.uniform::<32>(rig, out),
+            _ => {
+                for (o, r, words) in rig.vertices(out) {
+                    frame.vertex(words, r, o);
+                }
+            }
         }
     }
 }
@@ -334,14 +381,26 @@ mod tests {
         markers: usize,
     }
 
-    fn case(rng: &mut Rng, frac: u8, markers: usize, vertices: usize, k: u8) -> Case {
+    /// With `uniform`, every vertex has exactly `k` influences (what bakes write), else 0..=`k`.
+    fn case(
+        rng: &mut Rng,
+        frac: u8,
+        markers: usize,
+        vertices: usize,
+        k: u8,
+        uniform: bool,
+    ) -> Case {
         let one = 1i32 << frac;
         let (mut rest, mut counts, mut words) = (vec![], vec![], vec![]);
         for _ in 0..vertices {
             for _ in 0..3 {
                 rest.extend_from_slice(&(rng.next() as i16).to_le_bytes());
             }
-            let n = rng.below(u64::from(k) + 1) as usize;
+            let n = if uniform {
+                usize::from(k)
+            } else {
+                rng.below(u64::from(k) + 1) as usize
+            };
             counts.push(n as u8);
             // Weights with large magnitudes of both signs, fixed up to sum to 2^F and kept
             // within the Σ|w| bound (scaled down until they fit).
@@ -422,7 +481,12 @@ mod tests {
         for trial in 0..60 {
             let frac = [8u8, 11, 13, 14][trial % 4];
             let markers = [1, 7, 40, 256][(trial % 4) ^ ((trial / 4) % 4)];
-            let c = case(&mut rng, frac, markers, 300, [1, 3, 4, 8, 9, 64][trial % 6]);
+            // Every third trial has K = 4 or 8 everywhere: the specialised loops.
+            let (k, uniform) = match trial % 3 {
+                0 => ([4, 8][trial % 2], true),
+                _ => ([1, 3, 4, 8, 9, 64][trial % 6], false),
+            };
+            let c = case(&mut rng, frac, markers, 300, k, uniform);
             let (m, mrest) = frame(&mut rng, &c);
             let d = displacements(&m, &mrest, frac);
             let want = reference(&c, &d);
