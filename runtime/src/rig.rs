@@ -71,7 +71,8 @@ pub struct Cost {
     pub subtractions: usize,
     /// Round-shift-saturate steps narrowing an accumulator to `i32`.
     pub narrowings: usize,
-    /// Stack the call uses for marker displacements, in bytes.
+    /// Stack the call uses for marker displacements (and, for RBF-coefficient rigs, the
+    /// coefficients), in bytes.
     pub scratch_bytes: usize,
 }
 
@@ -189,7 +190,7 @@ impl<'a> Rig<'a> {
                     multiply_adds: 3 * influences,
                     subtractions: 3 * m,
                     narrowings: 3 * v,
-                    scratch_bytes: displacement_scratch,
+                    scratch_bytes: kernel::linear::SCRATCH_BYTES,
                 }
             }
             Deformer::RbfCoefficients(r) => {
@@ -204,7 +205,7 @@ impl<'a> Rig<'a> {
                     coefficient_rows: rows,
                     multiply_adds: 3 * rows * m + 3 * v * k + affine,
                     subtractions: 3 * m,
-                    narrowings: 3 * rows + if r.affine { 6 * v } else { 3 * v },
+                    narrowings: 3 * rows + 3 * v,
                     scratch_bytes: displacement_scratch
                         + core::mem::size_of::<[[i32; 3]; kernel::rbf::MAX_ROWS]>(),
                 }

@@ -44,6 +44,15 @@ use crate::format::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_
 /// on a Cortex-M4 than a 12-byte entry).
 pub(crate) type Displacements = [[i32; 4]; MAX_MARKERS];
 
+/// Stack the kernel uses per frame: the displacement table, plus on x86-64 its 16-bit halves
+/// (one 128-bit entry per marker index).
+pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
+    + if cfg!(all(target_arch = "x86_64", target_feature = "sse2")) {
+        16 * MAX_MARKERS
+    } else {
+        0
+    };
+
 /// The clamped displacement of every marker (Q8.24), in marker order; later entries stay zero.
 ///
 /// `markers` are the current positions, `marker_rest` the rest section (12 bytes a marker).
