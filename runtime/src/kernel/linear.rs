@@ -119,6 +119,43 @@ pub(crate) struct Sections<'a> {
 }
 
 impl<'a> Sections<'a> {
+    /// Call `f(words, rest bytes, output slot)` for every vertex in turn.
+    ///
+    /// Bakes give every vertex exactly K influences. When a rig's counts are all 4 or all 8 (a
+    /// property of the rig, never of the markers), each vertex's words come as a fixed-size
+    /// chunk, so an inlined `f` compiles for exactly that K, without per-vertex tail handling.
+    #[inline(always)]
+    fn for_each_vertex(self, out: &mut [[i32; 3]], mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3])) {
+        let uniform =
+            |k: u8| self.counts.first() == Some(&k) && self.counts.iter().all(|&c| c == k);
+        if uniform(4) {
+            self.uniform::<16>(out, &mut f);
+        } else if uniform(8) {
+            self.uniform::<32>(out, &mut f);
+        } else {
+            for (o, r, words) in self.vertices(out) {
+                f(words, r, o);
+            }
+        }
+    }
+
+    /// [`Self::for_each_vertex`] when every vertex has `N / 4` influences.
+    #[inline(always)]
+    fn uniform<const N: usize>(
+        self,
+        out: &mut [[i32; 3]],
+        f: &mut impl FnMut(&[u8], &[u8], &mut [i32; 3]),
+    ) {
+        let vertices = out
+            .iter_mut()
+            .zip(self.rest.chunks_exact(REST_BYTES))
+            .zip(self.influences.chunks_exact(N));
+        for ((o, r), words) in vertices {
+            let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
+            f(words, r, o);
+        }
+    }
+
     /// Each output slot with its vertex's rest bytes and influence words.
     fn vertices<'o>(
         self,
@@ -159,7 +196,7 @@ pub(crate) mod portable {
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         let frac = u32::from(rig.weight_frac_bits);
         let half = 1i64 << (frac - 1);
-        for (o, r, words) in rig.vertices(out) {
+        rig.for_each_vertex(out, |words, r, o| {
             let mut acc = [0i64; 3];
             for w in words.chunks_exact(4) {
                 let (marker, weight) =
@@ -175,7 +212,7 @@ pub(crate) mod portable {
             // reached, and cannot panic).
             let rest = read_rest(r);
             *o = [0, 1, 2].map(|c| rest[c].wrapping_add(((acc[c] + half) >> frac) as i32));
-        }
+        });
     }
 }
 
@@ -324,38 +361,13 @@ pub(crate) mod sse2 {
                 _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(sum)),
             ];
         }
-
-        /// Every vertex, when each has exactly `N / 4` influences: the words of a vertex are a
-        /// fixed-size chunk, so [`Self::vertex`] compiles without its tail handling.
-        #[target_feature(enable = "sse2")]
-        fn uniform<const N: usize>(&self, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-            let vertices = out
-                .iter_mut()
-                .zip(rig.rest.chunks_exact(REST_BYTES))
-                .zip(rig.influences.chunks_exact(N));
-            for ((o, r), words) in vertices {
-                let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
-                self.vertex(words, r, o);
-            }
-        }
     }
 
     /// See [`super::deform`]; `d` is the clamped displacement table.
     #[target_feature(enable = "sse2")]
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         let frame = Frame::new(d, rig.weight_frac_bits);
-        // Bakes give every vertex K influences: the common K get a loop specialised for them.
-        // The choice depends on the rig only, never on the markers.
-        let k = rig.counts.first().copied().unwrap_or(0);
-        match k {
-            4 if rig.counts.iter().all(|&c| c == k) => frame.uniform::<16>(rig, out),
-            8 if rig.counts.iter().all(|&c| c == k) => frame.uniform::<32>(rig, out),
-            _ => {
-                for (o, r, words) in rig.vertices(out) {
-                    frame.vertex(words, r, o);
-                }
-            }
-        }
+        rig.for_each_vertex(out, |words, r, o| frame.vertex(words, r, o));
     }
 }
 
