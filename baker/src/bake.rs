@@ -232,7 +232,7 @@ fn weights_form(
             row
         })
         .collect();
-    let q = sparsify::quantise(&rows, true)?;
+    let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
     Ok(FormOutput {
         deformer: DeformerBytes::Linear {
             weight_frac_bits: q.frac_bits,
@@ -296,7 +296,7 @@ fn coefficients_form(
                 .collect::<sparsify::SparseRow>()
         })
         .collect();
-    let q = sparsify::quantise(&rows, false)?;
+    let q = sparsify::quantise(&rows, sparsify::QuantiseFor::KernelValues)?;
     let m = sparsify::quantise_matrix(&system.coefficient_map(), config.affine.then_some(n));
     Ok(FormOutput {
         deformer: DeformerBytes::Rbf {

@@ -14,7 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::rbf::kernel::distance;
 use facebake_runtime::fixed::{
-    pack_influence, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS, WEIGHT_INT_MAX,
+    pack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS, LINEAR_WEIGHT_ABS_SUM_MAX, MAX_WEIGHT_FRAC_BITS,
+    MIN_WEIGHT_FRAC_BITS, WEIGHT_INT_MAX,
 };
 
 /// How the kept weights are re-fitted after dropping all but the K largest.
@@ -116,9 +117,22 @@ pub struct Quantised {
     pub max_rounding: f64,
 }
 
-/// Quantise sparse rows with the finest F that holds every weight. With `normalise`, each row's
-/// rounding is fixed so it sums to exactly 2^F (the residual goes to the row's largest weight).
-pub fn quantise(rows: &[SparseRow], normalise: bool) -> Result<Quantised, SparsifyError> {
+/// How [`quantise`] may scale a set of rows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QuantiseFor {
+    /// Linear-deformer weights: each row's rounding is fixed so it sums to exactly 2^F (the
+    /// residual goes to the row's largest weight), and F is the finest that keeps every row's
+    /// Σ|q| within [`LINEAR_WEIGHT_ABS_SUM_MAX`] (F ≤ [`LINEAR_MAX_WEIGHT_FRAC_BITS`]), what the
+    /// runtime's 16-bit linear kernel needs and its loader checks.
+    LinearWeights,
+    /// Kernel values φ of the RBF-coefficient form: plain rounding, the finest F that holds every
+    /// value in 24 bits.
+    KernelValues,
+}
+
+/// Quantise sparse rows with the finest F that `target` allows (see [`QuantiseFor`]).
+pub fn quantise(rows: &[SparseRow], target: QuantiseFor) -> Result<Quantised, SparsifyError> {
+    let normalise = target == QuantiseFor::LinearWeights;
     let (mut vertex, mut largest) = (0, 0.0f64);
     for (v, row) in rows.iter().enumerate() {
         for &(_, w) in row {
@@ -129,11 +143,29 @@ pub fn quantise(rows: &[SparseRow], normalise: bool) -> Result<Quantised, Sparsi
     }
     // Leave room for the per-row residual (at most K/2 units) on top of the rounded weight.
     let margin = 64.0;
-    let frac_bits = (MIN_WEIGHT_FRAC_BITS..=MAX_WEIGHT_FRAC_BITS)
+    // Linear weights: Σ|q| ≤ Σ|w|·2^F + (rounding, ≤ ½ per weight) + (residual, ≤ ½ per weight).
+    let (mut heaviest_row, mut heaviest) = (0, 0.0f64);
+    for (v, row) in rows.iter().enumerate() {
+        let abs_sum = row.iter().map(|&(_, w)| w.abs()).sum::<f64>() + row.len() as f64;
+        if abs_sum > heaviest {
+            (heaviest_row, heaviest) = (v, abs_sum);
+        }
+    }
+    let (max_frac, fits): (u8, &dyn Fn(u8) -> bool) = match target {
+        QuantiseFor::LinearWeights => (LINEAR_MAX_WEIGHT_FRAC_BITS, &|f| {
+            heaviest * f64::from(1u32 << f) <= f64::from(LINEAR_WEIGHT_ABS_SUM_MAX)
+        }),
+        QuantiseFor::KernelValues => (MAX_WEIGHT_FRAC_BITS, &|_| true),
+    };
+    let frac_bits = (MIN_WEIGHT_FRAC_BITS..=max_frac)
         .rev()
-        .find(|&f| largest * f64::from(1u32 << f) + margin <= f64::from(WEIGHT_INT_MAX))
+        .find(|&f| largest * f64::from(1u32 << f) + margin <= f64::from(WEIGHT_INT_MAX) && fits(f))
         .ok_or(SparsifyError::WeightTooLarge {
-            vertex,
+            vertex: if fits(MIN_WEIGHT_FRAC_BITS) {
+                vertex
+            } else {
+                heaviest_row
+            },
             weight: largest,
         })?;
     let scale = f64::from(1u32 << frac_bits);
@@ -251,10 +283,15 @@ mod tests {
             vec![(0, 0.3333333), (1, 0.3333333), (2, 0.3333334)],
             vec![(4, 2.5), (5, -1.5)],
         ];
-        let q = quantise(&rows, true).unwrap();
+        let q = quantise(&rows, QuantiseFor::KernelValues).unwrap();
         assert_eq!(
             q.frac_bits, 21,
             "2.5 · 2^22 exceeds the 24-bit range, so one fewer fractional bit"
+        );
+        let q = quantise(&rows, QuantiseFor::LinearWeights).unwrap();
+        assert_eq!(
+            q.frac_bits, 12,
+            "Σ|w| + 2 = 6 for the second row: 6 · 2^12 ≤ 32767 < 6 · 2^13"
         );
         for row in &q.words {
             let sum: i64 = row
@@ -263,9 +300,16 @@ mod tests {
                 .sum();
             assert_eq!(sum, 1 << q.frac_bits);
         }
-        assert!(q.max_rounding < 2.0 / f64::from(1u32 << 21));
+        for row in &q.words {
+            let abs_sum: i32 = row
+                .iter()
+                .map(|&w| facebake_runtime::fixed::unpack_influence(w).1.abs())
+                .sum();
+            assert!(abs_sum <= LINEAR_WEIGHT_ABS_SUM_MAX);
+        }
+        assert!(q.max_rounding < 2.0 / f64::from(1u32 << 12));
         assert!(matches!(
-            quantise(&[vec![(0, 1e6)]], true),
+            quantise(&[vec![(0, 1e6)]], QuantiseFor::LinearWeights),
             Err(SparsifyError::WeightTooLarge { .. })
         ));
     }

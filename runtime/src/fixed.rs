@@ -6,17 +6,19 @@
 //! |---|---|---|---|
 //! | position (markers in, vertices out, marker rest) | `i32` | Q8.24 | rig units: `(p − centre) / half_extent`, so the mesh spans ±1.0 (±2²⁴) with headroom to ±128 |
 //! | vertex rest position (stored) | `i16` | Q0.15 | the same rig units at 2⁻¹⁵ resolution; widened by `<< 9` ([`REST_SHIFT`]) to Q8.24 |
-//! | influence weight (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest weight |
-//! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × displacement over at most [`MAX_INFLUENCES`] terms |
+//! | kernel value φ (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest value |
+//! | linear weight (stored) | `i24` in a `u32`, Σ\|w\| ≤ [`LINEAR_WEIGHT_ABS_SUM_MAX`] per vertex | Q(15−F).F, F ∈ [8, [`LINEAR_MAX_WEIGHT_FRAC_BITS`]] | the finest F whose weights meet the bound |
+//! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × value over at most [`MAX_INFLUENCES`] terms |
 //!
 //! # Overflow by design
 //!
-//! A weight is below 2²³ in magnitude and a displacement below 2³¹ (it is an `i32`, formed by a
-//! saturating subtraction), so one product is below 2⁵⁴ and a sum of at most 64 products below
-//! 2⁶⁰: the `i64` accumulator cannot overflow. The only saturations are at the edges, where a
-//! result is narrowed back to `i32` ([`round_shift_sat`]) or added to a rest position
-//! (`i32::saturating_add`). Rounding is "half up" (add ½, arithmetic shift), identical on every
-//! platform because it is pure integer arithmetic.
+//! A kernel value is below 2²³ in magnitude and a coefficient below 2³¹, so one product is below
+//! 2⁵⁴ and a sum of at most 64 products below 2⁶⁰: the `i64` accumulator cannot overflow. The
+//! linear kernel's bounds (Σ|w| < 2¹⁵, displacements clamped to
+//! [`linear_displacement_limit`]) keep every sum it forms, and its output, inside 32 bits (the
+//! proof is in the linear kernel's module docs, `runtime/src/kernel/linear.rs`). The only saturations are at the edges: narrowing a result back to
+//! `i32` ([`round_shift_bounded`]) and clamping a displacement. Rounding is "half up" (add ½,
+//! arithmetic shift), identical on every platform because it is pure integer arithmetic.
 
 /// Fractional bits of a position (Q8.24).
 pub const POS_FRAC_BITS: u32 = 24;
@@ -36,6 +38,23 @@ pub const INFLUENCE_INDEX_BITS: u32 = 8;
 pub const WEIGHT_INT_MAX: i32 = (1 << 23) - 1;
 /// Smallest packed weight (−2²³).
 pub const WEIGHT_INT_MIN: i32 = -(1 << 23);
+/// Largest Σ|w| over one vertex's weights, as integers, that the linear deformer accepts
+/// (`i16::MAX`). Every weight then fits in an `i16`, and every partial sum of products of the
+/// weights with a 16-bit value stays below 2³⁰: the linear kernel evaluates it in 32-bit lanes.
+pub const LINEAR_WEIGHT_ABS_SUM_MAX: i32 = i16::MAX as i32;
+/// Largest number of fractional weight bits of the linear deformer: its weights sum to `2^F` and
+/// their magnitudes to at most [`LINEAR_WEIGHT_ABS_SUM_MAX`], so F ≤ 14.
+pub const LINEAR_MAX_WEIGHT_FRAC_BITS: u8 = 14;
+
+/// Largest marker displacement magnitude the linear kernel uses with weights of `frac`
+/// fractional bits: `2^(15 + frac)` (at F = 14, 32 rig units); larger displacements saturate to it.
+///
+/// With Σ|w| ≤ 2¹⁵ it bounds every weighted sum to `2^30` after the shift by F, so adding the
+/// rest position (|rest| ≤ 2²⁴) cannot overflow an `i32` and needs no saturation.
+#[inline(always)]
+pub fn linear_displacement_limit(frac: u32) -> i32 {
+    1 << (15 + frac)
+}
 
 /// Multiply-accumulate: `acc + w · d`, exact (see the module docs for why it cannot overflow).
 #[inline(always)]

@@ -31,6 +31,8 @@
 //!   vertex, `influence_counts[v]` of them for vertex `v`. The weights of a vertex sum to exactly
 //!   `2^weight_frac_bits` (or the vertex has no influences and never moves); the loader checks it,
 //!   and it is what makes a uniform translation move every vertex by exactly that translation.
+//!   Their magnitudes sum to at most `i16::MAX` per vertex (so `weight_frac_bits` ≤ 14): the
+//!   loader checks that too, and the linear kernel's 32-bit sums rely on it.
 //! * **RBF coefficients**: per frame, the RBF coefficients `c = M · D` (one row of `M` per kernel
 //!   centre, plus four affine rows β₀, βx, βy, βz), then per vertex the K largest kernel terms
 //!   `Σ φ_k(v) c_k` plus the affine part `β₀ + β · rest(v)`. Sections:
@@ -54,7 +56,8 @@ use serde::{Deserialize, Serialize, Serializer};
 
 use crate::checksum::crc32;
 use crate::fixed::{
-    unpack_influence, widen_rest, MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS,
+    unpack_influence, widen_rest, LINEAR_MAX_WEIGHT_FRAC_BITS, LINEAR_WEIGHT_ABS_SUM_MAX,
+    MAX_INFLUENCES, MAX_WEIGHT_FRAC_BITS, MIN_WEIGHT_FRAC_BITS,
 };
 use crate::pipeline::{Stages, StagesError};
 
@@ -109,7 +112,7 @@ pub struct Space {
 /// The linear deformer: every vertex moves by a fixed weighted sum of marker displacements.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LinearInfluences<'a> {
-    /// Fractional bits of the stored weights, in [8, 22].
+    /// Fractional bits of the stored weights, in [8, 14].
     pub weight_frac_bits: u8,
     /// Most influences any vertex has (K), in [1, 64].
     pub max_influences: u8,
@@ -232,7 +235,7 @@ pub enum LoadError {
         /// The value in the blob.
         found: u8,
     },
-    /// `weight_frac_bits` is outside [8, 22].
+    /// `weight_frac_bits` is outside [8, 22] ([8, 14] for the linear deformer).
     BadWeightFormat {
         /// The value in the blob.
         found: u8,
@@ -284,6 +287,12 @@ pub enum LoadError {
     },
     /// The capture stages are invalid.
     BadStages(StagesError),
+    /// A vertex's linear weights have Σ|w| above [`LINEAR_WEIGHT_ABS_SUM_MAX`], the bound the
+    /// linear kernel's 32-bit sums rest on.
+    WeightsTooLarge {
+        /// The vertex.
+        vertex: usize,
+    },
 }
 
 /// A section of the payload, for [`LoadError::SectionLength`].
@@ -356,6 +365,10 @@ impl core::fmt::Display for LoadError {
                 "coefficient row {row} does not sum to what exact translation needs"
             ),
             Self::BadStages(e) => write!(f, "capture stages: {e}"),
+            Self::WeightsTooLarge { vertex } => write!(
+                f,
+                "the weights of vertex {vertex} have magnitudes summing above {LINEAR_WEIGHT_ABS_SUM_MAX}"
+            ),
         }
     }
 }
@@ -622,7 +635,7 @@ fn validate_linear(
             found: lin.max_influences,
         });
     }
-    if !(MIN_WEIGHT_FRAC_BITS..=MAX_WEIGHT_FRAC_BITS).contains(&lin.weight_frac_bits) {
+    if !(MIN_WEIGHT_FRAC_BITS..=LINEAR_MAX_WEIGHT_FRAC_BITS).contains(&lin.weight_frac_bits) {
         return Err(LoadError::BadWeightFormat {
             found: lin.weight_frac_bits,
         });
@@ -636,16 +649,20 @@ fn validate_linear(
         if count > lin.max_influences {
             return Err(LoadError::TooManyInfluences { vertex, count });
         }
-        let mut sum = 0i64;
+        let (mut sum, mut abs_sum) = (0i64, 0i64);
         for w in words.by_ref().take(usize::from(count)) {
             let (marker, weight) = read_influence(w);
             if usize::from(marker) >= markers {
                 return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
             }
             sum += i64::from(weight);
+            abs_sum += i64::from(weight).abs();
         }
         if count > 0 && sum != one {
             return Err(LoadError::WeightsNotNormalised { vertex });
+        }
+        if abs_sum > i64::from(LINEAR_WEIGHT_ABS_SUM_MAX) {
+            return Err(LoadError::WeightsTooLarge { vertex });
         }
     }
     Ok(())

@@ -75,7 +75,8 @@ pub struct Cost {
     pub subtractions: usize,
     /// Round-shift-saturate steps narrowing an accumulator to `i32`.
     pub narrowings: usize,
-    /// Stack the call uses for marker displacements, in bytes.
+    /// Stack the call uses for marker displacements (and, for RBF-coefficient rigs, the
+    /// coefficients), in bytes.
     pub scratch_bytes: usize,
 }
 
@@ -193,7 +194,7 @@ impl<'a> Rig<'a> {
                     multiply_adds: 3 * influences,
                     subtractions: 3 * m,
                     narrowings: 3 * v,
-                    scratch_bytes: displacement_scratch,
+                    scratch_bytes: kernel::linear::SCRATCH_BYTES,
                 }
             }
             Deformer::RbfCoefficients(r) => {
@@ -208,7 +209,7 @@ impl<'a> Rig<'a> {
                     coefficient_rows: rows,
                     multiply_adds: 3 * rows * m + 3 * v * k + affine,
                     subtractions: 3 * m,
-                    narrowings: 3 * rows + if r.affine { 6 * v } else { 3 * v },
+                    narrowings: 3 * rows + 3 * v,
                     scratch_bytes: displacement_scratch
                         + core::mem::size_of::<[[i32; 3]; kernel::rbf::MAX_ROWS]>(),
                 }
@@ -234,20 +235,10 @@ impl<'a> Rig<'a> {
                 found: out.len(),
             });
         }
-        let mut displacements = [[0i32; 3]; MAX_MARKERS];
-        for ((d, m), r) in displacements
-            .iter_mut()
-            .zip(markers)
-            .zip(self.data.marker_rest.0.chunks_exact(POSITION_BYTES))
-        {
-            let rest = read_position(r);
-            for c in 0..3 {
-                d[c] = m[c].saturating_sub(rest[c]);
-            }
-        }
         match &self.data.deformer {
             Deformer::Linear(lin) => kernel::linear::deform(
-                &displacements,
+                markers,
+                self.data.marker_rest.0,
                 self.data.vertex_rest.0,
                 lin.influence_counts.0,
                 lin.influences.0,
@@ -255,6 +246,17 @@ impl<'a> Rig<'a> {
                 out,
             ),
             Deformer::RbfCoefficients(rbf) => {
+                let mut displacements = [[0i32; 3]; MAX_MARKERS];
+                for ((d, m), r) in displacements
+                    .iter_mut()
+                    .zip(markers)
+                    .zip(self.data.marker_rest.0.chunks_exact(POSITION_BYTES))
+                {
+                    let rest = read_position(r);
+                    for c in 0..3 {
+                        d[c] = m[c].saturating_sub(rest[c]);
+                    }
+                }
                 let mut table = [[0i32; 3]; kernel::rbf::MAX_ROWS];
                 let m = self.marker_count();
                 kernel::rbf::coefficients(rbf, m, &displacements, &mut table);

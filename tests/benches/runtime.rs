@@ -16,7 +16,9 @@
 //! * `fixed`: [`Rig::deform`], the no_std Q8.24 runtime;
 //! * `f32` (weights form): [`F32Rig`], the same sparse rig decoded once from the blob's own
 //!   quantised numbers into f32 and evaluated with the same per-vertex gather, as a float
-//!   linear-blend-skinning library's positions-only path would;
+//!   linear-blend-skinning library's positions-only path would; on x86-64 hand-vectorised with
+//!   SSE like the fixed-point kernel (one `[x, y, z, 0]` vector per marker, `mulps` + `addps` per
+//!   influence), so the two are equally optimised;
 //! * `dense_f64` (FaceCap): the papers' per-frame RBF of the same configuration
 //!   ([`facebake::reference::DenseRbf::frame`]: solve, then evaluate every vertex against every
 //!   marker).
@@ -116,10 +118,23 @@ impl F32Rig {
 
     /// `out[v] = rest[v] + Σ w · (m − m_rest)`, f32 throughout, one gather per influence.
     ///
-    /// `markers` has one entry per rig marker, `out` one per vertex.
+    /// `markers` has one entry per rig marker, `out` one per vertex. On x86-64 this is
+    /// [`Self::deform_sse`], as hand-vectorised as the fixed-point kernel; elsewhere
+    /// [`Self::deform_portable`].
     fn deform(&self, markers: &[[f32; 3]], out: &mut [[f32; 3]]) {
         assert_eq!(markers.len(), self.marker_rest.len());
         assert_eq!(out.len(), self.rest.len());
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: SSE2 is part of the x86-64 baseline: every CPU that runs this has it.
+        unsafe {
+            self.deform_sse(markers, out)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.deform_portable(markers, out)
+    }
+
+    /// [`Self::deform`] in plain Rust (LLVM vectorises what it can).
+    fn deform_portable(&self, markers: &[[f32; 3]], out: &mut [[f32; 3]]) {
         // A u8 index into a 256-entry table: no bounds check in the loop.
         let mut displacements = [[0f32; 3]; MAX_MARKERS];
         for ((d, m), r) in displacements.iter_mut().zip(markers).zip(&self.marker_rest) {
@@ -135,6 +150,36 @@ impl F32Rig {
                 acc[2] += w * d[2];
             }
             *o = [r[0] + acc[0], r[1] + acc[1], r[2] + acc[2]];
+        }
+    }
+
+    /// [`Self::deform`] with SSE: one 128-bit `[x, y, z, 0]` displacement per marker, and per
+    /// influence one broadcast weight, one `mulps` and one `addps`, the rest position as the
+    /// starting sum: what a float skinning library's SIMD path does.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    fn deform_sse(&self, markers: &[[f32; 3]], out: &mut [[f32; 3]]) {
+        use std::arch::x86_64::{
+            _mm_add_ps, _mm_castps_si128, _mm_cvtsi128_si32, _mm_cvtsi128_si64, _mm_mul_ps,
+            _mm_set1_ps, _mm_set_ps, _mm_setzero_ps, _mm_shuffle_epi32,
+        };
+        let mut table = [_mm_setzero_ps(); MAX_MARKERS];
+        for ((t, m), r) in table.iter_mut().zip(markers).zip(&self.marker_rest) {
+            *t = _mm_set_ps(0.0, m[2] - r[2], m[1] - r[1], m[0] - r[0]);
+        }
+        let mut influences = self.markers.iter().zip(&self.weights);
+        for ((o, r), &count) in out.iter_mut().zip(&self.rest).zip(&self.counts) {
+            let mut acc = _mm_set_ps(0.0, r[2], r[1], r[0]);
+            for (&m, &w) in influences.by_ref().take(usize::from(count)) {
+                acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(w), table[usize::from(m)]));
+            }
+            let bits = _mm_castps_si128(acc);
+            let xy = _mm_cvtsi128_si64(bits) as u64;
+            *o = [
+                f32::from_bits(xy as u32),
+                f32::from_bits((xy >> 32) as u32),
+                f32::from_bits(_mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(bits)) as u32),
+            ];
         }
     }
 }
@@ -201,7 +246,19 @@ impl<'a> Prepared<'a> {
         };
         if p.f32_rig.is_some() {
             p.fixed();
+            p.float_plain();
+            let plain = p.out_f32.clone();
             p.float();
+            let apart = plain
+                .iter()
+                .zip(&p.out_f32)
+                .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+                .fold(0f32, f32::max);
+            assert!(
+                apart < 1e-5,
+                "{}: the two f32 paths differ by {apart}",
+                case.name
+            );
             let worst = p
                 .out_q
                 .iter()
@@ -229,6 +286,14 @@ impl<'a> Prepared<'a> {
     fn float(&mut self) {
         if let Some(f) = &self.f32_rig {
             f.deform(black_box(&self.case.markers_f32), &mut self.out_f32);
+        }
+        black_box(&self.out_f32);
+    }
+
+    /// One f32 frame of the plain-Rust evaluation (weights form only; a no-op otherwise).
+    fn float_plain(&mut self) {
+        if let Some(f) = &self.f32_rig {
+            f.deform_portable(black_box(&self.case.markers_f32), &mut self.out_f32);
         }
         black_box(&self.out_f32);
     }
@@ -352,6 +417,7 @@ fn bench_case(c: &mut Criterion, case: &Case) {
     group.bench_function("fixed", |b| b.iter(|| p.fixed()));
     if p.f32_rig.is_some() {
         group.bench_function("f32", |b| b.iter(|| p.float()));
+        group.bench_function("f32_plain", |b| b.iter(|| p.float_plain()));
     }
     if case.dense {
         group.bench_function("dense_f64", |b| b.iter(|| p.dense()));
@@ -401,8 +467,10 @@ fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
 struct Row {
     fixed: f64,
     f32: Option<f64>,
+    f32_plain: Option<f64>,
     dense: Option<f64>,
     fixed_over_f32: Option<f64>,
+    fixed_over_f32_plain: Option<f64>,
     dense_over_fixed: Option<f64>,
 }
 
@@ -413,25 +481,31 @@ fn measure(case: &Case) -> Row {
     let p = std::cell::RefCell::new(&mut p);
     let mut fixed = || p.borrow_mut().fixed();
     let mut float = || p.borrow_mut().float();
+    let mut float_plain = || p.borrow_mut().float_plain();
     let mut dense = || p.borrow().dense();
     let mut paths: Vec<&mut dyn FnMut()> = vec![&mut fixed];
     if has_f32 {
         paths.push(&mut float);
+        paths.push(&mut float_plain);
     }
     if case.dense {
         paths.push(&mut dense);
     }
     let mut times = interleaved(&mut paths);
     let f32_at = has_f32.then_some(1);
-    let dense_at = case.dense.then_some(1 + usize::from(has_f32));
+    let plain_at = has_f32.then_some(2);
+    let dense_at = case.dense.then_some(1 + 2 * usize::from(has_f32));
     let fixed_over_f32 = f32_at.map(|i| median_ratio(&times[0], &times[i]));
+    let fixed_over_f32_plain = plain_at.map(|i| median_ratio(&times[0], &times[i]));
     let dense_over_fixed = dense_at.map(|i| median_ratio(&times[i], &times[0]));
     let t: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
     Row {
         fixed: t[0],
         f32: f32_at.map(|i| t[i]),
+        f32_plain: plain_at.map(|i| t[i]),
         dense: dense_at.map(|i| t[i]),
         fixed_over_f32,
+        fixed_over_f32_plain,
         dense_over_fixed,
     }
 }
@@ -445,15 +519,16 @@ fn summary(cases: &[Case]) {
         SLICE.as_millis()
     );
     println!(
-        "{:<28} {:>6} {:>2} {:>6} {:>9} {:>8} {:>9} {:>9} {:>11} {:>13} {:>11}",
+        "{:<28} {:>6} {:>2} {:>9} {:>8} {:>8} {:>9} {:>9} {:>11} {:>11} {:>13} {:>11}",
         "rig",
         "verts",
         "K",
-        "infl/v",
         "fixed µs",
         "f32 µs",
+        "plain µs",
         "dense µs",
         "fixed/f32",
+        "fixed/plain",
         "dense/fixed",
         "fixed vert/ms",
         "f32 vert/ms"
@@ -468,16 +543,18 @@ fn summary(cases: &[Case]) {
                 format!("{:.0}", vertices as f64 / (s * 1e3))
             })
         };
+        let ratio = |r: Option<f64>| r.map_or("-".into(), |r| format!("{r:.2}"));
         println!(
-            "{:<28} {:>6} {:>2} {:>6.2} {:>9} {:>8} {:>9} {:>9} {:>11} {:>13} {:>11}",
+            "{:<28} {:>6} {:>2} {:>9} {:>8} {:>8} {:>9} {:>9} {:>11} {:>11} {:>13} {:>11}",
             case.name,
             vertices,
             cost.max_influences,
-            cost.influences as f64 / vertices as f64,
             us(Some(row.fixed)),
             us(row.f32),
+            us(row.f32_plain),
             us(row.dense),
-            row.fixed_over_f32.map_or("-".into(), |r| format!("{r:.2}")),
+            ratio(row.fixed_over_f32),
+            ratio(row.fixed_over_f32_plain),
             row.dense_over_fixed
                 .map_or("-".into(), |r| format!("{r:.0}×")),
             per_ms(Some(row.fixed)),

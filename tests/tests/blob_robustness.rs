@@ -2,6 +2,7 @@
 //! distinct error, on a real baked blob (the FaceCap head).
 
 use facebake::ground_truth::SplitMix64;
+use facebake_runtime::fixed::{pack_influence, unpack_influence};
 use facebake_runtime::format::{
     self, Bytes, Deformer, LinearInfluences, LoadError, RbfCoefficients, RigData, Section,
     HEADER_LEN,
@@ -215,7 +216,16 @@ fn every_payload_error_is_distinct() {
     bad_index[0] = 200; // marker 200 of 40
     let mut bad_sum = lin.influences.0.to_vec();
     bad_sum[1] ^= 1; // the first weight off by one unit
-    let cases: [(LinearInfluences<'_>, Option<LoadError>); 8] = [
+                     // Vertex 0's first two weights ±20,000 apart from before: still summing to 2^F, but with
+                     // magnitudes summing past i16::MAX.
+    let mut heavy = lin.influences.0.to_vec();
+    for (at, delta) in [(0, 20_000), (4, -20_000)] {
+        let word = u32::from_le_bytes(heavy[at..at + 4].try_into().unwrap());
+        let (m, w) = unpack_influence(word);
+        let packed = pack_influence(m, w + delta).unwrap();
+        heavy[at..at + 4].copy_from_slice(&packed.to_le_bytes());
+    }
+    let cases: [(LinearInfluences<'_>, Option<LoadError>); 10] = [
         (
             LinearInfluences {
                 max_influences: 0,
@@ -263,6 +273,21 @@ fn every_payload_error_is_distinct() {
                 ..lin
             },
             Some(LoadError::WeightsNotNormalised { vertex: 0 }),
+        ),
+        (
+            LinearInfluences {
+                influences: Bytes(&heavy),
+                ..lin
+            },
+            Some(LoadError::WeightsTooLarge { vertex: 0 }),
+        ),
+        (
+            // The linear form's weights fit 16 bits: at most 14 fractional bits.
+            LinearInfluences {
+                weight_frac_bits: 15,
+                ..lin
+            },
+            Some(LoadError::BadWeightFormat { found: 15 }),
         ),
         (
             LinearInfluences {

@@ -3,6 +3,7 @@
 //! exactly that translation, and the map is linear within rounding.
 
 use facebake::ground_truth::SplitMix64;
+use facebake_runtime::fixed::linear_displacement_limit;
 use facebake_runtime::format::Deformer;
 use facebake_runtime::{FrameError, Rig};
 use facebake_tests::facecap_blobs;
@@ -151,12 +152,28 @@ fn extreme_markers_saturate_instead_of_wrapping() {
 fn extremes(rig: &Rig<'_>) {
     for extreme in [i32::MAX, i32::MIN] {
         let m = vec![[extreme; 3]; rig.marker_count()];
-        // A push to the edge of the range: every vertex ends near that extreme (within the
-        // mesh's size, 2^24), none wraps round to the other sign.
-        for o in deform(rig, &m) {
-            for c in o {
-                assert_eq!(c.signum(), extreme.signum());
-                assert!(c.unsigned_abs() >= (1 << 31) - (1 << 25), "{c}");
+        let out = deform(rig, &m);
+        match rig.deformer() {
+            // The linear kernel clamps every displacement to ±2^(15+F) (its sums then cannot
+            // overflow): a push to the edge of the range is a uniform translation by that limit,
+            // so every vertex moves by exactly the limit, towards the extreme.
+            Deformer::Linear(lin) => {
+                let limit = linear_displacement_limit(u32::from(lin.weight_frac_bits));
+                let t = limit * extreme.signum();
+                for (v, o) in out.iter().enumerate() {
+                    let r = rig.vertex_rest(v).unwrap();
+                    assert_eq!(*o, [r[0] + t, r[1] + t, r[2] + t], "vertex {v}");
+                }
+            }
+            // Every vertex ends near that extreme (within the mesh's size, 2^24), none wraps
+            // round to the other sign.
+            Deformer::RbfCoefficients(_) => {
+                for o in out {
+                    for c in o {
+                        assert_eq!(c.signum(), extreme.signum());
+                        assert!(c.unsigned_abs() >= (1 << 31) - (1 << 25), "{c}");
+                    }
+                }
             }
         }
     }

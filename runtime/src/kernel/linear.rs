@@ -1,60 +1,543 @@
 //! The linear kernel: each vertex moves by a weighted sum of at most K marker displacements.
 //!
 //! ```text
-//! out[v] = rest[v] + round( Σ_k w[v,k] · (m[idx[v,k]] − m_rest[idx[v,k]]) / 2^F )
+//! d[j]   = clamp(m[j] − m_rest[j], ±2^(15+F))                          per marker
+//! out[v] = rest[v] + ( Σ_k w[v,k] · d[idx[v,k]] + 2^(F−1) ) >> F       per vertex
 //! ```
 //!
-//! Cost per frame: `markers` saturating 3-vector subtractions, then per influence one word decode
-//! and three `i32 × i32 → i64` multiply-adds, then per vertex three round-shifts and three
-//! saturating adds. There is no branch on marker data and no check that can fail: the loader has
-//! validated every index and count.
+//! # Why it cannot overflow, and why it fits 16-bit lanes
 //!
-//! The loop is shaped for the code it compiles to (it is instruction-bound): each vertex's
-//! influences are split off as one slice, so the inner loop has a single trip counter; each
-//! influence word is read as one `[u8; 4]`, so it is one 32-bit load rather than byte loads; and
-//! the rounding half is added without a saturation check, which cannot be reached (see
-//! [`round_shift_bounded`]).
+//! The loader guarantees Σ_k |w[v,k]| ≤ 2¹⁵ − 1 for every vertex (so every weight is an `i16`)
+//! and F ≤ 14. Split a displacement into 16-bit halves, `d = hi · 2¹⁶ + lo` with `lo = d as i16`
+//! (signed) and `hi = (d − lo) >> 16`. With |d| ≤ 2^(15+F): |lo| ≤ 2¹⁵ and |hi| ≤ 2^(F−1), both
+//! `i16`. Then
+//!
+//! ```text
+//! H = Σ w · hi,  |H| ≤ 2^(14+F)       L = Σ w · lo,  |L| ≤ 2^30        (every partial sum too)
+//! Σ w · d = H · 2^16 + L
+//! (Σ w · d + 2^(F−1)) >> F = H · 2^(16−F) + ((L + 2^(F−1)) >> F)      exactly, as F ≤ 16
+//! ```
+//!
+//! so |H · 2^(16−F)| ≤ 2³⁰, |(L + ½) >> F| ≤ 2²², and with |rest| ≤ 2²⁴ the output is below 2³¹:
+//! no step overflows an `i32` and none needs saturation. The only saturation is the displacement
+//! clamp, which keeps a uniform translation exact (every displacement clamps alike, and the weights
+//! sum to exactly 2^F).
+//!
+//! Two implementations compute exactly this integer, so their outputs are bit for bit equal:
+//!
+//! * [`portable`]: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
+//!   and axis; one `SMLAL` on a Cortex-M4);
+//! * `sse2` (x86-64): the halves of every marker's displacement in one 128-bit table entry; two
+//!   influences at a time, their halves are interleaved (`punpcklwd`/`punpckhwd`) and multiplied by
+//!   the weight pair with `pmaddwd` into 32-bit lanes, which the bounds above make exact.
+//!
+//! Cost per frame: per marker a subtraction and a clamp; per influence a word decode and three
+//! multiply-adds (two `pmaddwd` per two influences on x86-64); per vertex one rounding shift and
+//! one addition per axis. There is no branch on marker data and no check that can fail: the loader
+//! has validated every index, count and bound.
 
-use crate::fixed::{mul_acc, round_shift_bounded};
-use crate::format::{read_influence, read_rest, INFLUENCE_BYTES, MAX_MARKERS, REST_BYTES};
+use crate::fixed::{linear_displacement_limit, unpack_influence};
+use crate::format::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
+
+/// Per marker index, its clamped displacement `[x, y, z, 0]` (Q8.24). Four lanes rather than
+/// three: an entry is 16 bytes, so indexing it is one shift (one instruction fewer per influence
+/// on a Cortex-M4 than a 12-byte entry).
+pub(crate) type Displacements = [[i32; 4]; MAX_MARKERS];
+
+/// Stack the kernel uses per frame: the displacement table, plus on x86-64 its 16-bit halves
+/// (one 128-bit entry per marker index).
+pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
+    + if cfg!(all(target_arch = "x86_64", target_feature = "sse2")) {
+        16 * MAX_MARKERS
+    } else {
+        0
+    };
+
+/// The clamped displacement of every marker (Q8.24), in marker order; later entries stay zero.
+///
+/// `markers` are the current positions, `marker_rest` the rest section (12 bytes a marker).
+pub(crate) fn displacements(
+    markers: &[[i32; 3]],
+    marker_rest: &[u8],
+    weight_frac_bits: u8,
+) -> Displacements {
+    let limit = i64::from(linear_displacement_limit(u32::from(weight_frac_bits)));
+    let mut table = [[0i32; 4]; MAX_MARKERS];
+    for ((d, m), r) in table
+        .iter_mut()
+        .zip(markers)
+        .zip(marker_rest.chunks_exact(POSITION_BYTES))
+    {
+        let rest = read_position(r);
+        for c in 0..3 {
+            // In i64 the difference is exact; the clamp bounds it by ±2^29 at most.
+            d[c] = (i64::from(m[c]) - i64::from(rest[c])).clamp(-limit, limit) as i32;
+        }
+    }
+    table
+}
 
 /// Write deformed positions for every vertex.
 ///
-/// `displacements` has one entry per possible marker index (unused ones are never read),
-/// `rest` is the vertex rest section (6 bytes a vertex), `counts` one byte a vertex, `influences`
-/// four bytes an influence, all validated at load. `out` has one entry per vertex.
+/// `markers` and `marker_rest` as in [`displacements`]; `rest` is the vertex rest section (6
+/// bytes a vertex), `counts` one byte a vertex, `influences` four bytes an influence, all
+/// validated at load (including Σ|w| ≤ 2¹⁵ − 1 per vertex and F ≤ 14). `out` has one entry per
+/// vertex.
 pub(crate) fn deform(
-    displacements: &[[i32; 3]; MAX_MARKERS],
+    markers: &[[i32; 3]],
+    marker_rest: &[u8],
     rest: &[u8],
     counts: &[u8],
     influences: &[u8],
     weight_frac_bits: u8,
     out: &mut [[i32; 3]],
 ) {
-    let frac = u32::from(weight_frac_bits);
+    let d = displacements(markers, marker_rest, weight_frac_bits);
+    let rig = Sections {
+        rest,
+        counts,
+        influences,
+        weight_frac_bits,
+    };
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    sse2::deform_checked(&d, rig, out);
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    portable::deform(&d, rig, out);
+}
+
+/// A linear rig's per-vertex sections, validated at load.
+#[derive(Clone, Copy)]
+pub(crate) struct Sections<'a> {
+    /// Vertex rest positions, [`REST_BYTES`] a vertex.
+    rest: &'a [u8],
+    /// Influences per vertex, one byte a vertex.
+    counts: &'a [u8],
+    /// Packed influences, four bytes each, vertex after vertex.
+    influences: &'a [u8],
+    /// F.
+    weight_frac_bits: u8,
+}
+
+impl<'a> Sections<'a> {
+    /// Call `f(words, rest bytes, output slot)` for every vertex in turn.
+    ///
+    /// Bakes give every vertex exactly K influences. When a rig's counts are all 4 or all 8 (a
+    /// property of the rig, never of the markers), each vertex's words come as a fixed-size
+    /// chunk, so an inlined `f` compiles for exactly that K, without per-vertex tail handling.
+    #[inline(always)]
+    fn for_each_vertex(self, out: &mut [[i32; 3]], mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3])) {
+        let uniform =
+            |k: u8| self.counts.first() == Some(&k) && self.counts.iter().all(|&c| c == k);
+        if uniform(4) {
+            self.uniform::<16>(out, &mut f);
+        } else if uniform(8) {
+            self.uniform::<32>(out, &mut f);
+        } else {
+            for (o, r, words) in self.vertices(out) {
+                f(words, r, o);
+            }
+        }
+    }
+
+    /// [`Self::for_each_vertex`] when every vertex has `N / 4` influences.
+    #[inline(always)]
+    fn uniform<const N: usize>(
+        self,
+        out: &mut [[i32; 3]],
+        f: &mut impl FnMut(&[u8], &[u8], &mut [i32; 3]),
+    ) {
+        let vertices = out
+            .iter_mut()
+            .zip(self.rest.chunks_exact(REST_BYTES))
+            .zip(self.influences.chunks_exact(N));
+        for ((o, r), words) in vertices {
+            let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
+            f(words, r, o);
+        }
+    }
+
+    /// Each output slot with its vertex's rest bytes and influence words.
+    fn vertices<'o>(
+        self,
+        out: &'o mut [[i32; 3]],
+    ) -> impl Iterator<Item = (&'o mut [i32; 3], &'a [u8], &'a [u8])> + use<'a, 'o> {
+        out.iter_mut()
+            .zip(self.rest.chunks_exact(REST_BYTES))
+            .zip(per_vertex(self.counts, self.influences))
+            .map(|((o, r), words)| (o, r, words))
+    }
+}
+
+/// The influences of each vertex in turn, as one slice of words per vertex.
+///
+/// The loader checked that the counts add up to the section, so the fallback (an empty slice)
+/// is never taken.
+fn per_vertex<'a>(counts: &'a [u8], influences: &'a [u8]) -> impl Iterator<Item = &'a [u8]> {
     let mut words = influences;
-    for ((o, r), &count) in out
-        .iter_mut()
-        .zip(rest.chunks_exact(REST_BYTES))
-        .zip(counts)
-    {
-        // The loader checked that the counts add up to the section; the fallback is never taken.
+    counts.iter().map(move |&count| {
         let (mine, tail) = words
             .split_at_checked(4 * usize::from(count))
-            .unwrap_or((words, &[]));
+            .unwrap_or((&[], &[]));
         words = tail;
-        let mut acc = [0i64; 3];
-        for w in mine.chunks_exact(INFLUENCE_BYTES) {
-            let (marker, weight) = read_influence(w);
-            // A u8 index into a 256-entry array: in range by construction.
-            let d = &displacements[usize::from(marker)];
-            acc[0] = mul_acc(acc[0], weight, d[0]);
-            acc[1] = mul_acc(acc[1], weight, d[1]);
-            acc[2] = mul_acc(acc[2], weight, d[2]);
+        mine
+    })
+}
+
+/// The reference implementation, used on every target without SSE2 (and tested against the SSE2
+/// one on x86-64).
+#[cfg_attr(
+    all(target_arch = "x86_64", target_feature = "sse2", not(test)),
+    allow(dead_code)
+)]
+pub(crate) mod portable {
+    use super::*;
+
+    /// See [`super::deform`]; `d` is the clamped displacement table.
+    pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        let frac = u32::from(rig.weight_frac_bits);
+        let half = 1i64 << (frac - 1);
+        rig.for_each_vertex(out, |words, r, o| {
+            let mut acc = [0i64; 3];
+            for w in words.chunks_exact(4) {
+                let (marker, weight) =
+                    unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                // A u8 index into a 256-entry array: in range by construction.
+                let d = &d[usize::from(marker)];
+                for c in 0..3 {
+                    acc[c] += i64::from(weight) * i64::from(d[c]);
+                }
+            }
+            // Below 2^30 in magnitude after the shift, and below 2^31 with the rest position, by
+            // the module's bounds: the narrowing and the addition are exact (wrapping is never
+            // reached, and cannot panic).
+            let rest = read_rest(r);
+            *o = [0, 1, 2].map(|c| rest[c].wrapping_add(((acc[c] + half) >> frac) as i32));
+        });
+    }
+}
+
+/// The x86-64 implementation (SSE2 is part of the x86-64 baseline).
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+pub(crate) mod sse2 {
+    use core::arch::x86_64::{
+        __m128i, _mm_add_epi32, _mm_cvtsi128_si32, _mm_cvtsi128_si64, _mm_cvtsi32_si128,
+        _mm_cvtsi64_si128, _mm_madd_epi16, _mm_packs_epi32, _mm_set1_epi32, _mm_set_epi16,
+        _mm_set_epi32, _mm_setzero_si128, _mm_shuffle_epi32, _mm_sll_epi32, _mm_sra_epi32,
+        _mm_srai_epi32, _mm_unpackhi_epi16, _mm_unpacklo_epi16,
+    };
+
+    use super::*;
+
+    /// [`deform`], callable from code compiled without the `sse2` attribute.
+    #[allow(unsafe_code)]
+    pub(crate) fn deform_checked(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        // SAFETY: `deform` is safe Rust whose only requirement is the SSE2 target feature, and
+        // this module is compiled only when SSE2 is enabled for the whole build (the x86-64
+        // baseline), so every CPU that runs this code has it.
+        unsafe { deform(d, rig, out) }
+    }
+
+    /// One marker's displacement as a table entry: lanes `[hi x, hi y, hi z, 0, lo x, lo y, lo z,
+    /// 0]` (16-bit), with `d = hi · 2^16 + lo` and `lo` signed.
+    #[target_feature(enable = "sse2")]
+    fn entry(d: [i32; 4]) -> __m128i {
+        let lo = d.map(|x| x as i16);
+        // |d| ≤ 2^29 (the clamp), so hi fits in 14 bits.
+        let hi = [0, 1, 2].map(|c| ((d[c] - i32::from(lo[c])) >> 16) as i16);
+        _mm_set_epi16(0, lo[2], lo[1], lo[0], 0, hi[2], hi[1], hi[0])
+    }
+
+    /// `acc_hi += hi halves · weights`, `acc_lo += lo halves · weights` for two influences:
+    /// `pair` holds their two weights as 16-bit lanes, repeated.
+    #[target_feature(enable = "sse2")]
+    #[inline]
+    fn madd_pair(acc: &mut [__m128i; 2], a: __m128i, b: __m128i, pair: __m128i) {
+        acc[0] = _mm_add_epi32(acc[0], _mm_madd_epi16(_mm_unpacklo_epi16(a, b), pair));
+        acc[1] = _mm_add_epi32(acc[1], _mm_madd_epi16(_mm_unpackhi_epi16(a, b), pair));
+    }
+
+    /// The weights of the (up to four) words in lanes 0–3 of `words`, as 16-bit lanes
+    /// `[w0, w1, w2, w3, w0, w1, w2, w3]`: the weight is the word's top 24 bits, which fit 16.
+    #[target_feature(enable = "sse2")]
+    #[inline]
+    fn weights16(words: __m128i) -> __m128i {
+        let w = _mm_srai_epi32::<8>(words);
+        _mm_packs_epi32(w, w)
+    }
+
+    /// The little-endian word at byte `at` of a chunk (in range: the callers' chunks are
+    /// fixed-size arrays).
+    #[inline(always)]
+    fn word<const N: usize>(chunk: &[u8; N], at: usize) -> u32 {
+        u32::from_le_bytes([chunk[at], chunk[at + 1], chunk[at + 2], chunk[at + 3]])
+    }
+
+    /// What every vertex of a frame reads: the displacement table and the rounding constants.
+    struct Frame {
+        /// One [`entry`] per marker index.
+        table: [__m128i; MAX_MARKERS],
+        /// 2^(F−1) in every 32-bit lane.
+        half: __m128i,
+        /// F, as a shift count.
+        shift_lo: __m128i,
+        /// 16 − F, as a shift count.
+        shift_hi: __m128i,
+    }
+
+    impl Frame {
+        #[target_feature(enable = "sse2")]
+        fn new(d: &Displacements, weight_frac_bits: u8) -> Self {
+            let frac = i32::from(weight_frac_bits);
+            let mut table = [_mm_setzero_si128(); MAX_MARKERS];
+            for (t, &d) in table.iter_mut().zip(d) {
+                *t = entry(d);
+            }
+            Self {
+                table,
+                half: _mm_set1_epi32(1 << (frac - 1)),
+                shift_lo: _mm_cvtsi32_si128(frac),
+                shift_hi: _mm_cvtsi32_si128(16 - frac),
+            }
         }
-        let rest = read_rest(r);
-        for c in 0..3 {
-            o[c] = rest[c].saturating_add(round_shift_bounded(acc[c], frac));
+
+        /// The table entry of marker `i`: a u8 index into a 256-entry array, in range by
+        /// construction.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        fn t(&self, i: u8) -> __m128i {
+            self.table[usize::from(i)]
+        }
+
+        /// One vertex: its influence words and rest bytes in, its position out.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        fn vertex(&self, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
+            let mut acc = [_mm_setzero_si128(); 2];
+            let mut quads = words.chunks_exact(16);
+            for q in &mut quads {
+                let q: &[u8; 16] = q.try_into().unwrap_or(&[0; 16]);
+                let u = [word(q, 0), word(q, 4), word(q, 8), word(q, 12)];
+                let w = weights16(_mm_set_epi32(
+                    u[3] as i32,
+                    u[2] as i32,
+                    u[1] as i32,
+                    u[0] as i32,
+                ));
+                let m = [u[0] as u8, u[1] as u8, u[2] as u8, u[3] as u8];
+                let pair01 = _mm_shuffle_epi32::<0b00_00_00_00>(w);
+                let pair23 = _mm_shuffle_epi32::<0b01_01_01_01>(w);
+                madd_pair(&mut acc, self.t(m[0]), self.t(m[1]), pair01);
+                madd_pair(&mut acc, self.t(m[2]), self.t(m[3]), pair23);
+            }
+            let mut pairs = quads.remainder().chunks_exact(8);
+            for p in &mut pairs {
+                let p: &[u8; 8] = p.try_into().unwrap_or(&[0; 8]);
+                let u = [word(p, 0), word(p, 4)];
+                let w = weights16(_mm_set_epi32(0, 0, u[1] as i32, u[0] as i32));
+                let (a, b) = (self.t(u[0] as u8), self.t(u[1] as u8));
+                madd_pair(&mut acc, a, b, _mm_shuffle_epi32::<0>(w));
+            }
+            if let Ok(single) = <&[u8; 4]>::try_from(pairs.remainder()) {
+                // The odd influence, paired with a zero weight on a zero entry.
+                let u = u32::from_le_bytes(*single);
+                let w = _mm_shuffle_epi32::<0>(weights16(_mm_cvtsi32_si128(u as i32)));
+                madd_pair(&mut acc, self.t(u as u8), _mm_setzero_si128(), w);
+            }
+            // rest (Q0.15) in the high halves of 32-bit lanes, shifted down to Q8.24.
+            let r: &[u8; REST_BYTES] = r.try_into().unwrap_or(&[0; REST_BYTES]);
+            let rest16 = _mm_cvtsi64_si128(i64::from_le_bytes([
+                r[0], r[1], r[2], r[3], r[4], r[5], 0, 0,
+            ]));
+            let rest = _mm_srai_epi32::<{ 16 - crate::fixed::REST_SHIFT as i32 }>(
+                _mm_unpacklo_epi16(_mm_setzero_si128(), rest16),
+            );
+            let lo = _mm_sra_epi32(_mm_add_epi32(acc[1], self.half), self.shift_lo);
+            let hi = _mm_sll_epi32(acc[0], self.shift_hi);
+            let sum = _mm_add_epi32(_mm_add_epi32(hi, lo), rest);
+            let xy = _mm_cvtsi128_si64(sum);
+            *o = [
+                xy as i32,
+                (xy >> 32) as i32,
+                _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(sum)),
+            ];
+        }
+    }
+
+    /// See [`super::deform`]; `d` is the clamped displacement table.
+    #[target_feature(enable = "sse2")]
+    pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        let frame = Frame::new(d, rig.weight_frac_bits);
+        rig.for_each_vertex(out, |words, r, o| frame.vertex(words, r, o));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::{vec, vec::Vec};
+
+    use super::*;
+    use crate::fixed::{pack_influence, widen_rest, LINEAR_WEIGHT_ABS_SUM_MAX};
+
+    /// xorshift64: deterministic test data.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+    }
+
+    /// A random valid linear rig: `vertices` vertices of 0..=`k` influences over `markers`
+    /// markers, weights summing to 2^F with Σ|w| as large as the loader allows.
+    struct Case {
+        frac: u8,
+        rest: Vec<u8>,
+        counts: Vec<u8>,
+        words: Vec<u8>,
+        markers: usize,
+    }
+
+    /// With `uniform`, every vertex has exactly `k` influences (what bakes write), else 0..=`k`.
+    fn case(
+        rng: &mut Rng,
+        frac: u8,
+        markers: usize,
+        vertices: usize,
+        k: u8,
+        uniform: bool,
+    ) -> Case {
+        let one = 1i32 << frac;
+        let (mut rest, mut counts, mut words) = (vec![], vec![], vec![]);
+        for _ in 0..vertices {
+            for _ in 0..3 {
+                rest.extend_from_slice(&(rng.next() as i16).to_le_bytes());
+            }
+            let n = if uniform {
+                usize::from(k)
+            } else {
+                rng.below(u64::from(k) + 1) as usize
+            };
+            counts.push(n as u8);
+            // Weights with large magnitudes of both signs, fixed up to sum to 2^F and kept
+            // within the Σ|w| bound (scaled down until they fit).
+            let mut w: Vec<i32> = (0..n)
+                .map(|_| (rng.below(2 * 32767) as i32 - 32767) / n.max(1) as i32)
+                .collect();
+            if n > 0 {
+                let s: i32 = w.iter().sum();
+                w[0] += one - s;
+                while w.iter().map(|x| x.abs()).sum::<i32>() > LINEAR_WEIGHT_ABS_SUM_MAX {
+                    for x in &mut w {
+                        *x /= 2;
+                    }
+                    let s: i32 = w.iter().sum();
+                    w[0] += one - s;
+                }
+            }
+            for x in w {
+                let m = rng.below(markers as u64) as u8;
+                words.extend_from_slice(&pack_influence(m, x).unwrap().to_le_bytes());
+            }
+        }
+        Case {
+            frac,
+            rest,
+            counts,
+            words,
+            markers,
+        }
+    }
+
+    /// The kernel's formula evaluated in i128, with no cleverness: the contract both
+    /// implementations must meet bit for bit.
+    fn reference(c: &Case, d: &Displacements) -> Vec<[i32; 3]> {
+        let mut out = vec![];
+        let mut words = c.words.chunks_exact(4);
+        for (r, &n) in c.rest.chunks_exact(6).zip(&c.counts) {
+            let mut acc = [0i128; 3];
+            for w in words.by_ref().take(usize::from(n)) {
+                let (m, w) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                for a in 0..3 {
+                    acc[a] += i128::from(w) * i128::from(d[usize::from(m)][a]);
+                }
+            }
+            let v = [0, 1, 2].map(|a| {
+                let rest = widen_rest(i16::from_le_bytes([r[2 * a], r[2 * a + 1]]));
+                let x = i128::from(rest) + ((acc[a] + (1 << (c.frac - 1))) >> c.frac);
+                i32::try_from(x).expect("the module's bound: no overflow")
+            });
+            out.push(v);
+        }
+        out
+    }
+
+    /// Marker positions: extreme, large and small displacements from random rest positions.
+    fn frame(rng: &mut Rng, c: &Case) -> (Vec<[i32; 3]>, Vec<u8>) {
+        let mut rest = vec![];
+        let mut markers = vec![];
+        for j in 0..c.markers {
+            let r = [0; 3].map(|_| (rng.next() as i32) >> 6);
+            for x in r {
+                rest.extend_from_slice(&x.to_le_bytes());
+            }
+            let m = r.map(|x| match (j + rng.below(4) as usize) % 4 {
+                0 => rng.next() as i32,
+                1 => x.wrapping_add((rng.next() as i32) >> 3),
+                2 => x.wrapping_add((rng.next() as i32) >> 20),
+                _ => [i32::MIN, i32::MAX][rng.below(2) as usize],
+            });
+            markers.push(m);
+        }
+        (markers, rest)
+    }
+
+    #[test]
+    fn every_implementation_matches_the_exact_formula() {
+        let mut rng = Rng(0x1234_5678_9ABC_DEF1);
+        for trial in 0..60 {
+            let frac = [8u8, 11, 13, 14][trial % 4];
+            let markers = [1, 7, 40, 256][(trial % 4) ^ ((trial / 4) % 4)];
+            // Every third trial has K = 4 or 8 everywhere: the specialised loops.
+            let (k, uniform) = match trial % 3 {
+                0 => ([4, 8][trial % 2], true),
+                _ => ([1, 3, 4, 8, 9, 64][trial % 6], false),
+            };
+            let c = case(&mut rng, frac, markers, 300, k, uniform);
+            let (m, mrest) = frame(&mut rng, &c);
+            let d = displacements(&m, &mrest, frac);
+            let want = reference(&c, &d);
+            let mut got = vec![[0; 3]; want.len()];
+            let rig = Sections {
+                rest: &c.rest,
+                counts: &c.counts,
+                influences: &c.words,
+                weight_frac_bits: frac,
+            };
+            portable::deform(&d, rig, &mut got);
+            assert_eq!(got, want, "portable, trial {trial}");
+            #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+            {
+                let mut simd = vec![[1; 3]; want.len()];
+                sse2::deform_checked(&d, rig, &mut simd);
+                assert_eq!(simd, want, "sse2, trial {trial}");
+            }
+        }
+    }
+
+    #[test]
+    fn displacements_clamp_at_the_limit() {
+        let rest: Vec<u8> = [5i32, -5, 0].iter().flat_map(|x| x.to_le_bytes()).collect();
+        for frac in [8u8, 14] {
+            let limit = linear_displacement_limit(u32::from(frac));
+            let d = displacements(&[[i32::MAX, i32::MIN, 77]], &rest, frac);
+            assert_eq!(d[0], [limit, -limit, 77, 0]);
+            assert_eq!(d[1], [0; 4]);
         }
     }
 }

@@ -2,9 +2,13 @@
 //!
 //! ```text
 //! c[i]   = round( Σ_j M[i,j] · D[j] / 2^s_i )            per coefficient row i (stage 1)
-//! out[v] = rest[v] + round( Σ_k φ[v,k] · c[idx[v,k]] / 2^F )
-//!                  + β₀ + round( (βx·rest_x + βy·rest_y + βz·rest_z) / 2^24 )    (stage 2)
+//! out[v] = sat( rest[v] + β₀ + round( Σ_k φ[v,k] · c[idx[v,k]] / 2^F )
+//!                            + round( (βx·rest_x + βy·rest_y + βz·rest_z) / 2^24 ) )   (stage 2)
 //! ```
+//!
+//! Stage 2 adds its four terms in `i64` and saturates once, to `i32`: the kernel sum is below
+//! 2⁶⁰ (at most 64 products of a 24-bit φ and a 32-bit coefficient), the affine sum below 2⁵⁷,
+//! rest and β₀ below 2³¹, so nothing before the final clamp can overflow.
 //!
 //! `M` is the first `n` columns of the inverse RBF system matrix, baked once; `D` are the marker
 //! displacements. Stage 1 is `rows × markers` `i16 × i32 → i64` multiply-adds per axis; stage 2 is
@@ -16,6 +20,9 @@ use crate::fixed::{mul_acc, round_shift_bounded, POS_FRAC_BITS};
 use crate::format::{
     read_influence, read_rest, RbfCoefficients, INFLUENCE_BYTES, MAX_MARKERS, REST_BYTES,
 };
+
+/// The rounding half of the affine sum, which has 24 fractional bits more than a position.
+const AFFINE_HALF: i64 = 1 << (POS_FRAC_BITS - 1);
 
 /// Coefficient rows the scratch table holds: one per marker plus the four affine rows.
 pub(crate) const MAX_ROWS: usize = MAX_MARKERS + 4;
@@ -53,6 +60,7 @@ pub(crate) fn deform(
     out: &mut [[i32; 3]],
 ) {
     let frac = u32::from(rbf.weight_frac_bits);
+    let half = 1i64 << (frac - 1);
     let k = usize::from(rbf.influences_per_vertex);
     // Without the affine rows these stay zero and add nothing.
     let (beta0, beta) = if rbf.affine {
@@ -79,15 +87,16 @@ pub(crate) fn deform(
         }
         let rest_v = read_rest(r);
         for c in 0..3 {
-            // Affine: β₀ + Σ_a β_a · rest_a, with rest in Q8.24 and |rest| ≤ 2²⁴.
+            // Affine: Σ_a β_a · rest_a, with rest in Q8.24 and |rest| ≤ 2²⁴.
             let mut lin = 0i64;
             for (b, &x) in beta.iter().zip(&rest_v) {
                 lin = mul_acc(lin, b[c], x);
             }
-            let affine = beta0[c].saturating_add(round_shift_bounded(lin, POS_FRAC_BITS));
-            o[c] = rest_v[c]
-                .saturating_add(round_shift_bounded(acc[c], frac))
-                .saturating_add(affine);
+            let total = i64::from(rest_v[c])
+                + i64::from(beta0[c])
+                + ((acc[c] + half) >> frac)
+                + ((lin + AFFINE_HALF) >> POS_FRAC_BITS);
+            o[c] = total.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
         }
     }
 }
