@@ -3,7 +3,7 @@
 use facebake_runtime::format::{
     self, Bytes, Deformer, LinearInfluences, RbfCoefficients, RigData, Space, MAX_MARKERS,
 };
-use facebake_runtime::pipeline::{Retarget, Stages};
+use facebake_runtime::pipeline::{PerMarker, Retarget, RetargetForm, Stages};
 
 use crate::stages::StagesBytes;
 
@@ -232,13 +232,20 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
         head_markers: Bytes(&stages.head_markers),
         max_displacement: stages.max_displacement,
         fill: Bytes(&stages.fill),
-        retarget: Retarget {
-            radii: Bytes(&stages.radii),
-            alpha_shift: stages.alpha_shift,
-            alpha: Bytes(&stages.alpha),
-            linear_shift: stages.linear_shift,
-            linear: stages.linear,
-            offset: stages.offset,
+        retarget: match &stages.proportional {
+            Some((shift, matrices, rest)) => RetargetForm::PerMarker(PerMarker {
+                shift: *shift,
+                matrices: Bytes(matrices),
+                rest: Bytes(rest),
+            }),
+            None => RetargetForm::Rbf(Retarget {
+                radii: Bytes(&stages.radii),
+                alpha_shift: stages.alpha_shift,
+                alpha: Bytes(&stages.alpha),
+                linear_shift: stages.linear_shift,
+                linear: stages.linear,
+                offset: stages.offset,
+            }),
         },
     });
     let payload = postcard::to_allocvec(&data)?;

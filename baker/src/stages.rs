@@ -38,6 +38,96 @@ pub enum HeadMarkers {
     None,
 }
 
+/// How compensated actor markers become the character's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum RetargetKind {
+    /// The RBF map of paper 000 §5.1: inverse multiquadric with per-centre radii plus affine.
+    #[default]
+    Rbf,
+    /// Paper 003 §4's per-region proportional scaling: the actor's displacements turned into the
+    /// character's frame and scaled per axis by the ratio of the two faces' extents, separately
+    /// for the upper and the lower face. 9 multiply-adds per marker at run time.
+    Proportional,
+}
+
+/// Paper 003 §4's proportional retargeting, in f64: `v_j + M_j d_j`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Proportional {
+    /// Per marker, M_j (character rig units per actor unit).
+    pub matrices: Vec<[[f64; 3]; 3]>,
+    /// Per marker, v_j (character rig units).
+    pub rest: Vec<[f64; 3]>,
+    /// Per-axis scales of the upper face (character y at or above the markers' median) and of
+    /// the lower face.
+    pub scales: [[f64; 3]; 2],
+}
+
+impl Proportional {
+    /// Build it from the actor's neutral markers (actor units) and the character's (rig units):
+    /// the rotation between the faces (Kabsch on the centred marker sets), then per region and
+    /// axis the ratio of the character's marker extent to the turned actor's. The regions split
+    /// at the median height (y, glTF's up axis) of the character's markers.
+    pub fn new(neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, StagesError> {
+        let fit = kabsch(neutral, character)?;
+        let r = fit.rotation;
+        let mean = |p: &[[f64; 3]]| {
+            [0, 1, 2].map(|c| p.iter().map(|q| q[c]).sum::<f64>() / p.len() as f64)
+        };
+        let (cu, cv) = (mean(neutral), mean(character));
+        let turned: Vec<[f64; 3]> = neutral
+            .iter()
+            .map(|u| {
+                let d = nalgebra::Vector3::new(u[0] - cu[0], u[1] - cu[1], u[2] - cu[2]);
+                let w = r * d;
+                [w.x, w.y, w.z]
+            })
+            .collect();
+        let mut heights: Vec<f64> = character.iter().map(|v| v[1]).collect();
+        heights.sort_by(f64::total_cmp);
+        let median = heights[heights.len() / 2];
+        let upper = |j: usize| character[j][1] >= median;
+        let extent = |pts: &mut dyn Iterator<Item = f64>| {
+            let (lo, hi) = pts.fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)));
+            hi - lo
+        };
+        let n = neutral.len();
+        let overall = {
+            let spread = |p: &[[f64; 3]], c: [f64; 3]| {
+                p.iter().map(|q| distance(q, &c).powi(2)).sum::<f64>()
+            };
+            (spread(character, cv) / spread(neutral, cu).max(f64::MIN_POSITIVE)).sqrt()
+        };
+        let scales = [true, false].map(|up| {
+            [0, 1, 2].map(|c| {
+                let ev = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| character[j][c]));
+                let ew = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| turned[j][c]));
+                if ew > 1e-9 && ev > 1e-9 {
+                    ev / ew
+                } else {
+                    overall
+                }
+            })
+        });
+        let matrices = (0..n)
+            .map(|j| {
+                let s = scales[usize::from(!upper(j))];
+                [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]))
+            })
+            .collect();
+        Ok(Self {
+            matrices,
+            rest: character.to_vec(),
+            scales,
+        })
+    }
+
+    /// Character marker `j` for the compensated actor displacement `d`.
+    pub fn map(&self, j: usize, d: &[f64; 3]) -> [f64; 3] {
+        let m = &self.matrices[j];
+        [0, 1, 2].map(|row| self.rest[j][row] + (0..3).map(|c| m[row][c] * d[c]).sum::<f64>())
+    }
+}
+
 /// How to bake the capture stages.
 #[derive(Clone, Debug)]
 pub struct StagesConfig {
@@ -48,6 +138,8 @@ pub struct StagesConfig {
     /// Largest plausible displacement of a compensated marker from neutral, as a fraction of the
     /// actor's half extent (half the largest side of the neutral markers' bounds).
     pub max_displacement: f64,
+    /// The retargeting method.
+    pub retarget: RetargetKind,
 }
 
 impl Default for StagesConfig {
@@ -56,6 +148,7 @@ impl Default for StagesConfig {
             neutral: 0..1,
             head: HeadMarkers::MostRigid(4),
             max_displacement: 0.5,
+            retarget: RetargetKind::Rbf,
         }
     }
 }
@@ -130,7 +223,9 @@ pub struct StagesReport {
     pub actor_half_extent: f64,
     /// The capture's own length unit (the stages work in metres).
     pub units: String,
-    /// 1-norm condition estimate of the retargeting system.
+    /// The retargeting method.
+    pub retarget: RetargetKind,
+    /// 1-norm condition estimate of the retargeting system (the RBF map's).
     pub retarget_condition: f64,
     /// Largest rounding of a retarget coefficient, character rig units.
     pub max_alpha_rounding: f64,
@@ -161,6 +256,9 @@ pub struct StagesBytes {
     pub linear: [i32; 9],
     /// Offset, Q8.24.
     pub offset: [i32; 3],
+    /// Proportional retargeting instead of the RBF map: (shift, matrices, rest) as the runtime's
+    /// `PerMarker` holds them.
+    pub proportional: Option<(u8, Vec<u8>, Vec<u8>)>,
 }
 
 /// The baked stages: bytes for the blob, the f64 reference and a report.
@@ -187,6 +285,8 @@ pub struct StagesF64 {
     pub fill: Vec<Vec<(usize, f64)>>,
     /// Actor units → character rig units.
     pub map: RetargetMap,
+    /// Proportional retargeting, used instead of `map` when present.
+    pub proportional: Option<Proportional>,
 }
 
 /// What the reference did with one frame (mirrors the runtime's report).
@@ -223,7 +323,15 @@ impl StagesF64 {
         frame: &[Option<[f64; 3]>],
     ) -> (Vec<[f64; 3]>, FrameReportF64) {
         let (actor, report) = self.compensate(state, frame);
-        (actor.iter().map(|a| self.map.map(a)).collect(), report)
+        let out = actor
+            .iter()
+            .enumerate()
+            .map(|(j, a)| match &self.proportional {
+                Some(p) => p.map(j, &sub(a, &self.neutral[j])),
+                None => self.map.map(a),
+            })
+            .collect();
+        (out, report)
     }
 
     /// The first steps of [`Self::solve`]: one frame (metres) → every marker in the actor's
@@ -448,8 +556,12 @@ pub fn bake_stages(
 
     let character_rig: Vec<[f64; 3]> = character.iter().map(|p| to_rig_units(space, p)).collect();
     let map = RetargetMap::new(&neutral, &character_rig)?;
+    let proportional = match config.retarget {
+        RetargetKind::Rbf => None,
+        RetargetKind::Proportional => Some(Proportional::new(&neutral, &character_rig)?),
+    };
 
-    let bytes = encode(
+    let mut bytes = encode(
         &actor_space,
         &neutral,
         &head,
@@ -457,6 +569,9 @@ pub fn bake_stages(
         &fill,
         &map,
     )?;
+    if let Some(p) = &proportional {
+        bytes.proportional = Some(encode_proportional(p)?);
+    }
     let max_alpha_rounding = alpha_rounding(&map, bytes.alpha_shift);
     let reference = StagesF64 {
         actor_space,
@@ -465,6 +580,7 @@ pub fn bake_stages(
         max_displacement: config.max_displacement,
         fill,
         map,
+        proportional,
     };
     let report = StagesReport {
         head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
@@ -479,6 +595,7 @@ pub fn bake_stages(
             .collect(),
         actor_half_extent: f64::from(actor_space.half_extent),
         units: original_units.symbol().to_string(),
+        retarget: config.retarget,
         retarget_condition: reference.map.condition(),
         max_alpha_rounding,
     };
@@ -638,5 +755,27 @@ fn encode(
         linear_shift,
         linear,
         offset,
+        proportional: None,
     })
+}
+
+/// The runtime's `PerMarker` sections for `p`: one shift for every matrix entry.
+fn encode_proportional(p: &Proportional) -> Result<(u8, Vec<u8>, Vec<u8>), StagesError> {
+    let entries = p.matrices.iter().flatten().flatten().copied();
+    let shift = shift_for(entries, f64::from(i32::MAX), 40).max(1);
+    let scale = 2f64.powi(i32::from(shift));
+    let matrices = p
+        .matrices
+        .iter()
+        .flatten()
+        .flatten()
+        .flat_map(|v| ((v * scale).round() as i32).to_le_bytes())
+        .collect();
+    let mut rest = Vec::new();
+    for v in &p.rest {
+        for &c in v {
+            rest.extend_from_slice(&q824(c)?.to_le_bytes());
+        }
+    }
+    Ok((shift, matrices, rest))
 }

@@ -12,6 +12,16 @@ fn rig() -> &'static JawMoCapRig {
     CELL.get_or_init(|| jawmocap_rig(&StagesConfig::default()))
 }
 
+fn proportional_rig() -> &'static JawMoCapRig {
+    static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        jawmocap_rig(&StagesConfig {
+            retarget: facebake::stages::RetargetKind::Proportional,
+            ..StagesConfig::default()
+        })
+    })
+}
+
 /// Actor frame (capture units) → runtime input.
 fn to_actor(rig: &Rig<'_>, frame: &[Option<[f64; 3]>]) -> Vec<Option<[i32; 3]>> {
     let space = rig.stages().expect("stages").actor_space;
@@ -33,7 +43,16 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// reference (Kabsch, unquantised retargeting map, f64 evaluation of the same sparse rig).
 #[test]
 fn runtime_matches_the_f64_pipeline_on_jawmocap() {
-    let j = rig();
+    matches_the_f64_pipeline(rig());
+}
+
+/// The same with paper 003's proportional retargeting.
+#[test]
+fn proportional_runtime_matches_the_f64_pipeline_on_jawmocap() {
+    matches_the_f64_pipeline(proportional_rig());
+}
+
+fn matches_the_f64_pipeline(j: &JawMoCapRig) {
     let rig = Rig::from_bytes(&j.blob).expect("loads");
     let sparse = SparseF64::from_rig(&rig);
     let mut state = PlayState::new();
@@ -220,7 +239,7 @@ fn knocked_out_markers_are_rebuilt() {
 #[test]
 fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
     use facebake::rigid::kabsch;
-    use facebake::stages::{bake_stages, HeadMarkers};
+    use facebake::stages::{bake_stages, HeadMarkers, RetargetKind};
     let j = rig();
     let rig = Rig::from_bytes(&j.blob).expect("loads");
     let space = rig.space();
@@ -231,11 +250,17 @@ fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
         .map(|h| rig.marker_index(h).expect("head marker"))
         .collect();
     let neutral: Vec<[f64; 3]> = j.frames[0].iter().map(|p| p.expect("complete")).collect();
-    let config = StagesConfig {
-        head: HeadMarkers::Named(head.map(str::to_string).to_vec()),
-        ..StagesConfig::default()
-    };
-    for scale in [1.0, 1.5] {
+    for (retarget, scale) in [
+        (RetargetKind::Rbf, 1.0),
+        (RetargetKind::Rbf, 1.5),
+        (RetargetKind::Proportional, 1.0),
+        (RetargetKind::Proportional, 1.5),
+    ] {
+        let config = StagesConfig {
+            head: HeadMarkers::Named(head.map(str::to_string).to_vec()),
+            retarget,
+            ..StagesConfig::default()
+        };
         let character: Vec<[f64; 3]> = neutral.iter().map(|p| p.map(|c| c * scale)).collect();
         let baked = bake_stages(&j.capture, &names, &character, &space, &config).expect("bakes");
         let blob = facebake::blob::with_stages(&j.baked.blob, &baked.bytes).expect("attaches");
@@ -254,7 +279,7 @@ fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
                 worst = worst.max(dist(&space.to_asset_f64(*q), &want));
             }
         }
-        println!("scale {scale}: worst marker error {worst:.3e} m");
-        assert!(worst < 1e-6, "scale {scale}: {worst} m");
+        println!("{retarget:?} scale {scale}: worst marker error {worst:.3e} m");
+        assert!(worst < 1e-6, "{retarget:?} scale {scale}: {worst} m");
     }
 }

@@ -4,7 +4,7 @@
 use facebake::ground_truth::SplitMix64;
 use facebake::stages::StagesConfig;
 use facebake_runtime::format::{self, Bytes, LoadError, RigData, HEADER_LEN};
-use facebake_runtime::pipeline::{StagesError, StagesSection};
+use facebake_runtime::pipeline::{Retarget, RetargetForm, Stages, StagesError, StagesSection};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, reseal, JawMoCapRig};
 
@@ -18,6 +18,20 @@ fn seal(data: &RigData<'_>) -> Vec<u8> {
     let mut out = format::header_for(&payload).unwrap().to_vec();
     out.extend_from_slice(&payload);
     out
+}
+
+fn rbf<'a, 'b>(d: &'b mut RigData<'a>) -> &'b mut Retarget<'a> {
+    match &mut d.stages.as_mut().unwrap().retarget {
+        RetargetForm::Rbf(r) => r,
+        RetargetForm::PerMarker(_) => panic!("the default bake retargets by RBF"),
+    }
+}
+
+fn rbf_of<'a>(s: &Stages<'a>) -> Retarget<'a> {
+    match s.retarget {
+        RetargetForm::Rbf(r) => r,
+        RetargetForm::PerMarker(_) => panic!("the default bake retargets by RBF"),
+    }
 }
 
 fn stages_error(data: &RigData<'_>) -> StagesError {
@@ -76,30 +90,24 @@ fn every_stages_error_is_distinct() {
         with(&|d| d.stages.as_mut().unwrap().fill = Bytes(fill)),
         StagesError::BadFillNeighbour { marker: 1 }
     );
-    let mut radii = s.retarget.radii.0.to_vec();
+    let mut radii = rbf_of(&s).radii.0.to_vec();
     radii[8..12].copy_from_slice(&0i32.to_le_bytes());
     let radii: &'static [u8] = radii.leak();
     assert_eq!(
-        with(&|d| d.stages.as_mut().unwrap().retarget.radii = Bytes(radii)),
+        with(&|d| rbf(d).radii = Bytes(radii)),
         StagesError::BadRadius { marker: 2 }
     );
-    let mut alpha = s.retarget.alpha.0.to_vec();
+    let mut alpha = rbf_of(&s).alpha.0.to_vec();
     alpha[36..40].copy_from_slice(&(1i32 << 23).to_le_bytes());
     let alpha: &'static [u8] = alpha.leak();
     assert_eq!(
-        with(&|d| d.stages.as_mut().unwrap().retarget.alpha = Bytes(alpha)),
+        with(&|d| rbf(d).alpha = Bytes(alpha)),
         StagesError::AlphaOutOfRange { marker: 3 }
     );
-    assert_eq!(
-        with(&|d| d.stages.as_mut().unwrap().retarget.alpha_shift = 49),
-        StagesError::BadShift
-    );
-    assert_eq!(
-        with(&|d| d.stages.as_mut().unwrap().retarget.linear_shift = 0),
-        StagesError::BadShift
-    );
+    assert_eq!(with(&|d| rbf(d).alpha_shift = 49), StagesError::BadShift);
+    assert_eq!(with(&|d| rbf(d).linear_shift = 0), StagesError::BadShift);
     assert!(matches!(
-        with(&|d| d.stages.as_mut().unwrap().retarget.radii = Bytes(&[])),
+        with(&|d| rbf(d).radii = Bytes(&[])),
         StagesError::SectionLength {
             section: StagesSection::Radii,
             ..

@@ -15,7 +15,7 @@ use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
 use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
-use crate::stages::{bake_stages, HeadMarkers, StagesConfig, StagesReport};
+use crate::stages::{bake_stages, HeadMarkers, RetargetKind, StagesConfig, StagesReport};
 
 /// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
 /// bounding-box diagonal.
@@ -82,6 +82,10 @@ pub struct BakeArgs {
     /// rebuilt, as a fraction of the actor's half extent.
     #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, requires = "capture")]
     pub max_displacement: f64,
+    /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
+    /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
+    #[arg(long, value_enum, default_value_t = RetargetKind::Rbf, requires = "capture")]
+    pub retarget: RetargetKind,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -181,6 +185,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
                 neutral: args.neutral.clone(),
                 head: args.head_markers.clone(),
                 max_displacement: args.max_displacement,
+                retarget: args.retarget,
             };
             let stages = bake_stages(&capture, &names, &character, &space, &config)
                 .map_err(|e| CliError::input(path, e.to_string()))?;
@@ -328,7 +333,11 @@ fn print_text(s: &BakeSummary) {
         );
         outln!(
             out,
-            "  retargeting   IMQ + affine, condition {:.3e}, largest coefficient rounding {:.2e}",
+            "  retargeting   {}; RBF condition {:.3e}, largest coefficient rounding {:.2e}",
+            match st.retarget {
+                RetargetKind::Rbf => "IMQ + affine RBF map (paper 000)",
+                RetargetKind::Proportional => "per-region proportional scaling (paper 003)",
+            },
             st.retarget_condition,
             st.max_alpha_rounding
         );

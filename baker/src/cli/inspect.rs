@@ -8,6 +8,8 @@ use facebake_runtime::format::{Deformer, HEADER_LEN};
 use facebake_runtime::{Cost, Rig};
 use serde::Serialize;
 
+use facebake_runtime::pipeline::RetargetForm;
+
 use super::bake::bytes_text;
 use super::{emit, load_rig, marker_names, print_json, read_file, weight_format, CliError};
 
@@ -176,8 +178,10 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         st.actor_neutral.0.len()
             + st.head_markers.0.len()
             + st.fill.0.len()
-            + st.retarget.radii.0.len()
-            + st.retarget.alpha.0.len()
+            + match st.retarget {
+                RetargetForm::Rbf(r) => r.radii.0.len() + r.alpha.0.len(),
+                RetargetForm::PerMarker(p) => p.matrices.0.len() + p.rest.0.len(),
+            }
     });
     let known = stages_bytes
         + HEADER_LEN
@@ -239,8 +243,18 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                 max_displacement_m: f64::from(st.max_displacement) / f64::from(1u32 << 24)
                     * f64::from(st.actor_space.half_extent),
                 cost: format!(
-                    "{} markers: at most {} rigid fits of {} head markers ({} 4×4 squarings), {} fill terms, {} inverse-multiquadric kernels",
-                    c.markers, c.rigid_fits, c.head_markers, c.horn_squarings, c.fill_terms, c.retarget_kernels
+                    "{} markers: at most {} rigid fits of {} head markers ({} 4×4 squarings), {} fill terms, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
+                    c.markers,
+                    c.rigid_fits,
+                    c.head_markers,
+                    c.horn_squarings,
+                    c.fill_terms,
+                    match st.retarget {
+                        RetargetForm::Rbf(_) => "RBF",
+                        RetargetForm::PerMarker(_) => "proportional",
+                    },
+                    c.retarget_kernels,
+                    c.retarget_multiply_adds
                 ),
             }
         }),

@@ -66,6 +66,33 @@ pub struct Retarget<'a> {
     pub offset: [i32; 3],
 }
 
+/// Proportional retargeting (paper 003 §4, the simple option): each character marker moves from
+/// its rest position by a fixed 3 × 3 matrix times its compensated actor displacement,
+/// `f_j(a) = v_j + M_j (a − u_j)`. The baker builds `M_j` from per-region scale factors and the
+/// rotation between the two faces. 9 multiply-adds per marker.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PerMarker<'a> {
+    /// Scale exponent of `matrices`: entries are `q · 2^−shift`, in [1, 40].
+    pub shift: u8,
+    /// Per marker, M_j row-major as 9 × `i32` LE: character rig units per actor unit.
+    #[serde(borrow)]
+    pub matrices: Bytes<'a>,
+    /// Per marker, v_j: the character marker's rest position, 3 × `i32` LE, Q8.24 rig units.
+    #[serde(borrow)]
+    pub rest: Bytes<'a>,
+}
+
+/// How compensated actor markers become character markers.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum RetargetForm<'a> {
+    /// The RBF map of paper 000 (inverse multiquadric + affine).
+    #[serde(borrow)]
+    Rbf(Retarget<'a>),
+    /// Per-marker linear maps (paper 003 §4's proportional scaling).
+    #[serde(borrow)]
+    PerMarker(PerMarker<'a>),
+}
+
 /// The capture stages of a rig (see the module docs). Markers are the rig's markers, in the
 /// rig's order: actor marker `j` drives character marker `j`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -88,7 +115,7 @@ pub struct Stages<'a> {
     pub fill: Bytes<'a>,
     /// The retargeting map.
     #[serde(borrow)]
-    pub retarget: Retarget<'a>,
+    pub retarget: RetargetForm<'a>,
 }
 
 /// Why a rig's capture stages are invalid. Every variant is a distinct failure.
@@ -144,6 +171,10 @@ pub enum StagesSection {
     Radii,
     /// `retarget.alpha`
     Alpha,
+    /// per-marker `matrices`
+    Matrices,
+    /// per-marker `rest`
+    Rest,
 }
 
 impl core::fmt::Display for StagesError {
@@ -267,7 +298,16 @@ impl<'a> Stages<'a> {
                 }
             }
         }
-        let r = &self.retarget;
+        let r = match &self.retarget {
+            RetargetForm::Rbf(r) => r,
+            RetargetForm::PerMarker(p) => {
+                if !LINEAR_SHIFTS.contains(&p.shift) {
+                    return Err(StagesError::BadShift);
+                }
+                expect_len(StagesSection::Matrices, p.matrices, markers * 36)?;
+                return expect_len(StagesSection::Rest, p.rest, markers * POSITION_BYTES);
+            }
+        };
         if r.alpha_shift > MAX_ALPHA_SHIFT || !LINEAR_SHIFTS.contains(&r.linear_shift) {
             return Err(StagesError::BadShift);
         }
@@ -325,7 +365,14 @@ impl<'a> Stages<'a> {
             rigid_fits: if head > 0 { 2 } else { 0 },
             horn_squarings: if head > 0 { 2 * rigid::SQUARINGS } else { 0 },
             fill_terms: markers * FILL_NEIGHBOURS,
-            retarget_kernels: markers * markers,
+            retarget_kernels: match self.retarget {
+                RetargetForm::Rbf(_) => markers * markers,
+                RetargetForm::PerMarker(_) => 0,
+            },
+            retarget_multiply_adds: match self.retarget {
+                RetargetForm::Rbf(_) => 3 * markers * markers + 9 * markers,
+                RetargetForm::PerMarker(_) => 9 * markers,
+            },
         }
     }
 
@@ -404,7 +451,10 @@ impl<'a> Stages<'a> {
         for (j, o) in out.iter_mut().enumerate().take(markers) {
             let u = self.neutral(j).unwrap_or([0; 3]);
             let a = [0, 1, 2].map(|c| u[c].saturating_add(displacement[j][c]));
-            *o = retarget::map(&self.retarget, self.actor_neutral.0, a);
+            *o = match &self.retarget {
+                RetargetForm::Rbf(r) => retarget::map(r, self.actor_neutral.0, a),
+                RetargetForm::PerMarker(p) => retarget::per_marker(p, j, displacement[j]),
+            };
         }
         report
     }
@@ -477,8 +527,12 @@ pub struct StagesCost {
     pub horn_squarings: usize,
     /// Fill terms at most (markers × neighbours).
     pub fill_terms: usize,
-    /// Inverse-multiquadric kernel evaluations (markers²), each one `rsqrt_u64`.
+    /// Inverse-multiquadric kernel evaluations (markers² for the RBF map, 0 per-marker), each
+    /// one `rsqrt_u64`.
     pub retarget_kernels: usize,
+    /// Multiply-adds: the RBF map's kernel terms (3 per kernel) and affine part, or the
+    /// per-marker matrices.
+    pub retarget_multiply_adds: usize,
 }
 
 /// A set of marker indices (0..256), as a bitset.

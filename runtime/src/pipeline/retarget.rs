@@ -18,7 +18,7 @@
 //! | L | `i32`, scale 2^−`linear_shift` | any `i32`: three products with \|a\| ≤ 2³⁰ stay below 2⁶³ |
 //! | b, f(a) | Q8.24 character rig units | saturated at the `i32` range |
 
-use super::Retarget;
+use super::{PerMarker, Retarget};
 use crate::fixed::round_shift_sat;
 use crate::format::read_position;
 use crate::sqrt::rsqrt_u64;
@@ -75,6 +75,30 @@ pub fn map(map: &Retarget<'_>, neutral: &[u8], a: [i32; 3]) -> [i32; 3] {
             .sum();
         let linear = i64::from(round_shift_sat(linear, u32::from(map.linear_shift)));
         (kernel + linear + i64::from(map.offset[row]))
+            .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    })
+}
+
+/// Proportional retargeting of marker `j`: `v_j + M_j d` for its compensated displacement `d`
+/// (actor units, |d| ≤ 2³⁰ by the plausibility bound), saturated to the `i32` range. Three
+/// products of two `i32` per row stay below 2⁶³. The loader checked the sections' lengths.
+pub fn per_marker(p: &PerMarker<'_>, j: usize, d: [i32; 3]) -> [i32; 3] {
+    let (Some(m), Some(v)) = (
+        p.matrices.0.get(36 * j..36 * j + 36),
+        p.rest.0.get(12 * j..12 * j + 12),
+    ) else {
+        return [0; 3];
+    };
+    let v = read_position(v);
+    [0, 1, 2].map(|row| {
+        let acc: i64 = (0..3)
+            .map(|c| {
+                let at = 4 * (3 * row + c);
+                let q = i32::from_le_bytes([m[at], m[at + 1], m[at + 2], m[at + 3]]);
+                i64::from(q) * i64::from(d[c])
+            })
+            .sum();
+        (i64::from(round_shift_sat(acc, u32::from(p.shift))) + i64::from(v[row]))
             .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
     })
 }
