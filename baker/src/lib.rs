@@ -8,6 +8,7 @@ pub mod ground_truth;
 pub mod io;
 pub mod mesh;
 pub mod placement;
+pub mod planar;
 pub mod rbf;
 pub mod reference;
 pub mod retarget;

@@ -28,5 +28,6 @@ pub mod space;
 pub mod sqrt;
 
 pub use format::{LoadError, Space};
+pub use kernel::planar::DegenerateTriangles;
 pub use rig::{Cost, FrameError, Rig};
 pub use space::ConvertError;

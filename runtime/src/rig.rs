@@ -5,6 +5,7 @@ use crate::format::{
     POSITION_BYTES, REST_BYTES,
 };
 use crate::kernel;
+use crate::kernel::planar::DegenerateTriangles;
 
 /// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
 /// nothing; loading validated every index and length once.
@@ -73,6 +74,12 @@ pub struct Cost {
     pub narrowings: usize,
     /// Stack the call uses for marker displacements, in bytes.
     pub scratch_bytes: usize,
+    /// Control-triangle frames built per frame (planar bones; 0 otherwise). A triangle that is
+    /// degenerate in a frame builds its rest frame too, so at most twice this many are built.
+    pub frame_builds: usize,
+    /// Vector normalisations (integer square root and three divisions) per frame: four per
+    /// frame build, one per apex-region influence (planar bones; 0 otherwise).
+    pub normalisations: usize,
 }
 
 impl core::fmt::Display for Cost {
@@ -90,7 +97,15 @@ impl core::fmt::Display for Cost {
             self.subtractions,
             self.narrowings,
             self.scratch_bytes
-        )
+        )?;
+        if self.frame_builds > 0 {
+            write!(
+                f,
+                ", {} control-triangle frames, {} normalisations",
+                self.frame_builds, self.normalisations
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -170,6 +185,7 @@ impl<'a> Rig<'a> {
         match &self.data.deformer {
             Deformer::Linear(l) => l.weight_frac_bits,
             Deformer::RbfCoefficients(r) => r.weight_frac_bits,
+            Deformer::PlanarBones(_) => format::PLANAR_WEIGHT_FRAC_BITS,
         }
     }
 
@@ -190,6 +206,8 @@ impl<'a> Rig<'a> {
                     subtractions: 3 * m,
                     narrowings: 3 * v,
                     scratch_bytes: displacement_scratch,
+                    frame_builds: 0,
+                    normalisations: 0,
                 }
             }
             Deformer::RbfCoefficients(r) => {
@@ -207,8 +225,11 @@ impl<'a> Rig<'a> {
                     narrowings: 3 * rows + if r.affine { 6 * v } else { 3 * v },
                     scratch_bytes: displacement_scratch
                         + core::mem::size_of::<[[i32; 3]; kernel::rbf::MAX_ROWS]>(),
+                    frame_builds: 0,
+                    normalisations: 0,
                 }
             }
+            Deformer::PlanarBones(p) => kernel::planar::cost(p, v, m),
         }
     }
 
@@ -218,6 +239,17 @@ impl<'a> Rig<'a> {
     /// Zero marker motion gives the rest pose bit for bit, and moving every marker by the same
     /// offset moves every vertex by exactly that offset (barring saturation at ±128 rig units).
     pub fn deform(&self, markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), FrameError> {
+        self.deform_report(markers, out).map(|_| ())
+    }
+
+    /// [`Self::deform`], also reporting the control triangles of a planar-bones rig that were
+    /// degenerate in this frame (collinear or coincident markers) and so kept their rest
+    /// orientation. Always empty for the other deformers.
+    pub fn deform_report(
+        &self,
+        markers: &[[i32; 3]],
+        out: &mut [[i32; 3]],
+    ) -> Result<DegenerateTriangles, FrameError> {
         if markers.len() != self.marker_count() {
             return Err(FrameError::MarkerCount {
                 expected: self.marker_count(),
@@ -229,6 +261,14 @@ impl<'a> Rig<'a> {
                 expected: self.vertex_count(),
                 found: out.len(),
             });
+        }
+        if let Deformer::PlanarBones(planar) = &self.data.deformer {
+            return Ok(kernel::planar::deform(
+                planar,
+                self.data.marker_rest.0,
+                markers,
+                out,
+            ));
         }
         let mut displacements = [[0i32; 3]; MAX_MARKERS];
         for ((d, m), r) in displacements
@@ -256,7 +296,8 @@ impl<'a> Rig<'a> {
                 kernel::rbf::coefficients(rbf, m, &displacements, &mut table);
                 kernel::rbf::deform(rbf, m, &table, self.data.vertex_rest.0, out);
             }
+            Deformer::PlanarBones(_) => {}
         }
-        Ok(())
+        Ok(DegenerateTriangles::default())
     }
 }

@@ -270,6 +270,7 @@ fn form_name(form: RigForm) -> &'static str {
     match form {
         RigForm::Weights => "weights",
         RigForm::Coefficients => "coefficients",
+        RigForm::Planar => "planar",
     }
 }
 
@@ -327,6 +328,7 @@ fn synthetic_cases() -> Vec<Case> {
         marker_names: &names,
         marker_rest: &marker_rest,
         stiffness: &stiffness,
+        triangles: &[],
     };
     let configs = [4, 8]
         .into_iter()

@@ -34,6 +34,7 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
             marker_names: &names,
             marker_rest: &rest,
             stiffness: &stiffness,
+            triangles: &truth.mesh.triangles,
         },
         config,
     )
@@ -80,4 +81,13 @@ pub fn reseal(blob: &mut [u8]) {
     let header_len = facebake_runtime::format::HEADER_LEN;
     let crc = facebake_runtime::checksum::crc32(&blob[header_len..]);
     blob[16..20].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// The planar-bones configuration the tests use at `k` (default bone radius).
+pub fn planar_config(k: usize) -> BakeConfig {
+    BakeConfig {
+        form: facebake::bake::RigForm::Planar,
+        k,
+        ..BakeConfig::default()
+    }
 }

@@ -78,6 +78,7 @@ fn linearity(rig: &Rig<'_>) {
     let tolerance = match rig.deformer() {
         Deformer::Linear(_) => 1,
         Deformer::RbfCoefficients(_) => 18,
+        Deformer::PlanarBones(_) => panic!("planar bones are not linear in the markers"),
     };
     let rest = rest_markers(rig);
     let mut rng = SplitMix64(11);

@@ -32,8 +32,8 @@ pub struct BakeArgs {
     /// The marker layout (.toml or .json).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
-    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, or K weights
-    /// per vertex on marker displacements.
+    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights
+    /// per vertex on marker displacements, or planar bones (K control triangles per vertex).
     #[arg(long, value_enum, default_value_t = BakeConfig::default().form)]
     pub form: RigForm,
     /// Radial kernel.
@@ -59,6 +59,9 @@ pub struct BakeArgs {
     /// (default: 1% of the mesh's bounding-box diagonal).
     #[arg(long, value_name = "D")]
     pub max_snap: Option<f64>,
+    /// Planar form: bone radius as a multiple of the closest connected-marker distance.
+    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius)]
+    pub planar_radius: f64,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -79,6 +82,7 @@ impl BakeArgs {
             affine: d.affine && !self.no_affine,
             k: self.k,
             refit: self.refit,
+            planar_radius: self.planar_radius,
             ..d
         }
     }
@@ -130,6 +134,7 @@ pub fn bake_layout(
             marker_names: &names,
             marker_rest: &rest,
             stiffness: &stiffness,
+            triangles: &mesh.triangles,
         },
         config,
     )
@@ -185,6 +190,7 @@ pub fn form_text(form: RigForm) -> &'static str {
             "coefficients: per-frame RBF coefficients, K kernel terms per vertex"
         }
         RigForm::Weights => "weights: K weights per vertex on marker displacements",
+        RigForm::Planar => "planar: K control-triangle region transforms per vertex",
     }
 }
 
@@ -226,6 +232,7 @@ fn print_text(s: &BakeSummary) {
     let stored = match r.form {
         RigForm::Coefficients => "kernel values",
         RigForm::Weights => "weights",
+        RigForm::Planar => "weights",
     };
     outln!(
         out,
@@ -249,8 +256,17 @@ fn print_text(s: &BakeSummary) {
         match r.form {
             RigForm::Coefficients => "kernel mass",
             RigForm::Weights => "dense weight",
+            RigForm::Planar => "eq-12 weight",
         }
     );
+    if let Some(p) = &r.planar {
+        outln!(
+            out,
+            "  control       {} triangles; {} vertices within no bone's radius ride their closest bone",
+            p.triangles.len(),
+            p.outside_radius
+        );
+    }
     outln!(
         out,
         "  blob          {}: influences {} bytes ({} bytes/influence), other {:.2} bytes/vertex",

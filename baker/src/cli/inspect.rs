@@ -43,6 +43,10 @@ pub struct CostSummary {
     pub narrowings: usize,
     /// Stack scratch, bytes.
     pub scratch_bytes: usize,
+    /// Control-triangle frames built per frame (planar bones).
+    pub frame_builds: usize,
+    /// Integer-square-root normalisations per frame (planar bones).
+    pub normalisations: usize,
     /// The runtime's own one-line description.
     pub text: String,
 }
@@ -59,6 +63,8 @@ impl From<Cost> for CostSummary {
             subtractions: c.subtractions,
             narrowings: c.narrowings,
             scratch_bytes: c.scratch_bytes,
+            frame_builds: c.frame_builds,
+            normalisations: c.normalisations,
             text: c.to_string(),
         }
     }
@@ -79,9 +85,10 @@ pub struct Sections {
     pub influence_counts: usize,
     /// Coefficient row shifts (1 byte per row; RBF-coefficient rigs).
     pub row_shifts: usize,
-    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs).
+    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs), or the control triangles
+    /// (3 bytes each; planar-bones rigs).
     pub matrix: usize,
-    /// Influences (4 bytes each).
+    /// Influences (4 bytes each; 20 for planar bones).
     pub influences: usize,
     /// Everything else: the space, counts and postcard length prefixes.
     pub other: usize,
@@ -96,7 +103,8 @@ pub struct InspectSummary {
     pub format_version: u16,
     /// Blob size in bytes.
     pub blob_bytes: usize,
-    /// The deformer: "linear" (weights on marker displacements) or "rbf-coefficients".
+    /// The deformer: "linear" (weights on marker displacements), "rbf-coefficients" or
+    /// "planar-bones".
     pub deformer: &'static str,
     /// Whether an RBF-coefficient rig has the affine rows (`None` for linear rigs).
     pub affine: Option<bool>,
@@ -153,6 +161,14 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             r.row_shifts.0.len(),
             r.matrix.0.len(),
             r.influences.0.len(),
+        ),
+        Deformer::PlanarBones(p) => (
+            "planar-bones",
+            None,
+            p.influence_counts.0.len(),
+            0,
+            p.triangles.0.len(),
+            p.influences.0.len(),
         ),
     };
     let known = HEADER_LEN
