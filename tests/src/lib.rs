@@ -67,6 +67,12 @@ pub fn weights_config() -> BakeConfig {
     }
 }
 
+/// The FaceCap truth baked as planar bones (K = 8), built once per test binary.
+pub fn facecap_planar() -> &'static Baked {
+    static CELL: std::sync::OnceLock<Baked> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| bake_truth(&facecap_default().0, &planar_config(8)))
+}
+
 /// Both FaceCap rigs: (name, blob).
 pub fn facecap_blobs() -> [(&'static str, &'static [u8]); 2] {
     [

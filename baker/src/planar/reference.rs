@@ -47,7 +47,8 @@ fn row_times(r: &V3, m: &M3) -> V3 {
 
 fn matrix(f: &Frame, region: Region) -> M3 {
     match region {
-        Region::Triangle => [f.e[0], sub(&f.v[2], &f.v[0]), f.n],
+        // Q − O = −e₂ (taken from the edges, so a degenerate triangle's rest fallback holds).
+        Region::Triangle => [f.e[0], scale(&f.e[2], -1.0), f.n],
         Region::Edge(i) => [f.e[i], f.u[i], f.n],
         Region::Apex(i) => [f.u[i], f.u[(i + 2) % 3], f.n],
     }
