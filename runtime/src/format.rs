@@ -211,16 +211,14 @@ pub struct PlanarInfluence {
 /// Decode one planar influence from a [`PLANAR_INFLUENCE_BYTES`]-long chunk.
 #[inline(always)]
 pub fn read_planar_influence(b: &[u8]) -> PlanarInfluence {
-    let b: [u8; PLANAR_INFLUENCE_BYTES] = b.try_into().unwrap_or([0; PLANAR_INFLUENCE_BYTES]);
+    let b: &[u8; PLANAR_INFLUENCE_BYTES] = b.try_into().unwrap_or(&[0; PLANAR_INFLUENCE_BYTES]);
     let head = u16::from_le_bytes([b[0], b[1]]);
+    let word = |at: usize| i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
     PlanarInfluence {
         triangle: head & 0x1FFF,
         region: (head >> 13) as u8,
         weight: u16::from_le_bytes([b[2], b[3]]),
-        coords: [0, 1, 2, 3].map(|c| {
-            let at = 4 + 4 * c;
-            i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
-        }),
+        coords: [word(4), word(8), word(12), word(16)],
     }
 }
 

@@ -3,16 +3,18 @@
 //! Per frame, two stages:
 //!
 //! 1. **Frames**, once per control triangle (O, P, Q) = (V₀, V₁, V₂): the edges
-//!    e_i = V_{i+1} − V_i (Q8.24, saturated to `i32`), the unit normal
+//!    e_i = V_{i+1} − V_i (Q8.24, saturated to ±2³⁰, i.e. 64 rig units: the mesh spans ±1),
+//!    the unit normal
 //!    n = unit(e₀ × (V₂ − V₀)) and the unit in-plane edge normals u_i = unit(e_i × n), both Q1.30
 //!    from [`normalize3`] (each component within 2 LSB of the exact unit vector). The cross
 //!    products are taken on the edges shifted right until every component is below 2³⁰, so
 //!    they fit `i64` whatever the marker positions; the shift only drops low bits of large
 //!    edges (a relative change below 2⁻³⁰).
 //! 2. **Vertices**: each of a vertex's influences places it with its region's transform
-//!    (see [`PlanarBones`] for the table): products of an `i32` coordinate and an `i32` frame
-//!    component in `i64` (Q.54), summed with saturating adds, narrowed by 30 bits with rounding
-//!    and saturation, and added (saturating) to the region's origin marker. The vertex is the
+//!    (see [`PlanarBones`] for the table): products of an `i32` coordinate and a frame component
+//!    of at most 2³⁰ in magnitude, so each below 2⁶¹ and a sum of three below 1.5 · 2⁶² (no
+//!    overflow), in `i64` (Q.54), narrowed by 30 bits with rounding and saturation, and added
+//!    (saturating) to the region's origin marker. The vertex is the
 //!    weighted sum of those positions with Q1.15 weights that sum to exactly 2¹⁵, so a uniform
 //!    translation of every marker moves every vertex by exactly that translation. Apex regions
 //!    (R_C,i) normalise their in-plane direction once more (eq 10's scaling D/d).
@@ -34,8 +36,8 @@
 //! `influences × (12 multiply-adds, 1 narrowing)` plus one normalisation per apex influence,
 //! plus per vertex three narrowings. No loop depends on marker data.
 
+use crate::fixed::round_shift_bounded;
 use crate::fixed::MAX_INFLUENCES;
-use crate::fixed::{round_shift_bounded, round_shift_sat};
 use crate::format::{
     expect_len, read_planar_influence, read_position, LoadError, PlanarBones, Section,
     MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, PLANAR_REGIONS, PLANAR_WEIGHT_FRAC_BITS, POSITION_BYTES,
@@ -46,10 +48,21 @@ use crate::sqrt::{normalize3, UNIT_FRAC_BITS};
 /// A triangle is degenerate when 2 · area ≤ 2^−DEGENERATE_LOG2 · (longest edge)².
 pub const DEGENERATE_LOG2: u32 = 10;
 
+/// Largest edge component magnitude in a frame (64 rig units): keeps every product of a frame
+/// component and an `i32` coordinate below 2⁶¹.
+const EDGE_LIMIT: i64 = 1 << 30;
+
+/// The frame of an unused slot (never read: the loader checked every triangle index).
+const NO_FRAME: Frame = Frame {
+    e: [[0; 3]; 3],
+    n: [0; 3],
+    u: [[0; 3]; 3],
+};
+
 /// One control triangle's frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Frame {
-    /// Edges e_i = V_{i+1} − V_i, Q8.24, saturated to `i32`.
+    /// Edges e_i = V_{i+1} − V_i, Q8.24, saturated to ±2³⁰.
     pub e: [[i32; 3]; 3],
     /// Unit normal, Q1.30.
     pub n: [i32; 3],
@@ -103,7 +116,7 @@ pub fn build_frame(p: &[[i32; 3]; 3]) -> Option<Frame> {
         // |e| components < 2^30, |n| ≤ 2^30: each component below 2^61.
         *ui = normalize3(cross(ei, n_wide))?;
     }
-    let e = wide.map(|e| e.map(|c| c.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32));
+    let e = wide.map(|e| e.map(|c| c.clamp(-EDGE_LIMIT, EDGE_LIMIT) as i32));
     Some(Frame { e, n, u })
 }
 
@@ -132,38 +145,30 @@ fn mul(a: i32, b: i32) -> i64 {
 fn place(frame: &Frame, region: u8, coords: [i32; 4], origin: [i32; 3]) -> [i32; 3] {
     let [x, y, z, w] = coords;
     let n = frame.n;
-    let mut acc = [0i64; 3];
-    match region {
+    // Every frame component is at most 2^30 in magnitude: each product below 2^61, each sum of
+    // three below 1.5 · 2^62, so plain adds cannot overflow (see the module docs).
+    let acc: [i64; 3] = match region {
         0 => {
             // O + x e0 + y (Q − O) + z n, with Q − O = −e2.
             let (e0, e2) = (frame.e[0], frame.e[2]);
-            for c in 0..3 {
-                acc[c] = mul(x, e0[c])
-                    .saturating_sub(mul(y, e2[c]))
-                    .saturating_add(mul(z, n[c]));
-            }
+            [0, 1, 2].map(|c| mul(x, e0[c]) - mul(y, e2[c]) + mul(z, n[c]))
         }
         1..=3 => {
             let i = usize::from(region - 1);
             let (e, u) = (frame.e[i], frame.u[i]);
-            for c in 0..3 {
-                acc[c] = mul(x, e[c])
-                    .saturating_add(mul(y, u[c]))
-                    .saturating_add(mul(z, n[c]));
-            }
+            [0, 1, 2].map(|c| mul(x, e[c]) + mul(y, u[c]) + mul(z, n[c]))
         }
         _ => {
             // Apex: direction from the two edge normals, length w (eq 10's D/d scaling).
             let i = usize::from(region - 4) % 3;
             let (ui, uj) = (frame.u[i], frame.u[(i + 2) % 3]);
-            let dir = [0, 1, 2].map(|c| mul(x, ui[c]).saturating_add(mul(y, uj[c])));
+            let dir = [0, 1, 2].map(|c| mul(x, ui[c]) + mul(y, uj[c]));
             let unit = normalize3(dir).unwrap_or([0; 3]);
-            for c in 0..3 {
-                acc[c] = mul(w, unit[c]).saturating_add(mul(z, n[c]));
-            }
+            [0, 1, 2].map(|c| mul(w, unit[c]) + mul(z, n[c]))
         }
-    }
-    [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_sat(acc[c], UNIT_FRAC_BITS)))
+    };
+    // |acc| < 1.5 · 2^62, so adding the rounding half (2^29) cannot overflow.
+    [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_bounded(acc[c], UNIT_FRAC_BITS)))
 }
 
 /// Which control triangles were degenerate in a frame (see the module docs).
@@ -243,14 +248,14 @@ pub(crate) fn deform(
         for r in mine.chunks_exact(PLANAR_INFLUENCE_BYTES) {
             let inf = read_planar_influence(r);
             let t = usize::from(inf.triangle);
-            let frame = frames.get(t).copied().unwrap_or_default();
+            let frame = frames.get(t).unwrap_or(&NO_FRAME);
             let tri = planar.triangles.0.get(3 * t..3 * t + 3).unwrap_or(&[0; 3]);
             let corner = match inf.region {
                 0 => 0,
                 r => usize::from(r - 1) % 3,
             };
             let origin = current(usize::from(tri[corner]));
-            let s = place(&frame, inf.region, inf.coords, origin);
+            let s = place(frame, inf.region, inf.coords, origin);
             let weight = i32::from(inf.weight);
             for c in 0..3 {
                 // ≤ 64 products of 2^15 and 2^31: below 2^52.
