@@ -172,8 +172,8 @@ pub const PLANAR_REGIONS: u8 = 7;
 ///
 /// | region | origin | position | x | y | z | w |
 /// |---|---|---|---|---|---|---|
-/// | R_A (eq 1) | O | O′ + x e₀′ + y (Q′ − O′) + z n′ | Q2.30 | Q2.30 | Q8.24 | 0 |
-/// | R_B,i (eq 9) | V_i | V_i′ + x e_i′ + y u_i′ + z n′ | Q2.30 | Q8.24 | Q8.24 | 0 |
+/// | R_A (eq 1) | O | O′ + x e₀′ + y (Q′ − O′) + z n′ | Q6.26 | Q6.26 | Q8.24 | 0 |
+/// | R_B,i (eq 9) | V_i | V_i′ + x e_i′ + y u_i′ + z n′ | Q6.26 | Q8.24 | Q8.24 | 0 |
 /// | R_C,i (eq 10) | V_i | V_i′ + w · unit(x u_i′ + y u_{i−1}′) + z n′ | Q8.24 | Q8.24 | Q8.24 | Q8.24 |
 ///
 /// In R_C,i, w is the rest in-plane distance D_i(S) of eq 10, so the apex scaling D/d keeps it.

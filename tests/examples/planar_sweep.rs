@@ -8,24 +8,7 @@ use facebake::bake::{BakeConfig, Baked};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::mesh::distance;
 use facebake_runtime::Rig;
-use facebake_tests::{bake_truth, facecap_truth, planar_config, weights_config};
-
-/// Skin vertices within 15 mm of the lip opening (the skin's second-longest boundary loop).
-fn lips(truth: &GroundTruth) -> Vec<bool> {
-    let mesh = &truth.mesh;
-    let topo = mesh.welded_topology();
-    let loops = topo.loops_of(0);
-    let lip_loop = &loops[1].vertices;
-    mesh.positions
-        .iter()
-        .zip(&truth.skin)
-        .map(|(p, &skin)| {
-            skin && lip_loop
-                .iter()
-                .any(|&w| distance(p, &mesh.welded_positions[w as usize]) < 0.015)
-        })
-        .collect()
-}
+use facebake_tests::{bake_truth, facecap_truth, lip_vertices, planar_config, weights_config};
 
 fn scores(truth: &GroundTruth, lips: &[bool], baked: &Baked) -> (ErrorStats, ErrorStats) {
     let rig = Rig::from_bytes(&baked.blob).expect("the bake loads");
@@ -53,9 +36,12 @@ fn scores(truth: &GroundTruth, lips: &[bool], baked: &Baked) -> (ErrorStats, Err
 
 fn main() {
     let truth = facecap_truth();
-    let lips = lips(&truth);
+    let lips = lip_vertices(&truth);
     let mut rows: Vec<(String, BakeConfig)> = vec![
-        ("coefficients (default), K = 8".into(), BakeConfig::default()),
+        (
+            "coefficients (default), K = 8".into(),
+            BakeConfig::default(),
+        ),
         ("weights, IMQ, K = 8".into(), weights_config()),
     ];
     for k in [4, 8, 16] {

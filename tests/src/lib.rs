@@ -97,3 +97,21 @@ pub fn planar_config(k: usize) -> BakeConfig {
         ..BakeConfig::default()
     }
 }
+
+/// Per glTF vertex of `truth`'s mesh: a skin vertex within 15 mm of the lip opening (the skin's
+/// second-longest boundary loop), where the methods' p99 and max errors sit.
+pub fn lip_vertices(truth: &GroundTruth) -> Vec<bool> {
+    let mesh = &truth.mesh;
+    let topo = mesh.welded_topology();
+    let loops = topo.loops_of(0);
+    let lip_loop = &loops[1].vertices;
+    mesh.positions
+        .iter()
+        .zip(&truth.skin)
+        .map(|(p, &skin)| {
+            skin && lip_loop
+                .iter()
+                .any(|&w| facebake::mesh::distance(p, &mesh.welded_positions[w as usize]) < 0.015)
+        })
+        .collect()
+}

@@ -14,7 +14,7 @@ use facebake::mesh::distance;
 use facebake::reference::SparseF64;
 use facebake_runtime::format::Deformer;
 use facebake_runtime::Rig;
-use facebake_tests::{facecap_default, facecap_planar, facecap_weights};
+use facebake_tests::{facecap_default, facecap_planar, facecap_weights, lip_vertices};
 
 fn planar() -> &'static Baked {
     facecap_planar()
@@ -22,23 +22,6 @@ fn planar() -> &'static Baked {
 
 fn truth() -> &'static GroundTruth {
     &facecap_default().0
-}
-
-/// Skin vertices within 15 mm of the lip opening (the skin's second-longest boundary loop).
-fn lips(truth: &GroundTruth) -> Vec<bool> {
-    let mesh = &truth.mesh;
-    let topo = mesh.welded_topology();
-    let loops = topo.loops_of(0);
-    let lip_loop = &loops[1].vertices;
-    mesh.positions
-        .iter()
-        .zip(&truth.skin)
-        .map(|(p, &skin)| {
-            skin && lip_loop
-                .iter()
-                .any(|&w| distance(p, &mesh.welded_positions[w as usize]) < 0.015)
-        })
-        .collect()
 }
 
 /// Positions of one frame, asset units.
@@ -92,7 +75,7 @@ fn runtime_matches_the_f64_equations_on_every_ground_truth_frame() {
 /// Errors against the truth over the whole skin and over the lips, runtime output.
 fn scores(baked: &Baked) -> (ErrorStats, ErrorStats) {
     let truth = truth();
-    let lips = lips(truth);
+    let lips = lip_vertices(truth);
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     let (mut all, mut lip) = (vec![], vec![]);
     for (f, (got, _)) in play(&rig, truth).into_iter().enumerate() {

@@ -216,8 +216,8 @@ pub fn records(
             let local = frames[inf.triangle].local(inf.region, s);
             // Fractional bits per coordinate (see the runtime's `PlanarBones`).
             let bits = match inf.region {
-                Region::Triangle => [30, 30, 24, 24],
-                Region::Edge(_) => [30, 24, 24, 24],
+                Region::Triangle => [26, 26, 24, 24],
+                Region::Edge(_) => [26, 24, 24, 24],
                 Region::Apex(_) => [24, 24, 24, 24],
             };
             let mut coords = [0i32; 4];

@@ -12,9 +12,10 @@
 //!    edges (a relative change below 2⁻³⁰).
 //! 2. **Vertices**: each of a vertex's influences places it with its region's transform
 //!    (see [`PlanarBones`] for the table): products of an `i32` coordinate and a frame component
-//!    of at most 2³⁰ in magnitude, so each below 2⁶¹ and a sum of three below 1.5 · 2⁶² (no
-//!    overflow), in `i64` (Q.54), narrowed by 30 bits with rounding and saturation, and added
-//!    (saturating) to the region's origin marker. The vertex is the
+//!    of at most 2³⁰ in magnitude, so each below 2⁶¹, in `i64`: a ratio (Q6.26) times an edge
+//!    is Q.50, a length (Q8.24) times a unit vector Q.54, shifted right by 4 to Q.50 where the
+//!    two meet (R_A, R_B); every sum stays below 1.5 · 2⁶² (no overflow). The sum is narrowed to
+//!    Q8.24 with rounding and saturation and added (saturating) to the region's origin marker. The vertex is the
 //!    weighted sum of those positions with Q1.15 weights that sum to exactly 2¹⁵, so a uniform
 //!    translation of every marker moves every vertex by exactly that translation. Apex regions
 //!    (R_C,i) normalise their in-plane direction once more (eq 10's scaling D/d).
@@ -47,6 +48,12 @@ use crate::sqrt::{normalize3, UNIT_FRAC_BITS};
 
 /// A triangle is degenerate when 2 · area ≤ 2^−DEGENERATE_LOG2 · (longest edge)².
 pub const DEGENERATE_LOG2: u32 = 10;
+
+/// Fractional bits of a stored ratio coordinate (Q6.26: x and y of R_A, x of R_B).
+pub const RATIO_FRAC_BITS: u32 = 26;
+/// A ratio times an edge is Q.50 (26 + 24 fractional bits); a length times a unit vector is
+/// Q.54 (24 + 30) and is shifted right by this much to join it.
+const ALIGN: u32 = UNIT_FRAC_BITS - RATIO_FRAC_BITS;
 
 /// Largest edge component magnitude in a frame (64 rig units): keeps every product of a frame
 /// component and an `i32` coordinate below 2⁶¹.
@@ -145,30 +152,35 @@ fn mul(a: i32, b: i32) -> i64 {
 fn place(frame: &Frame, region: u8, coords: [i32; 4], origin: [i32; 3]) -> [i32; 3] {
     let [x, y, z, w] = coords;
     let n = frame.n;
-    // Every frame component is at most 2^30 in magnitude: each product below 2^61, each sum of
-    // three below 1.5 · 2^62, so plain adds cannot overflow (see the module docs).
-    let acc: [i64; 3] = match region {
+    // Every frame component is at most 2^30 in magnitude: each product below 2^61; in R_A and
+    // R_B the ratio terms (Q6.26 × Q8.24 = Q.50) add at most two such products and the Q.54
+    // terms enter shifted down by 4 (below 2^58), in R_C two Q.54 products: every sum is below
+    // 1.5 · 2^62, so plain adds cannot overflow (see the module docs).
+    let (acc, frac): ([i64; 3], u32) = match region {
         0 => {
-            // O + x e0 + y (Q − O) + z n, with Q − O = −e2.
+            // O + x e0 + y (Q − O) + z n, with Q − O = −e2: Q.50, the Q.54 term shifted down.
             let (e0, e2) = (frame.e[0], frame.e[2]);
-            [0, 1, 2].map(|c| mul(x, e0[c]) - mul(y, e2[c]) + mul(z, n[c]))
+            let acc = [0, 1, 2].map(|c| mul(x, e0[c]) - mul(y, e2[c]) + (mul(z, n[c]) >> ALIGN));
+            (acc, RATIO_FRAC_BITS)
         }
         1..=3 => {
             let i = usize::from(region - 1);
             let (e, u) = (frame.e[i], frame.u[i]);
-            [0, 1, 2].map(|c| mul(x, e[c]) + mul(y, u[c]) + mul(z, n[c]))
+            let acc = [0, 1, 2].map(|c| mul(x, e[c]) + ((mul(y, u[c]) + mul(z, n[c])) >> ALIGN));
+            (acc, RATIO_FRAC_BITS)
         }
         _ => {
-            // Apex: direction from the two edge normals, length w (eq 10's D/d scaling).
+            // Apex: direction from the two edge normals, length w (eq 10's D/d scaling): Q.54.
             let i = usize::from(region - 4) % 3;
             let (ui, uj) = (frame.u[i], frame.u[(i + 2) % 3]);
             let dir = [0, 1, 2].map(|c| mul(x, ui[c]) + mul(y, uj[c]));
             let unit = normalize3(dir).unwrap_or([0; 3]);
-            [0, 1, 2].map(|c| mul(w, unit[c]) + mul(z, n[c]))
+            let acc = [0, 1, 2].map(|c| mul(w, unit[c]) + mul(z, n[c]));
+            (acc, UNIT_FRAC_BITS)
         }
     };
-    // |acc| < 1.5 · 2^62, so adding the rounding half (2^29) cannot overflow.
-    [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_bounded(acc[c], UNIT_FRAC_BITS)))
+    // |acc| < 2^63 − 2^62 (see above), so adding the rounding half cannot overflow.
+    [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_bounded(acc[c], frac)))
 }
 
 /// Which control triangles were degenerate in a frame (see the module docs).
@@ -406,13 +418,13 @@ mod tests {
     #[test]
     fn regions_place_points_on_the_rest_frame_exactly() {
         let f = build_frame(&[[0, 0, 0], [ONE, 0, 0], [0, ONE, 0]]).unwrap();
-        let q30 = 1 << 30;
+        let r = 1 << RATIO_FRAC_BITS;
         // R_A: (¼, ½) affine, 0.1 above the plane.
         let z = ONE / 10;
-        let s = place(&f, 0, [q30 / 4, q30 / 2, z, 0], [0; 3]);
+        let s = place(&f, 0, [r / 4, r / 2, z, 0], [0; 3]);
         assert_eq!(s, [ONE / 4, ONE / 2, z]);
         // R_B,0: halfway along e0, 0.25 outward (−y).
-        let s = place(&f, 1, [q30 / 2, ONE / 4, 0, 0], [0; 3]);
+        let s = place(&f, 1, [r / 2, ONE / 4, 0, 0], [0; 3]);
         assert_eq!(s, [ONE / 2, -ONE / 4, 0]);
         // R_C,1 at V1 = (1, 0): along u1 only, distance ½.
         let s = place(&f, 5, [ONE, 0, 0, ONE / 2], [ONE, 0, 0]);
