@@ -51,6 +51,17 @@ fn runtime_matches_the_f64_equations_on_every_ground_truth_frame() {
         .planar
         .as_ref()
         .expect("the planar bake has its reference");
+    let summary = baked
+        .report
+        .planar
+        .as_ref()
+        .expect("the surface is reported");
+    println!(
+        "planar bake: {} control triangles, {} vertices within no bone's radius, blob {} bytes",
+        summary.triangles.len(),
+        summary.outside_radius,
+        baked.blob.len()
+    );
     let own = SparseF64::from_rig(&rig);
     let diagonal = truth.mesh.diagonal();
     let (mut worst, mut worst_own) = (0.0f64, 0.0f64);

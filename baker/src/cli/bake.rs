@@ -207,17 +207,19 @@ fn print_text(s: &BakeSummary) {
         s.layout.display()
     );
     outln!(out, "  form          {}", form_text(r.form));
-    outln!(
-        out,
-        "  kernel        {}, {}",
-        r.kernel,
-        if s.affine {
-            "with affine term"
-        } else {
-            "no affine term"
-        }
-    );
-    outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    if r.form != RigForm::Planar {
+        outln!(
+            out,
+            "  kernel        {}, {}",
+            r.kernel,
+            if s.affine {
+                "with affine term"
+            } else {
+                "no affine term"
+            }
+        );
+        outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    }
     outln!(
         out,
         "  markers       largest snap onto the surface {:.3e} mesh units",
@@ -234,13 +236,21 @@ fn print_text(s: &BakeSummary) {
         RigForm::Weights => "weights",
         RigForm::Planar => "weights",
     };
-    outln!(
-        out,
-        "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
-        s.weight_format,
-        r.weight_frac_bits,
-        r.max_weight_rounding
-    );
+    if r.form == RigForm::Planar {
+        outln!(
+            out,
+            "  weights       Q1.15 (unsigned 16-bit, each vertex's sum exactly 2^15), largest rounding {:.2e}",
+            r.max_weight_rounding
+        );
+    } else {
+        outln!(
+            out,
+            "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
+            s.weight_format,
+            r.weight_frac_bits,
+            r.max_weight_rounding
+        );
+    }
     if r.form == RigForm::Coefficients {
         outln!(
             out,

@@ -208,7 +208,11 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         mean_influences_per_vertex: cost.influences as f64 / vertices.max(1) as f64,
         position_format: "Q8.24",
         rest_format: "Q0.15",
-        weight_format: weight_format(rig.weight_frac_bits()),
+        weight_format: if deformer == "planar-bones" {
+            "Q1.15 (unsigned 16-bit)".into()
+        } else {
+            weight_format(rig.weight_frac_bits())
+        },
         weight_frac_bits: rig.weight_frac_bits(),
         space_centre: space.centre,
         space_half_extent: space.half_extent,
@@ -290,6 +294,11 @@ fn print_text(s: &InspectSummary) {
         sec.vertex_rest,
         if s.affine.is_some() {
             format!("coefficient shifts {}, coefficient map {}, ", sec.row_shifts, sec.matrix)
+        } else if s.deformer == "planar-bones" {
+            format!(
+                "control triangles {}, influence counts {}, ",
+                sec.matrix, sec.influence_counts
+            )
         } else {
             format!("influence counts {}, ", sec.influence_counts)
         },
