@@ -5,7 +5,8 @@
 //!
 //! * `#![no_std]`, no `alloc`, no `unsafe`, no recursion.
 //! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
-//!   branch on marker data.
+//!   branch on marker data (planar bones: bounded, with one branch per control triangle, which
+//!   builds its rest frame too when the markers make it degenerate).
 //! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
 //!   with documented fixed-point formats ([`fixed`]).
 //!

@@ -236,7 +236,8 @@ impl<'a> Rig<'a> {
     /// Deform one frame: `markers` are the current marker positions in rig units (Q8.24), one
     /// per rig marker in marker order; `out` receives one position per vertex (Q8.24).
     ///
-    /// Zero marker motion gives the rest pose bit for bit, and moving every marker by the same
+    /// Zero marker motion gives the rest pose bit for bit (planar bones: within the rounding of
+    /// the stored local coordinates, not bit for bit), and moving every marker by the same
     /// offset moves every vertex by exactly that offset (barring saturation at ±128 rig units).
     pub fn deform(&self, markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), FrameError> {
         self.deform_report(markers, out).map(|_| ())

@@ -329,6 +329,68 @@ pub fn bake(
 mod tests {
     use super::*;
 
+    fn square() -> Vec<V3> {
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.0, 0.0],
+        ]
+    }
+
+    #[test]
+    fn given_triangles_are_checked_with_errors_naming_them() {
+        let m = square();
+        assert!(frames(&m, &[[0, 1, 2], [0, 2, 3]]).is_ok());
+        assert!(matches!(
+            frames(&m, &[[0, 1, 2], [0, 9, 3]]),
+            Err(PlanarError::BadTriangle { triangle: 1, .. })
+        ));
+        assert!(matches!(
+            frames(&m, &[[0, 0, 2]]),
+            Err(PlanarError::BadTriangle { triangle: 0, .. })
+        ));
+        // Markers 0, 4, 1 are collinear.
+        let err = frames(&m, &[[0, 1, 2], [0, 4, 1]]).unwrap_err();
+        assert!(matches!(
+            err,
+            PlanarError::DegenerateTriangle { triangle: 1, .. }
+        ));
+        assert!(err.to_string().contains("degenerate at rest"), "{err}");
+        let many = vec![[0, 1, 2]; MAX_TRIANGLES + 1];
+        assert!(matches!(
+            frames(&m, &many),
+            Err(PlanarError::TooManyTriangles { .. })
+        ));
+    }
+
+    #[test]
+    fn influences_blend_near_bones_and_fall_back_to_the_closest() {
+        let m = square();
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        let f = frames(&m, &tris).unwrap();
+        let r = radii(&m, &tris, 1.0);
+        // The closest connected marker of every corner is 1 away.
+        assert_eq!(r, vec![1.0, 1.0]);
+        let rows = influences(
+            &[[0.7, 0.3, 0.0], [0.5, 0.5, 0.05], [9.0, 9.0, 9.0]],
+            &f,
+            &r,
+            8,
+        );
+        // Inside triangle 0, in R_A of 0 (weight 1) and in an edge slab of 1.
+        assert_eq!(rows[0][0].triangle, 0);
+        assert_eq!(rows[0][0].region, Region::Triangle);
+        assert!((rows[0].iter().map(|i| i.weight).sum::<f64>() - 1.0).abs() < 1e-12);
+        // On the shared diagonal, just above: both bones, equal weights.
+        assert_eq!(rows[1].len(), 2);
+        assert!((rows[1][0].weight - 0.5).abs() < 1e-12);
+        // Far away: the closest bone alone.
+        assert_eq!(rows[2].len(), 1);
+        assert_eq!(rows[2][0].weight, 1.0);
+    }
+
     #[test]
     fn quantised_weights_sum_to_one_exactly() {
         let row: Vec<Influence> = [0.5, 0.3, 0.2 - 1e-9, 1e-9]
