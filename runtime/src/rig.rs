@@ -67,6 +67,9 @@ pub struct Cost {
     pub coefficient_rows: usize,
     /// Widening multiply-adds into `i64` accumulators: 3 per influence, plus for RBF-coefficient
     /// rigs 3 per coefficient row and marker (stage 1) and 9 per vertex for the affine part.
+    /// Planar bones: 12 per influence (the region transform and the weighted sum), 3 more per
+    /// apex influence, and 36 per control-triangle frame (cross products and the degeneracy
+    /// test), besides the normalisations counted in [`Self::normalisations`].
     pub multiply_adds: usize,
     /// Saturating subtractions forming marker displacements (3 per marker).
     pub subtractions: usize,

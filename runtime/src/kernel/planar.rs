@@ -293,9 +293,10 @@ pub(crate) fn cost(planar: &PlanarBones<'_>, vertices: usize, markers: usize) ->
         influences,
         max_influences: usize::from(planar.max_influences),
         coefficient_rows: 0,
-        // Per influence: three products per axis (two in the apex's direction, then two more),
-        // then one weighted add per axis; per frame build: the cross products.
-        multiply_adds: 12 * influences + triangles * 4 * 6,
+        // Per influence: three products per axis and one weighted add per axis; an apex's
+        // direction takes two products per axis before its two; per frame build: four cross
+        // products (24) and the degeneracy test's squares (12).
+        multiply_adds: 12 * influences + 3 * apex + 36 * triangles,
         subtractions: 9 * triangles,
         narrowings: 3 * influences + 3 * vertices,
         scratch_bytes: core::mem::size_of::<[Frame; MAX_TRIANGLES]>(),
