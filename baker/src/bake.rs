@@ -11,6 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::blob::{self, BlobContents, BlobError, BlobSizes, DeformerBytes};
+use crate::planar::reference::PlanarReference;
 use crate::rbf::{KernelKind, RbfSystem, SolveError};
 use crate::reference::DenseRbf;
 use crate::sparsify::{self, Refit, SparsifyError};
@@ -23,6 +24,8 @@ pub enum RigForm {
     Coefficients,
     /// K weights per vertex on marker displacements.
     Weights,
+    /// Planar bones (paper 000 §4.1–4.2): K control-triangle transforms per vertex.
+    Planar,
 }
 
 /// How to bake.
@@ -45,6 +48,16 @@ pub struct BakeConfig {
     /// Length scale of the smooth-motion prior as a fraction of the mesh's bounding-box diagonal
     /// (`weights` form with the prior re-fit).
     pub prior_length: f64,
+    /// Planar form: bone radius as a multiple of the closest connected-marker distance.
+    #[serde(default = "default_planar_radius")]
+    pub planar_radius: f64,
+    /// Planar form: the control triangles (marker indices); `None` builds them automatically.
+    #[serde(default)]
+    pub control_triangles: Option<Vec<[usize; 3]>>,
+}
+
+fn default_planar_radius() -> f64 {
+    crate::planar::DEFAULT_RADIUS_FACTOR
 }
 
 impl Default for BakeConfig {
@@ -61,6 +74,8 @@ impl Default for BakeConfig {
             k: 8,
             refit: Refit::Prior,
             prior_length: 0.05,
+            planar_radius: default_planar_radius(),
+            control_triangles: None,
         }
     }
 }
@@ -75,6 +90,9 @@ pub struct BakeInput<'a> {
     pub marker_rest: &'a [[f64; 3]],
     /// Per-marker stiffness in [1, 9].
     pub stiffness: &'a [f64],
+    /// The mesh's triangles (same vertex order as `vertices`): the planar form measures skin
+    /// distances on them to keep control triangles off the mouth and eye openings.
+    pub triangles: &'a [[u32; 3]],
 }
 
 /// The bake failed.
@@ -92,6 +110,9 @@ pub enum BakeError {
     /// Inconsistent input or configuration.
     #[error("{0}")]
     Input(String),
+    /// Planar bones.
+    #[error("planar bones: {0}")]
+    Planar(#[from] crate::planar::PlanarError),
 }
 
 /// What the bake measured.
@@ -120,6 +141,18 @@ pub struct BakeReport {
     pub max_matrix_rounding: f64,
     /// Blob sizes.
     pub sizes: BlobSizes,
+    /// Planar form: control triangles, and vertices within no bone's radius.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub planar: Option<PlanarSummary>,
+}
+
+/// What the planar bake built.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanarSummary {
+    /// Control triangles (marker indices).
+    pub triangles: Vec<[usize; 3]>,
+    /// Vertices within no bone's radius, which ride their closest bone alone.
+    pub outside_radius: usize,
 }
 
 /// A finished bake.
@@ -130,6 +163,8 @@ pub struct Baked {
     pub report: BakeReport,
     /// The dense f64 reference of the same configuration (the papers' per-frame solve).
     pub dense: DenseRbf,
+    /// Planar form: eqs 1–12 in f64 on the exact rest positions with the baked influences.
+    pub planar: Option<PlanarReference>,
 }
 
 /// Bake a rig in the configured form.
@@ -164,9 +199,15 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
         ));
     }
     let condition = dense_system.condition();
+    let mut planar = None;
     let form = match config.form {
         RigForm::Weights => weights_form(input, config, &dense_system, &space)?,
         RigForm::Coefficients => coefficients_form(input, config, &space)?,
+        RigForm::Planar => {
+            let (form, summary, reference) = planar_form(input, config, &space)?;
+            planar = Some((summary, reference));
+            form
+        }
     };
     let (blob, sizes) = blob::write(&BlobContents {
         space,
@@ -189,6 +230,7 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
         max_weight_rounding: form.rounding,
         max_matrix_rounding: form.matrix_rounding,
         sizes,
+        planar: planar.as_ref().map(|p| p.0.clone()),
     };
     let dense = DenseRbf::new(
         dense_system,
@@ -199,6 +241,7 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
         blob,
         report,
         dense,
+        planar: planar.map(|p| p.1),
     })
 }
 
@@ -243,6 +286,44 @@ fn weights_form(
         rounding: q.max_rounding,
         matrix_rounding: 0.0,
     })
+}
+
+fn planar_form(
+    input: &BakeInput<'_>,
+    config: &BakeConfig,
+    space: &facebake_runtime::Space,
+) -> Result<(FormOutput, PlanarSummary, PlanarReference), BakeError> {
+    let p = crate::planar::bake(
+        input.vertices,
+        input.triangles,
+        input.marker_rest,
+        config.control_triangles.as_deref(),
+        config.k,
+        config.planar_radius,
+        |x| blob::to_rig_units(space, x),
+    )?;
+    let triangles = p.triangles.iter().map(|t| t.map(|m| m as u8)).collect();
+    let summary = PlanarSummary {
+        triangles: p.triangles.clone(),
+        outside_radius: p.outside,
+    };
+    let reference = PlanarReference::new(
+        input.vertices.to_vec(),
+        input.marker_rest.to_vec(),
+        p.triangles,
+        p.rows,
+    );
+    let form = FormOutput {
+        deformer: DeformerBytes::Planar {
+            triangles,
+            rows: p.records,
+        },
+        frac_bits: facebake_runtime::format::PLANAR_WEIGHT_FRAC_BITS,
+        dropped: p.dropped,
+        rounding: p.max_weight_rounding,
+        matrix_rounding: 0.0,
+    };
+    Ok((form, summary, reference))
 }
 
 fn coefficients_form(

@@ -1,7 +1,8 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
 use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, RbfCoefficients, RigData, Space, MAX_MARKERS,
+    self, Bytes, Deformer, LinearInfluences, PlanarBones, PlanarInfluence, RbfCoefficients,
+    RigData, Space, MAX_MARKERS,
 };
 use facebake_runtime::pipeline::{PerMarker, Retarget, RetargetForm, Stages};
 
@@ -78,6 +79,13 @@ pub enum DeformerBytes {
         /// Per vertex, exactly `k` packed influences.
         rows: Vec<Vec<u32>>,
     },
+    /// Planar bones.
+    Planar {
+        /// Control triangles (marker indices).
+        triangles: Vec<[u8; 3]>,
+        /// Per vertex, its influence records (1 to 64).
+        rows: Vec<Vec<PlanarInfluence>>,
+    },
 }
 
 /// Everything the blob holds, in asset units.
@@ -149,7 +157,8 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
             .for_each(|x| vertex_rest.extend_from_slice(&x.to_le_bytes()));
     }
     let too_many = |n: usize| BlobError::Limits(format!("a vertex has {n} influences; at most 64"));
-    let (counts, words, shifts, matrix);
+    let (counts, words, shifts, matrix, tris);
+    let mut record_bytes = 4;
     let deformer = match c.deformer {
         DeformerBytes::Linear {
             weight_frac_bits,
@@ -193,6 +202,30 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
                 influences: Bytes(&words),
             })
         }
+        DeformerBytes::Planar { triangles, rows } => {
+            counts = rows
+                .iter()
+                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
+                .collect::<Result<Vec<u8>, _>>()?;
+            let mut w = Vec::new();
+            for r in rows.iter().flatten() {
+                let b = format::write_planar_influence(r).ok_or_else(|| {
+                    BlobError::Limits(format!("control triangle {} out of range", r.triangle))
+                })?;
+                w.extend_from_slice(&b);
+            }
+            words = w;
+            record_bytes = format::PLANAR_INFLUENCE_BYTES;
+            tris = triangles.iter().flatten().copied().collect::<Vec<u8>>();
+            Deformer::PlanarBones(PlanarBones {
+                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
+                triangle_count: u16::try_from(triangles.len())
+                    .map_err(|_| BlobError::Limits("too many control triangles".into()))?,
+                triangles: Bytes(&tris),
+                influence_counts: Bytes(&counts),
+                influences: Bytes(&words),
+            })
+        }
     };
     let data = RigData {
         space: c.space,
@@ -213,7 +246,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
     let sizes = BlobSizes {
         total: blob.len(),
         influence_bytes: words.len(),
-        influences: words.len() / 4,
+        influences: words.len() / record_bytes,
         other_bytes_per_vertex: (blob.len() - words.len()) as f64 / c.vertices.len().max(1) as f64,
     };
     Ok((blob, sizes))

@@ -9,6 +9,7 @@ pub mod io;
 pub mod mesh;
 pub mod pivot;
 pub mod placement;
+pub mod planar;
 pub mod rbf;
 pub mod reference;
 pub mod retarget;

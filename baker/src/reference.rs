@@ -56,6 +56,8 @@ pub struct SparseF64 {
     rows: Vec<Vec<(usize, f64)>>,
     /// RBF-coefficient rigs: the dequantised map (rows × markers) and whether it has affine rows.
     coefficients: Option<(Vec<Vec<f64>>, bool)>,
+    /// Planar-bones rigs: eqs 1–12 on the rig's own rest positions and influences.
+    planar: Option<crate::planar::reference::PlanarReference>,
 }
 
 fn dequantise_rows(
@@ -121,6 +123,7 @@ impl SparseF64 {
                     .collect();
                 (rows, Some((matrix, r.affine)))
             }
+            Deformer::PlanarBones(_) => (Vec::new(), None),
         };
         Self {
             space: rig.space(),
@@ -128,11 +131,15 @@ impl SparseF64 {
             marker_rest,
             rows,
             coefficients,
+            planar: crate::planar::reference::PlanarReference::from_rig(rig),
         }
     }
 
     /// Deformed positions for marker positions `markers` (asset units).
     pub fn frame(&self, markers: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        if let Some(planar) = &self.planar {
+            return planar.frame(markers).0;
+        }
         let d: Vec<[f64; 3]> = markers
             .iter()
             .zip(&self.marker_rest)

@@ -4,7 +4,7 @@
 //!
 //! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses>`
 //!
-//! * `<rig>`: `coefficients`, `weights` or `coefficients_k4` (the golden rigs);
+//! * `<rig>`: `coefficients`, `weights`, `coefficients_k4` or `planar` (the golden rigs);
 //! * `<poses>`: `truth` (the 32 ground-truth frames), `rest` (the rest pose, 32 times) or
 //!   `extreme` (the 6 saturated and ±120-unit edge frames, cycled to 32).
 //!
@@ -33,13 +33,16 @@ fn deform_frame(rig: &Rig<'_>, markers: &[[i32; 3]], out: &mut [[i32; 3]]) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [rig_name, poses] = args.as_slice() else {
-        eprintln!("usage: frame_cost <coefficients|weights|coefficients_k4> <truth|rest|extreme>");
+        eprintln!(
+            "usage: frame_cost <coefficients|weights|coefficients_k4|planar> <truth|rest|extreme>"
+        );
         std::process::exit(2);
     };
     let blob: &[u8] = match rig_name.as_str() {
         "coefficients" => include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
         "weights" => include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
         "coefficients_k4" => include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+        "planar" => include_bytes!("../../fixtures/golden/facecap_planar.fbk"),
         other => panic!("unknown rig {other}"),
     };
     let rig = Rig::from_bytes(blob).expect("golden rig loads");

@@ -50,6 +50,17 @@
 //! Version 2 added the optional capture stages after the deformer ([`crate::pipeline::Stages`]:
 //! head-motion compensation, fill and retargeting of an actor's raw markers); version 1 blobs are
 //! rejected with [`LoadError::UnsupportedVersion`] (re-bake them).
+//! * **Planar bones** (paper 000 §4.1–4.2): a triangulated control surface of the markers. Per
+//!   frame every control triangle gets a frame (edges, unit normal, unit in-plane edge normals);
+//!   per vertex, each of its at most K triangles moves it by the transform of the region it lies
+//!   in (the triangle, an edge slab or an apex wedge), and the results are blended by weights
+//!   summing to exactly one. See [`PlanarBones`] and the kernel's module docs. Sections:
+//!
+//! | section | per item | contents |
+//! |---|---|---|
+//! | `triangles` | control triangle | 3 × `u8` marker indices (O, P, Q) |
+//! | `influence_counts` | vertex | `u8` in [1, K] |
+//! | `influences` | influence | [`PLANAR_INFLUENCE_BYTES`] bytes: `u16` LE bits 0–12 the triangle, bits 13–15 the region (0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i); `u16` LE weight, Q1.15; then 4 × `i32` LE local coordinates x, y, z, w (see [`PlanarBones`]) |
 
 use serde::de::{Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
@@ -150,6 +161,90 @@ pub const MIN_ROW_SHIFT: u8 = 1;
 /// Largest accepted coefficient row shift.
 pub const MAX_ROW_SHIFT: u8 = 48;
 
+/// Most control triangles a planar-bones rig may have: bounds the per-frame frame scratch on the
+/// stack (see `Cost::scratch_bytes`).
+pub const MAX_TRIANGLES: usize = 256;
+/// Bytes of one planar-bones influence record.
+pub const PLANAR_INFLUENCE_BYTES: usize = 20;
+/// Fractional bits of a planar-bones weight (Q1.15: one is 2¹⁵).
+pub const PLANAR_WEIGHT_FRAC_BITS: u8 = 15;
+/// Region codes of a planar-bones influence: R_A, then R_B,0..2, then R_C,0..2.
+pub const PLANAR_REGIONS: u8 = 7;
+
+/// The planar-bones deformer of paper 000 §4.1–4.2: a control surface of marker triangles.
+///
+/// Each influence names a triangle (O, P, Q) = (V₀, V₁, V₂), with edges e_i = V_{i+1} − V_i,
+/// unit normal n = e₀ × (V₂ − V₀) / ‖…‖ and unit in-plane edge normals u_i = e_i × n / ‖…‖,
+/// a region, a weight and local coordinates baked in the rest frame. In the current frame
+/// (primed), the vertex's position for that triangle is:
+///
+/// | region | origin | position | x | y | z | w |
+/// |---|---|---|---|---|---|---|
+/// | R_A (eq 1) | O | O′ + x e₀′ + y (Q′ − O′) + z n′ | Q6.26 | Q6.26 | Q8.24 | 0 |
+/// | R_B,i (eq 9) | V_i | V_i′ + x e_i′ + y u_i′ + z n′ | Q6.26 | Q8.24 | Q8.24 | 0 |
+/// | R_C,i (eq 10) | V_i | V_i′ + w · unit(x u_i′ + y u_{i−1}′) + z n′ | Q8.24 | Q8.24 | Q8.24 | Q8.24 |
+///
+/// In R_C,i, w is the rest in-plane distance D_i(S) of eq 10, so the apex scaling D/d keeps it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanarBones<'a> {
+    /// Most influences any vertex has (K), in [1, 64].
+    pub max_influences: u8,
+    /// Number of control triangles, in [1, [`MAX_TRIANGLES`]].
+    pub triangle_count: u16,
+    /// Per triangle: three `u8` marker indices.
+    #[serde(borrow)]
+    pub triangles: Bytes<'a>,
+    /// Per vertex: how many influences it has (`u8`, at least 1).
+    #[serde(borrow)]
+    pub influence_counts: Bytes<'a>,
+    /// The influence records, vertex after vertex ([`PLANAR_INFLUENCE_BYTES`] each).
+    #[serde(borrow)]
+    pub influences: Bytes<'a>,
+}
+
+/// One decoded planar-bones influence record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlanarInfluence {
+    /// Control triangle index.
+    pub triangle: u16,
+    /// Region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i (anything above 6 is rejected by the
+    /// loader).
+    pub region: u8,
+    /// Weight, Q1.15.
+    pub weight: u16,
+    /// Local coordinates x, y, z, w (formats per region: see [`PlanarBones`]).
+    pub coords: [i32; 4],
+}
+
+/// Decode one planar influence from a [`PLANAR_INFLUENCE_BYTES`]-long chunk.
+#[inline(always)]
+pub fn read_planar_influence(b: &[u8]) -> PlanarInfluence {
+    let b: &[u8; PLANAR_INFLUENCE_BYTES] = b.try_into().unwrap_or(&[0; PLANAR_INFLUENCE_BYTES]);
+    let head = u16::from_le_bytes([b[0], b[1]]);
+    let word = |at: usize| i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+    PlanarInfluence {
+        triangle: head & 0x1FFF,
+        region: (head >> 13) as u8,
+        weight: u16::from_le_bytes([b[2], b[3]]),
+        coords: [word(4), word(8), word(12), word(16)],
+    }
+}
+
+/// Encode one planar influence (the inverse of [`read_planar_influence`]); `None` if the
+/// triangle index does not fit 13 bits or the region 3 bits.
+pub fn write_planar_influence(i: &PlanarInfluence) -> Option<[u8; PLANAR_INFLUENCE_BYTES]> {
+    if i.triangle > 0x1FFF || i.region > 7 {
+        return None;
+    }
+    let mut b = [0u8; PLANAR_INFLUENCE_BYTES];
+    b[..2].copy_from_slice(&(i.triangle | (u16::from(i.region) << 13)).to_le_bytes());
+    b[2..4].copy_from_slice(&i.weight.to_le_bytes());
+    for (c, v) in i.coords.iter().enumerate() {
+        b[4 + 4 * c..8 + 4 * c].copy_from_slice(&v.to_le_bytes());
+    }
+    Some(b)
+}
+
 /// How the vertices follow the markers. Chosen at bake time; one variant per runtime kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Deformer<'a> {
@@ -159,6 +254,9 @@ pub enum Deformer<'a> {
     /// Per-frame RBF coefficients, then K kernel terms per vertex.
     #[serde(borrow)]
     RbfCoefficients(RbfCoefficients<'a>),
+    /// Planar bones: per-frame frames of marker triangles, then K region transforms per vertex.
+    #[serde(borrow)]
+    PlanarBones(PlanarBones<'a>),
 }
 
 /// The payload of a rig blob (format version 2).
@@ -293,6 +391,38 @@ pub enum LoadError {
         /// The vertex.
         vertex: usize,
     },
+    /// A planar-bones rig has no control triangle or more than [`MAX_TRIANGLES`].
+    BadTriangleCount {
+        /// The count in the blob.
+        found: u16,
+    },
+    /// A control triangle names a marker that does not exist.
+    TriangleMarkerOutOfRange {
+        /// The triangle.
+        triangle: usize,
+        /// The marker index it names.
+        marker: u8,
+    },
+    /// A control triangle is degenerate at rest (repeated or collinear markers), so no rest
+    /// frame exists for it.
+    DegenerateRestTriangle {
+        /// The triangle.
+        triangle: usize,
+    },
+    /// A planar influence names a triangle that does not exist.
+    TriangleIndexOutOfRange {
+        /// The vertex the influence belongs to.
+        vertex: usize,
+        /// The triangle index it names.
+        triangle: u16,
+    },
+    /// A planar influence has a region code above 6.
+    BadRegion {
+        /// The vertex the influence belongs to.
+        vertex: usize,
+        /// The region code.
+        region: u8,
+    },
 }
 
 /// A section of the payload, for [`LoadError::SectionLength`].
@@ -312,6 +442,8 @@ pub enum Section {
     RowShifts,
     /// `matrix`
     Matrix,
+    /// `triangles` (planar bones)
+    Triangles,
 }
 
 impl core::fmt::Display for LoadError {
@@ -369,6 +501,23 @@ impl core::fmt::Display for LoadError {
                 f,
                 "the weights of vertex {vertex} have magnitudes summing above {LINEAR_WEIGHT_ABS_SUM_MAX}"
             ),
+            Self::BadTriangleCount { found } => {
+                write!(f, "control triangle count {found} is outside 1..={MAX_TRIANGLES}")
+            }
+            Self::TriangleMarkerOutOfRange { triangle, marker } => write!(
+                f,
+                "control triangle {triangle} names marker {marker}, which does not exist"
+            ),
+            Self::DegenerateRestTriangle { triangle } => {
+                write!(f, "control triangle {triangle} is degenerate at rest")
+            }
+            Self::TriangleIndexOutOfRange { vertex, triangle } => write!(
+                f,
+                "vertex {vertex} is influenced by control triangle {triangle}, which does not exist"
+            ),
+            Self::BadRegion { vertex, region } => {
+                write!(f, "vertex {vertex} has an influence with region code {region} (0..=6)")
+            }
         }
     }
 }
@@ -479,7 +628,7 @@ pub fn decode(payload: &[u8]) -> Result<RigData<'_>, LoadError> {
     Ok(data)
 }
 
-fn expect_len(
+pub(crate) fn expect_len(
     section: Section,
     bytes: Bytes<'_>,
     count: usize,
@@ -530,6 +679,9 @@ fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
     match d.deformer {
         Deformer::Linear(lin) => validate_linear(&lin, vertices, markers)?,
         Deformer::RbfCoefficients(rbf) => validate_rbf(&rbf, vertices, markers)?,
+        Deformer::PlanarBones(planar) => {
+            crate::kernel::planar::validate(&planar, d.marker_rest.0, vertices, markers)?
+        }
     }
     if let Some(stages) = &d.stages {
         stages.validate(markers).map_err(LoadError::BadStages)?;

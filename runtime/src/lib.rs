@@ -7,7 +7,8 @@
 //!   into its SSE2 code (SSE2 is in the x86-64 baseline; a test holds it equal to the portable
 //!   code, bit for bit).
 //! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
-//!   branch on marker data.
+//!   branch on marker data (planar bones: bounded, with one branch per control triangle, which
+//!   builds its rest frame too when the markers make it degenerate).
 //! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
 //!   with documented fixed-point formats ([`fixed`]).
 //!
@@ -31,6 +32,7 @@ pub mod space;
 pub mod sqrt;
 
 pub use format::{LoadError, Space};
+pub use kernel::planar::DegenerateTriangles;
 pub use pipeline::{FrameReport, PlayState};
 pub use rig::{Cost, FrameError, Rig};
 pub use space::ConvertError;

@@ -5,6 +5,7 @@ use crate::format::{
     POSITION_BYTES, REST_BYTES,
 };
 use crate::kernel;
+use crate::kernel::planar::DegenerateTriangles;
 use crate::pipeline::{FrameReport, PlayState, Stages};
 
 /// A rig loaded from a blob. It borrows the blob's bytes (which may sit in flash) and owns
@@ -70,6 +71,9 @@ pub struct Cost {
     pub coefficient_rows: usize,
     /// Widening multiply-adds into `i64` accumulators: 3 per influence, plus for RBF-coefficient
     /// rigs 3 per coefficient row and marker (stage 1) and 9 per vertex for the affine part.
+    /// Planar bones: 12 per influence (the region transform and the weighted sum), 3 more per
+    /// apex influence, and 36 per control-triangle frame (cross products and the degeneracy
+    /// test), besides the normalisations counted in [`Self::normalisations`].
     pub multiply_adds: usize,
     /// Saturating subtractions forming marker displacements (3 per marker).
     pub subtractions: usize,
@@ -78,6 +82,12 @@ pub struct Cost {
     /// Stack the call uses for marker displacements (and, for RBF-coefficient rigs, the
     /// coefficients), in bytes.
     pub scratch_bytes: usize,
+    /// Control-triangle frames built per frame (planar bones; 0 otherwise). A triangle that is
+    /// degenerate in a frame builds its rest frame too, so at most twice this many are built.
+    pub frame_builds: usize,
+    /// Vector normalisations (integer square root and three divisions) per frame: four per
+    /// frame build, one per apex-region influence (planar bones; 0 otherwise).
+    pub normalisations: usize,
 }
 
 impl core::fmt::Display for Cost {
@@ -95,7 +105,15 @@ impl core::fmt::Display for Cost {
             self.subtractions,
             self.narrowings,
             self.scratch_bytes
-        )
+        )?;
+        if self.frame_builds > 0 {
+            write!(
+                f,
+                ", {} control-triangle frames, {} normalisations",
+                self.frame_builds, self.normalisations
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -175,6 +193,7 @@ impl<'a> Rig<'a> {
         match &self.data.deformer {
             Deformer::Linear(l) => l.weight_frac_bits,
             Deformer::RbfCoefficients(r) => r.weight_frac_bits,
+            Deformer::PlanarBones(_) => format::PLANAR_WEIGHT_FRAC_BITS,
         }
     }
 
@@ -195,6 +214,8 @@ impl<'a> Rig<'a> {
                     subtractions: 3 * m,
                     narrowings: 3 * v,
                     scratch_bytes: kernel::linear::SCRATCH_BYTES,
+                    frame_builds: 0,
+                    normalisations: 0,
                 }
             }
             Deformer::RbfCoefficients(r) => {
@@ -212,17 +233,32 @@ impl<'a> Rig<'a> {
                     narrowings: 3 * rows + 3 * v,
                     scratch_bytes: displacement_scratch
                         + core::mem::size_of::<[[i32; 3]; kernel::rbf::MAX_ROWS]>(),
+                    frame_builds: 0,
+                    normalisations: 0,
                 }
             }
+            Deformer::PlanarBones(p) => kernel::planar::cost(p, v, m),
         }
     }
 
     /// Deform one frame: `markers` are the current marker positions in rig units (Q8.24), one
     /// per rig marker in marker order; `out` receives one position per vertex (Q8.24).
     ///
-    /// Zero marker motion gives the rest pose bit for bit, and moving every marker by the same
+    /// Zero marker motion gives the rest pose bit for bit (planar bones: within the rounding of
+    /// the stored local coordinates, not bit for bit), and moving every marker by the same
     /// offset moves every vertex by exactly that offset (barring saturation at ±128 rig units).
     pub fn deform(&self, markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), FrameError> {
+        self.deform_report(markers, out).map(|_| ())
+    }
+
+    /// [`Self::deform`], also reporting the control triangles of a planar-bones rig that were
+    /// degenerate in this frame (collinear or coincident markers) and so kept their rest
+    /// orientation. Always empty for the other deformers.
+    pub fn deform_report(
+        &self,
+        markers: &[[i32; 3]],
+        out: &mut [[i32; 3]],
+    ) -> Result<DegenerateTriangles, FrameError> {
         if markers.len() != self.marker_count() {
             return Err(FrameError::MarkerCount {
                 expected: self.marker_count(),
@@ -234,6 +270,14 @@ impl<'a> Rig<'a> {
                 expected: self.vertex_count(),
                 found: out.len(),
             });
+        }
+        if let Deformer::PlanarBones(planar) = &self.data.deformer {
+            return Ok(kernel::planar::deform(
+                planar,
+                self.data.marker_rest.0,
+                markers,
+                out,
+            ));
         }
         match &self.data.deformer {
             Deformer::Linear(lin) => kernel::linear::deform(
@@ -262,8 +306,9 @@ impl<'a> Rig<'a> {
                 kernel::rbf::coefficients(rbf, m, &displacements, &mut table);
                 kernel::rbf::deform(rbf, m, &table, self.data.vertex_rest.0, out);
             }
+            Deformer::PlanarBones(_) => {}
         }
-        Ok(())
+        Ok(DegenerateTriangles::default())
     }
 
     /// The capture stages, if the rig was baked with them.

@@ -12,8 +12,10 @@ use facebake_runtime::Rig;
 const COEFFICIENTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients.fbk");
 const WEIGHTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_weights.fbk");
 const COEFFICIENTS_K4: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk");
+const PLANAR: &[u8] = include_bytes!("../../fixtures/golden/facecap_planar.fbk");
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
+const PLANAR_HASHES: &str = include_str!("../../fixtures/golden/hashes_planar.txt");
 
 /// Ground-truth frames (32) plus edge frames (7): what the golden generator writes.
 const EXPECTED_FRAMES: usize = 39;
@@ -23,6 +25,7 @@ fn expected(rig: &str, what: &str) -> u64 {
     let key = format!("{rig} {what} ");
     let line = HASHES
         .lines()
+        .chain(PLANAR_HASHES.lines())
         .find(|l| l.starts_with(&key))
         .unwrap_or_else(|| panic!("hashes.txt has no line for {rig} {what}"));
     u64::from_str_radix(&line[key.len()..], 16).expect("a 64-bit hex hash")
@@ -79,6 +82,11 @@ fn weights_rig_is_bit_identical_to_the_golden_hashes() {
 #[test]
 fn k4_coefficients_rig_is_bit_identical_to_the_golden_hashes() {
     check("coefficients_k4", COEFFICIENTS_K4);
+}
+
+#[test]
+fn planar_rig_is_bit_identical_to_the_golden_hashes() {
+    check("planar", PLANAR);
 }
 
 /// The fixed-point primitives at their range edges, beyond the unit tests in `fixed.rs`

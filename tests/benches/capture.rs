@@ -62,6 +62,7 @@ fn hundred() -> Case {
             marker_names: &names,
             marker_rest: &rest,
             stiffness: &vec![1.0; names.len()],
+            triangles: &truth.mesh.triangles,
         },
         &BakeConfig::default(),
     )

@@ -335,6 +335,7 @@ fn form_name(form: RigForm) -> &'static str {
     match form {
         RigForm::Weights => "weights",
         RigForm::Coefficients => "coefficients",
+        RigForm::Planar => "planar",
     }
 }
 
@@ -392,6 +393,7 @@ fn synthetic_cases() -> Vec<Case> {
         marker_names: &names,
         marker_rest: &marker_rest,
         stiffness: &stiffness,
+        triangles: &[],
     };
     let configs = [4, 8]
         .into_iter()

@@ -34,6 +34,7 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
             marker_names: &names,
             marker_rest: &rest,
             stiffness: &stiffness,
+            triangles: &truth.mesh.triangles,
         },
         config,
     )
@@ -64,6 +65,12 @@ pub fn weights_config() -> BakeConfig {
         width_factor: 2.0,
         ..BakeConfig::default()
     }
+}
+
+/// The FaceCap truth baked as planar bones (K = 8), built once per test binary.
+pub fn facecap_planar() -> &'static Baked {
+    static CELL: std::sync::OnceLock<Baked> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| bake_truth(&facecap_default().0, &planar_config(8)))
 }
 
 /// Both FaceCap rigs: (name, blob).
@@ -135,4 +142,30 @@ pub fn jawmocap_rig(stages: &facebake::stages::StagesConfig) -> JawMoCapRig {
         stages,
         blob,
     }
+}
+/// The planar-bones configuration the tests use at `k` (default bone radius).
+pub fn planar_config(k: usize) -> BakeConfig {
+    BakeConfig {
+        form: facebake::bake::RigForm::Planar,
+        k,
+        ..BakeConfig::default()
+    }
+}
+
+/// Per glTF vertex of `truth`'s mesh: a skin vertex within 15 mm of the lip opening (the skin's
+/// second-longest boundary loop), where the methods' p99 and max errors sit.
+pub fn lip_vertices(truth: &GroundTruth) -> Vec<bool> {
+    let mesh = &truth.mesh;
+    let topo = mesh.welded_topology();
+    let loops = topo.loops_of(0);
+    let lip_loop = &loops[1].vertices;
+    mesh.positions
+        .iter()
+        .zip(&truth.skin)
+        .map(|(p, &skin)| {
+            skin && lip_loop
+                .iter()
+                .any(|&w| facebake::mesh::distance(p, &mesh.welded_positions[w as usize]) < 0.015)
+        })
+        .collect()
 }

@@ -4,11 +4,18 @@
 use facebake::ground_truth::SplitMix64;
 use facebake_runtime::fixed::{pack_influence, unpack_influence};
 use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, LoadError, RbfCoefficients, RigData, Section,
-    HEADER_LEN,
+    self, Bytes, Deformer, LinearInfluences, LoadError, PlanarBones, RbfCoefficients, RigData,
+    Section, HEADER_LEN, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES,
 };
 use facebake_runtime::Rig;
-use facebake_tests::{facecap_blobs, facecap_default, facecap_weights, reseal};
+use facebake_tests::{facecap_blobs, facecap_default, facecap_planar, facecap_weights, reseal};
+
+/// Every FaceCap rig, the planar-bones one included: (name, blob).
+fn all_blobs() -> Vec<(&'static str, &'static [u8])> {
+    let mut v = facecap_blobs().to_vec();
+    v.push(("planar", &facecap_planar().blob));
+    v
+}
 
 fn blob() -> Vec<u8> {
     facecap_default().1.blob.clone()
@@ -24,7 +31,7 @@ fn seal(data: &RigData<'_>) -> Vec<u8> {
 
 #[test]
 fn the_real_blobs_load() {
-    for (name, b) in facecap_blobs() {
+    for (name, b) in all_blobs() {
         let rig = Rig::from_bytes(b).unwrap();
         assert_eq!(rig.vertex_count(), 2694, "{name}");
         assert_eq!(rig.marker_count(), 40, "{name}");
@@ -38,7 +45,11 @@ fn the_real_blobs_load() {
 
 #[test]
 fn every_truncation_is_rejected() {
-    let b = blob();
+    truncations(&blob());
+    truncations(&facecap_planar().blob);
+}
+
+fn truncations(b: &[u8]) {
     for len in 0..b.len() {
         match Rig::from_bytes(&b[..len]) {
             Err(LoadError::Truncated { found, .. }) => assert_eq!(found, len),
@@ -53,10 +64,14 @@ fn every_truncation_is_rejected() {
 
 #[test]
 fn random_flips_are_caught_by_the_checksum_or_the_header() {
-    let b = blob();
+    flips(&blob());
+    flips(&facecap_planar().blob);
+}
+
+fn flips(b: &[u8]) {
     let mut rng = SplitMix64(1);
     for _ in 0..2000 {
-        let mut c = b.clone();
+        let mut c = b.to_vec();
         let at = (rng.next_u64() % c.len() as u64) as usize;
         c[at] ^= 1 << (rng.next_u64() % 8);
         let err = Rig::from_bytes(&c).expect_err("a flipped bit must not load");
@@ -71,7 +86,7 @@ fn random_flips_are_caught_by_the_checksum_or_the_header() {
 
 #[test]
 fn resealed_random_damage_never_panics() {
-    for (name, b) in facecap_blobs() {
+    for (name, b) in all_blobs() {
         resealed_damage(name, b);
     }
 }
@@ -432,4 +447,160 @@ fn every_coefficient_error_is_distinct() {
             ..
         }
     ));
+}
+
+#[test]
+fn every_planar_error_is_distinct() {
+    let b = &facecap_planar().blob;
+    let good = *Rig::from_bytes(b).unwrap().data();
+    let Deformer::PlanarBones(p) = good.deformer else {
+        panic!("the planar bake has a planar deformer")
+    };
+    // Triangle 0 with a marker past the last one; with all three corners on one marker.
+    let mut tris = p.triangles.0.to_vec();
+    tris[1] = 200;
+    let mut flat = p.triangles.0.to_vec();
+    flat[1] = flat[0];
+    flat[2] = flat[0];
+    // Vertex 0's first record: triangle out of range; region 7; weight changed.
+    let mut records = p.influences.0.to_vec();
+    let head = |r: &[u8]| u16::from_le_bytes([r[0], r[1]]);
+    let region_bits = head(&records) & 0xE000;
+    records[..2].copy_from_slice(&(region_bits | p.triangle_count).to_le_bytes());
+    let mut region7 = p.influences.0.to_vec();
+    let with_region7 = head(&region7) | 0xE000;
+    region7[..2].copy_from_slice(&with_region7.to_le_bytes());
+    let mut weight = p.influences.0.to_vec();
+    weight[2] ^= 1;
+    let mut counts = p.influence_counts.0.to_vec();
+    counts[0] = 0;
+    let (crowded, &crowd) = p
+        .influence_counts
+        .0
+        .iter()
+        .enumerate()
+        .find(|(_, &c)| c > 1)
+        .unwrap();
+    let short_tris = &p.triangles.0[..p.triangles.0.len() - 3];
+    let fewer = &p.influences.0[..p.influences.0.len() - PLANAR_INFLUENCE_BYTES];
+    let cases: Vec<(PlanarBones<'_>, LoadError)> = vec![
+        (
+            PlanarBones {
+                max_influences: 0,
+                ..p
+            },
+            LoadError::BadMaxInfluences { found: 0 },
+        ),
+        (
+            PlanarBones {
+                triangle_count: 0,
+                ..p
+            },
+            LoadError::BadTriangleCount { found: 0 },
+        ),
+        (
+            PlanarBones {
+                triangle_count: MAX_TRIANGLES as u16 + 1,
+                ..p
+            },
+            LoadError::BadTriangleCount {
+                found: MAX_TRIANGLES as u16 + 1,
+            },
+        ),
+        (
+            PlanarBones {
+                triangles: Bytes(short_tris),
+                ..p
+            },
+            LoadError::SectionLength {
+                section: Section::Triangles,
+                expected: p.triangles.0.len(),
+                found: short_tris.len(),
+            },
+        ),
+        (
+            PlanarBones {
+                triangles: Bytes(&tris),
+                ..p
+            },
+            LoadError::TriangleMarkerOutOfRange {
+                triangle: 0,
+                marker: 200,
+            },
+        ),
+        (
+            PlanarBones {
+                triangles: Bytes(&flat),
+                ..p
+            },
+            LoadError::DegenerateRestTriangle { triangle: 0 },
+        ),
+        (
+            PlanarBones {
+                influences: Bytes(&records),
+                ..p
+            },
+            LoadError::TriangleIndexOutOfRange {
+                vertex: 0,
+                triangle: p.triangle_count,
+            },
+        ),
+        (
+            PlanarBones {
+                influences: Bytes(&region7),
+                ..p
+            },
+            LoadError::BadRegion {
+                vertex: 0,
+                region: 7,
+            },
+        ),
+        (
+            PlanarBones {
+                influences: Bytes(&weight),
+                ..p
+            },
+            LoadError::WeightsNotNormalised { vertex: 0 },
+        ),
+        (
+            PlanarBones {
+                max_influences: 1,
+                ..p
+            },
+            LoadError::TooManyInfluences {
+                vertex: crowded,
+                count: crowd,
+            },
+        ),
+    ];
+    for (i, (edited, want)) in cases.into_iter().enumerate() {
+        let d = RigData {
+            deformer: Deformer::PlanarBones(edited),
+            ..good
+        };
+        assert_eq!(Rig::from_bytes(&seal(&d)).unwrap_err(), want, "case {i}");
+    }
+    // A vertex without influences, and a short influence section: length errors.
+    for edited in [
+        PlanarBones {
+            influence_counts: Bytes(&counts),
+            ..p
+        },
+        PlanarBones {
+            influences: Bytes(fewer),
+            ..p
+        },
+    ] {
+        let d = RigData {
+            deformer: Deformer::PlanarBones(edited),
+            ..good
+        };
+        assert!(matches!(
+            Rig::from_bytes(&seal(&d)).unwrap_err(),
+            LoadError::SectionLength {
+                section: Section::Influences,
+                ..
+            }
+        ));
+    }
 }

@@ -79,6 +79,7 @@ fn linearity(rig: &Rig<'_>) {
     let tolerance = match rig.deformer() {
         Deformer::Linear(_) => 1,
         Deformer::RbfCoefficients(_) => 18,
+        Deformer::PlanarBones(_) => panic!("planar bones are not linear in the markers"),
     };
     let rest = rest_markers(rig);
     let mut rng = SplitMix64(11);
@@ -167,7 +168,7 @@ fn extremes(rig: &Rig<'_>) {
             }
             // Every vertex ends near that extreme (within the mesh's size, 2^24), none wraps
             // round to the other sign.
-            Deformer::RbfCoefficients(_) => {
+            Deformer::RbfCoefficients(_) | Deformer::PlanarBones(_) => {
                 for o in out {
                     for c in o {
                         assert_eq!(c.signum(), extreme.signum());

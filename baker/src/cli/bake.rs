@@ -36,8 +36,8 @@ pub struct BakeArgs {
     /// The marker layout (.toml or .json).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
-    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, or K weights
-    /// per vertex on marker displacements.
+    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights
+    /// per vertex on marker displacements, or planar bones (K control triangles per vertex).
     #[arg(long, value_enum, default_value_t = BakeConfig::default().form)]
     pub form: RigForm,
     /// Radial kernel.
@@ -86,6 +86,9 @@ pub struct BakeArgs {
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
     #[arg(long, value_enum, default_value_t = RetargetKind::Rbf, requires = "capture")]
     pub retarget: RetargetKind,
+    /// Planar form: bone radius as a multiple of the closest connected-marker distance.
+    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius)]
+    pub planar_radius: f64,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -106,6 +109,7 @@ impl BakeArgs {
             affine: d.affine && !self.no_affine,
             k: self.k,
             refit: self.refit,
+            planar_radius: self.planar_radius,
             ..d
         }
     }
@@ -159,6 +163,7 @@ pub fn bake_layout(
             marker_names: &names,
             marker_rest: &rest,
             stiffness: &stiffness,
+            triangles: &mesh.triangles,
         },
         config,
     )
@@ -238,6 +243,7 @@ pub fn form_text(form: RigForm) -> &'static str {
             "coefficients: per-frame RBF coefficients, K kernel terms per vertex"
         }
         RigForm::Weights => "weights: K weights per vertex on marker displacements",
+        RigForm::Planar => "planar: K control-triangle region transforms per vertex",
     }
 }
 
@@ -254,17 +260,19 @@ fn print_text(s: &BakeSummary) {
         s.layout.display()
     );
     outln!(out, "  form          {}", form_text(r.form));
-    outln!(
-        out,
-        "  kernel        {}, {}",
-        r.kernel,
-        if s.affine {
-            "with affine term"
-        } else {
-            "no affine term"
-        }
-    );
-    outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    if r.form != RigForm::Planar {
+        outln!(
+            out,
+            "  kernel        {}, {}",
+            r.kernel,
+            if s.affine {
+                "with affine term"
+            } else {
+                "no affine term"
+            }
+        );
+        outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    }
     outln!(
         out,
         "  markers       largest snap onto the surface {:.3e} mesh units",
@@ -279,14 +287,23 @@ fn print_text(s: &BakeSummary) {
     let stored = match r.form {
         RigForm::Coefficients => "kernel values",
         RigForm::Weights => "weights",
+        RigForm::Planar => "weights",
     };
-    outln!(
-        out,
-        "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
-        s.weight_format,
-        r.weight_frac_bits,
-        r.max_weight_rounding
-    );
+    if r.form == RigForm::Planar {
+        outln!(
+            out,
+            "  weights       Q1.15 (unsigned 16-bit, each vertex's sum exactly 2^15), largest rounding {:.2e}",
+            r.max_weight_rounding
+        );
+    } else {
+        outln!(
+            out,
+            "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
+            s.weight_format,
+            r.weight_frac_bits,
+            r.max_weight_rounding
+        );
+    }
     if r.form == RigForm::Coefficients {
         outln!(
             out,
@@ -302,8 +319,17 @@ fn print_text(s: &BakeSummary) {
         match r.form {
             RigForm::Coefficients => "kernel mass",
             RigForm::Weights => "dense weight",
+            RigForm::Planar => "eq-12 weight",
         }
     );
+    if let Some(p) = &r.planar {
+        outln!(
+            out,
+            "  control       {} triangles; {} vertices within no bone's radius ride their closest bone",
+            p.triangles.len(),
+            p.outside_radius
+        );
+    }
     outln!(
         out,
         "  blob          {}: influences {} bytes ({} bytes/influence), other {:.2} bytes/vertex",

@@ -294,6 +294,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         deformer: match rig.deformer() {
             Deformer::Linear(_) => "linear",
             Deformer::RbfCoefficients(_) => "rbf-coefficients",
+            Deformer::PlanarBones(_) => "planar-bones",
         },
         k: cost.max_influences,
         weight_format: weight_format(rig.weight_frac_bits()),

@@ -45,6 +45,10 @@ pub struct CostSummary {
     pub narrowings: usize,
     /// Stack scratch, bytes.
     pub scratch_bytes: usize,
+    /// Control-triangle frames built per frame (planar bones).
+    pub frame_builds: usize,
+    /// Integer-square-root normalisations per frame (planar bones).
+    pub normalisations: usize,
     /// The runtime's own one-line description.
     pub text: String,
 }
@@ -61,6 +65,8 @@ impl From<Cost> for CostSummary {
             subtractions: c.subtractions,
             narrowings: c.narrowings,
             scratch_bytes: c.scratch_bytes,
+            frame_builds: c.frame_builds,
+            normalisations: c.normalisations,
             text: c.to_string(),
         }
     }
@@ -81,9 +87,10 @@ pub struct Sections {
     pub influence_counts: usize,
     /// Coefficient row shifts (1 byte per row; RBF-coefficient rigs).
     pub row_shifts: usize,
-    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs).
+    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs), or the control triangles
+    /// (3 bytes each; planar-bones rigs).
     pub matrix: usize,
-    /// Influences (4 bytes each).
+    /// Influences (4 bytes each; 20 for planar bones).
     pub influences: usize,
     /// Capture stages' byte sections (neutral, head, fill, radii, coefficients).
     pub stages: usize,
@@ -100,7 +107,8 @@ pub struct InspectSummary {
     pub format_version: u16,
     /// Blob size in bytes.
     pub blob_bytes: usize,
-    /// The deformer: "linear" (weights on marker displacements) or "rbf-coefficients".
+    /// The deformer: "linear" (weights on marker displacements), "rbf-coefficients" or
+    /// "planar-bones".
     pub deformer: &'static str,
     /// Whether an RBF-coefficient rig has the affine rows (`None` for linear rigs).
     pub affine: Option<bool>,
@@ -173,6 +181,14 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             r.matrix.0.len(),
             r.influences.0.len(),
         ),
+        Deformer::PlanarBones(p) => (
+            "planar-bones",
+            None,
+            p.influence_counts.0.len(),
+            0,
+            p.triangles.0.len(),
+            p.influences.0.len(),
+        ),
     };
     let stages_bytes = data.stages.map_or(0, |st| {
         st.actor_neutral.0.len()
@@ -222,7 +238,11 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         mean_influences_per_vertex: cost.influences as f64 / vertices.max(1) as f64,
         position_format: "Q8.24",
         rest_format: "Q0.15",
-        weight_format: weight_format(rig.weight_frac_bits()),
+        weight_format: if deformer == "planar-bones" {
+            "Q1.15 (unsigned 16-bit)".into()
+        } else {
+            weight_format(rig.weight_frac_bits())
+        },
         weight_frac_bits: rig.weight_frac_bits(),
         space_centre: space.centre,
         space_half_extent: space.half_extent,
@@ -332,6 +352,11 @@ fn print_text(s: &InspectSummary) {
         sec.vertex_rest,
         if s.affine.is_some() {
             format!("coefficient shifts {}, coefficient map {}, ", sec.row_shifts, sec.matrix)
+        } else if s.deformer == "planar-bones" {
+            format!(
+                "control triangles {}, influence counts {}, ",
+                sec.matrix, sec.influence_counts
+            )
         } else {
             format!("influence counts {}, ", sec.influence_counts)
         },

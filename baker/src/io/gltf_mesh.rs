@@ -447,7 +447,7 @@ fn target_names(
 }
 
 /// Welds vertices with bit-identical positions; returns (original -> welded id, welded positions).
-fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
+pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
     let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
     let mut welded = Vec::new();
     let weld = positions

@@ -1,4 +1,5 @@
 //! Per-frame deformation kernels, one module per method.
 
 pub mod linear;
+pub mod planar;
 pub mod rbf;
