@@ -13,3 +13,4 @@ pub mod reference;
 pub mod retarget;
 pub mod rigid;
 pub mod sparsify;
+pub mod surface;

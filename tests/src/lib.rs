@@ -81,3 +81,34 @@ pub fn reseal(blob: &mut [u8]) {
     let crc = facebake_runtime::checksum::crc32(&blob[header_len..]);
     blob[16..20].copy_from_slice(&crc.to_le_bytes());
 }
+
+/// The FaceCap ground truth with the bundled JawMoCap layout (41 markers, lip and eyelid
+/// groups) and the truth's 6 static markers as anchors: the surface-aware methods' proof.
+pub fn facecap_scene() -> facebake::surface::evaluate::Scene {
+    let truth = facecap_truth();
+    let path = fixture("facecap_jawmocap_layout.toml");
+    let layout = facebake::io::layout::read_layout(&path).expect("layout reads");
+    let placed = facebake::io::layout::place_markers(&layout, &truth.mesh, 0.01)
+        .expect("layout places on the FaceCap head");
+    let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+    let groups = facebake::io::marker_groups::read_groups(&path, &names).expect("groups read");
+    facebake::surface::evaluate::Scene::new(truth, &placed, groups, FACECAP_STATIC_MARKERS)
+        .expect("scene builds")
+}
+
+/// Bake the scene's markers with a surface-aware configuration.
+pub fn bake_scene(
+    scene: &facebake::surface::evaluate::Scene,
+    config: &facebake::surface::SurfaceConfig,
+) -> facebake::surface::SurfaceBaked {
+    facebake::surface::bake_surface(
+        &facebake::surface::SurfaceInput {
+            mesh: &scene.truth.mesh,
+            markers: &scene.markers,
+            groups: &scene.groups,
+            sides: &facebake::surface::SideRule::Auto,
+        },
+        config,
+    )
+    .expect("surface bake succeeds")
+}
