@@ -110,7 +110,7 @@ impl Scene {
         let rest: Vec<[f64; 3]> = markers.iter().map(|m| m.rest).collect();
         let geometry = SurfaceGeometry::new(mesh, &sources, GeodesicMethod::EdgeDijkstra)
             .map_err(SurfaceError::from)?;
-        let sides = vertex_sides(&groups, &SideRule::Auto, &geometry, &rest, BAND)
+        let sides = vertex_sides(&groups, &SideRule::Auto, &geometry, &rest, BAND, BAND)
             .map_err(|e: MaskError| SurfaceError::from(e))?;
         let bands = sides
             .iter()
@@ -204,43 +204,27 @@ impl Scene {
     }
 }
 
-/// Fraction of a band's vertices whose predicted displacement is nearer the other side's mean
-/// true displacement than their own side's.
+/// Fraction of a band's vertices pulled across the opening: nearer (predicted position) to the
+/// true position of the nearest rest vertex on the other side than to their own.
 pub fn crossed_fraction(
     band: &[Option<Side>],
     rest: &[[f64; 3]],
     truth: &[[f64; 3]],
     got: &[[f64; 3]],
 ) -> f64 {
-    let disp = |p: &[f64; 3], v: usize| [0, 1, 2].map(|k| p[k] - rest[v][k]);
-    let mean = |side: Side| {
-        let mut sum = [0.0; 3];
-        let mut count = 0.0;
-        for (v, s) in band.iter().enumerate() {
-            if *s == Some(side) {
-                let d = disp(&truth[v], v);
-                for k in 0..3 {
-                    sum[k] += d[k];
-                }
-                count += 1.0;
-            }
-        }
-        sum.map(|x| x / f64::max(count, 1.0))
-    };
-    let (up, low) = (mean(Side::Upper), mean(Side::Lower));
-    let mut total = 0usize;
-    let mut across = 0usize;
-    for (v, s) in band.iter().enumerate() {
-        let Some(side) = s else { continue };
-        total += 1;
-        let d = disp(&got[v], v);
-        let (own, other) = match side {
-            Side::Upper => (up, low),
-            Side::Lower => (low, up),
-        };
-        if distance(&d, &other) < distance(&d, &own) {
-            across += 1;
-        }
-    }
-    across as f64 / total.max(1) as f64
+    let members: Vec<(usize, Side)> = band
+        .iter()
+        .enumerate()
+        .filter_map(|(v, s)| s.map(|s| (v, s)))
+        .collect();
+    let across = members
+        .iter()
+        .filter(|&&(v, side)| {
+            let other = members.iter().filter(|m| m.1 != side).min_by(|a, b| {
+                distance(&rest[a.0], &rest[v]).total_cmp(&distance(&rest[b.0], &rest[v]))
+            });
+            other.is_some_and(|&(u, _)| distance(&got[v], &truth[u]) < distance(&got[v], &truth[v]))
+        })
+        .count();
+    across as f64 / members.len().max(1) as f64
 }

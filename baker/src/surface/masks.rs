@@ -126,12 +126,14 @@ fn gaussian(d: f64, width: f64) -> f64 {
     }
 }
 
-/// Sides and strengths of every mask; `decay` is the strength's Gaussian width (asset units).
+/// Sides and strengths of every mask: full strength within `plateau` of the openings (or the
+/// vertex sets), then a Gaussian fade of width `decay` (asset units).
 pub fn vertex_sides(
     groups: &[MarkerGroups],
     rule: &SideRule,
     geometry: &SurfaceGeometry,
     markers: &[[f64; 3]],
+    plateau: f64,
     decay: f64,
 ) -> Result<Vec<MaskSides>, MaskError> {
     let vertex_count = geometry.weld.len();
@@ -209,7 +211,7 @@ pub fn vertex_sides(
             let strength = geometry
                 .weld
                 .iter()
-                .map(|&x| gaussian(reach[x as usize], decay))
+                .map(|&x| gaussian((reach[x as usize] - plateau).max(0.0), decay))
                 .collect();
             Ok(MaskSides {
                 groups: grp.clone(),

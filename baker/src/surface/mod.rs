@@ -82,7 +82,10 @@ pub struct SurfaceConfig {
     pub region_factor: f64,
     /// Hybrid: width of the Gaussian decay outside the region, × mean marker spacing.
     pub decay_factor: f64,
-    /// Masks: width of the Gaussian fade away from the openings, × mean marker spacing.
+    /// Masks: distance from the openings within which a mask is at full strength, × mean
+    /// marker spacing.
+    pub mask_plateau_factor: f64,
+    /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
     pub mask_decay_factor: f64,
     /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
     /// the kernel block positive semi-definite, plus [`RIDGE_MARGIN`] when it is not.
@@ -90,19 +93,25 @@ pub struct SurfaceConfig {
 }
 
 impl Default for SurfaceConfig {
-    /// Hybrid distances, heat-method geodesics, masks on, weights form with the Gaussian kernel
-    /// (width 0.75 × mean marker spacing), affine term, K = 8.
+    /// Geodesic distances (heat method) with the exponential kernel `exp(−r/c)` (the thesis'
+    /// eq 2.3a; its geodesic kernel matrix stays positive definite on FaceCap where the
+    /// Gaussian's does not), c = the mean marker spacing, affine term, K = 8, in coefficient
+    /// form; no masks (they need the weights form). Hybrid region and decay: 0.5 × spacing;
+    /// masks at full strength within 0.5 × spacing of the opening, fading over 1 × spacing.
     fn default() -> Self {
         Self {
-            method: Method::Hybrid,
+            method: Method::Geodesic,
             geodesic: GeodesicMethod::Heat,
             bake: BakeConfig {
-                form: RigForm::Weights,
+                form: RigForm::Coefficients,
+                kernel: KernelKind::Exponential,
+                width_factor: 1.0,
                 ..BakeConfig::default()
             },
-            masks: true,
+            masks: false,
             region_factor: 0.5,
             decay_factor: 0.5,
+            mask_plateau_factor: 0.5,
             mask_decay_factor: 1.0,
             ridge: None,
         }
@@ -355,6 +364,7 @@ pub fn bake_surface(
             input.sides,
             &geometry,
             &rest,
+            config.mask_plateau_factor * spacing,
             config.mask_decay_factor * spacing,
         )?;
         masks::masked_weights(
