@@ -4,7 +4,7 @@
 //!
 //! `cargo run --release -p facebake-tests --example surface_sweep [all]` (`all`: four kernels).
 //! Environment: `LIPS` (lip-marker offset from the mouth line, metres; 0 keeps the JawMoCap
-//! layout), `MASK_PLATEAU`, `MASK_DECAY`, `REGION`, `DECAY` (× mean marker spacing), `RIDGE`,
+//! layout), `MASK_PLATEAU`, `MASK_DECAY`, `REGION`, `DECAY` (× mean marker spacing), `ALPHA` (PBW), `RIDGE`,
 //! `VERBOSE` (warnings), `DIAG` (worst lip vertices on "jaw open").
 
 use facebake::bake::RigForm;
@@ -16,7 +16,7 @@ fn main() {
     let lips: f64 = std::env::var("LIPS")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(0.0);
+        .unwrap_or(facebake_tests::LIP_MARKER_OFFSET);
     let scene = facebake_tests::facecap_scene_with(lips);
     println!(
         "FaceCap: {} markers ({} from the JawMoCap layout + anchors), {} frames, band vertices {:?}",
@@ -54,6 +54,9 @@ fn main() {
                 (false, RigForm::Weights),
                 (true, RigForm::Weights),
             ] {
+                if method == Method::Pbw && form == RigForm::Coefficients {
+                    continue;
+                }
                 let mut config = SurfaceConfig {
                     method,
                     masks,
@@ -69,6 +72,7 @@ fn main() {
                 config.mask_plateau_factor = env("MASK_PLATEAU", config.mask_plateau_factor);
                 config.region_factor = env("REGION", config.region_factor);
                 config.decay_factor = env("DECAY", config.decay_factor);
+                config.pbw_alpha = env("ALPHA", config.pbw_alpha);
                 if let Ok(r) = std::env::var("RIDGE") {
                     config.ridge = r.parse().ok();
                 }

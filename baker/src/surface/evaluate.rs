@@ -76,19 +76,9 @@ impl Scene {
         anchors: usize,
     ) -> Result<Self, SceneError> {
         let mesh = &truth.mesh;
-        let mut markers: Vec<SurfaceMarker> = placed
-            .iter()
-            .map(|p| SurfaceMarker {
-                name: p.name.clone(),
-                rest: p.position,
-                source: Source::Point {
-                    triangle: p.surface.triangle,
-                    barycentric: p.surface.barycentric,
-                },
-                stiffness: p.stiffness,
-            })
-            .collect();
-        let mut surface: Vec<SurfacePoint> = placed.iter().map(|p| p.surface.clone()).collect();
+        let mut markers: Vec<SurfaceMarker> =
+            placed.iter().map(SurfaceMarker::from_placed).collect();
+        let mut surface: Vec<SurfacePoint> = placed.iter().map(|p| p.surface).collect();
         let still = truth.marker_vertices.len().saturating_sub(anchors);
         for (a, &v) in truth.marker_vertices[still..].iter().enumerate() {
             let p = mesh.positions[v as usize];

@@ -23,6 +23,7 @@ pub mod evaluate;
 pub mod geometry;
 pub mod masks;
 pub mod openings;
+pub mod pbw;
 
 use nalgebra::DMatrix;
 
@@ -51,11 +52,14 @@ pub enum Method {
     Geodesic,
     /// Geodesic near the mouth and eyes, Euclidean elsewhere.
     Hybrid,
+    /// Proximity-based weighting on geodesics blended with a global multiquadric RBF
+    /// (paper 002 §2.2; weights form only).
+    Pbw,
 }
 
 impl Method {
     /// Every method, for sweeps.
-    pub const ALL: [Method; 3] = [Self::Euclidean, Self::Geodesic, Self::Hybrid];
+    pub const ALL: [Method; 4] = [Self::Euclidean, Self::Geodesic, Self::Hybrid, Self::Pbw];
 
     /// Name on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -63,6 +67,7 @@ impl Method {
             Self::Euclidean => "euclidean",
             Self::Geodesic => "geodesic",
             Self::Hybrid => "hybrid",
+            Self::Pbw => "pbw",
         }
     }
 }
@@ -87,6 +92,9 @@ pub struct SurfaceConfig {
     pub mask_plateau_factor: f64,
     /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
     pub mask_decay_factor: f64,
+    /// PBW: α of paper 002's eq 11, the share of the local (proximity) weights; the rest is the
+    /// global multiquadric RBF.
+    pub pbw_alpha: f64,
     /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
     /// the kernel block positive semi-definite, plus [`RIDGE_MARGIN`] when it is not.
     pub ridge: Option<f64>,
@@ -113,6 +121,7 @@ impl Default for SurfaceConfig {
             decay_factor: 0.5,
             mask_plateau_factor: 0.5,
             mask_decay_factor: 1.0,
+            pbw_alpha: 0.5,
             ridge: None,
         }
     }
@@ -129,6 +138,21 @@ pub struct SurfaceMarker {
     pub source: Source,
     /// Stiffness in [1, 9].
     pub stiffness: f64,
+}
+
+impl SurfaceMarker {
+    /// A layout marker placed on the mesh.
+    pub fn from_placed(p: &crate::io::layout::PlacedMarker) -> Self {
+        Self {
+            name: p.name.clone(),
+            rest: p.position,
+            source: Source::Point {
+                triangle: p.surface.triangle,
+                barycentric: p.surface.barycentric,
+            },
+            stiffness: p.stiffness,
+        }
+    }
 }
 
 /// What a surface-aware bake is made of.
@@ -256,6 +280,12 @@ pub fn bake_surface(
         )
         .into());
     }
+    if config.method == Method::Pbw && config.bake.form == RigForm::Coefficients {
+        return Err(BakeError::Input(
+            "PBW weights are not an RBF: it needs the weights form (--form weights)".into(),
+        )
+        .into());
+    }
     if config.bake.form == RigForm::Coefficients
         && matches!(
             config.bake.kernel,
@@ -279,7 +309,7 @@ pub fn bake_surface(
     let geometry = SurfaceGeometry::new(mesh, &sources, config.geodesic)?;
     let kind = match config.method {
         Method::Euclidean => DistanceKind::Euclidean,
-        Method::Geodesic => DistanceKind::Geodesic,
+        Method::Geodesic | Method::Pbw => DistanceKind::Geodesic,
         Method::Hybrid => DistanceKind::Hybrid {
             region: config.region_factor * spacing,
             decay: config.decay_factor * spacing,
@@ -294,16 +324,19 @@ pub fn bake_surface(
     );
     let mut warnings = Vec::new();
     if !d.fallback.is_empty() {
-        let pieces = geometry.topology_pieces(&d.fallback);
+        let mut pieces = geometry.topology_pieces(&d.fallback);
+        pieces.sort_by_key(|p| std::cmp::Reverse(p.1));
+        let listed: Vec<String> = pieces
+            .iter()
+            .take(3)
+            .map(|(c, count)| format!("component {c}: {count}"))
+            .collect();
         warnings.push(format!(
-            "{} vertices in {} piece(s) of the mesh ({}) cannot be reached along the surface from every marker: they use Euclidean distances",
+            "{} vertices in {} piece(s) of the mesh that not every marker reaches along the surface use Euclidean distances (largest: {}{})",
             d.fallback.len(),
             pieces.len(),
-            pieces
-                .iter()
-                .map(|(c, count)| format!("component {c}: {count} vertices"))
-                .collect::<Vec<_>>()
-                .join(", ")
+            listed.join(", "),
+            if pieces.len() > 3 { ", …" } else { "" }
         ));
     }
     if d.fallback_pairs > 0 {
@@ -327,15 +360,39 @@ pub fn bake_surface(
         .iter()
         .map(|r| r.iter().map(|x| x / h).collect())
         .collect();
-    let kernel = resolve_kernel(&config.bake, &centres, &between, h);
+    // PBW's local weights use the geodesic rows; its RBF part is paper 002's global
+    // multiquadric on Euclidean distances.
+    let geodesic_rows = (config.method == Method::Pbw).then(|| rows.clone());
+    let (between, rows, kernel) = if config.method == Method::Pbw {
+        let e = DMatrix::from_fn(n, n, |j, i| crate::mesh::distance(&centres[j], &centres[i]));
+        let r: Vec<Vec<f64>> = points
+            .iter()
+            .map(|p| {
+                centres
+                    .iter()
+                    .map(|c| crate::mesh::distance(p, c))
+                    .collect()
+            })
+            .collect();
+        let k = KernelKind::Multiquadric.resolve(&centres, None, config.bake.width_factor);
+        (e, r, k)
+    } else {
+        let k = resolve_kernel(&config.bake, &centres, &between, h);
+        (between, rows, k)
+    };
     let (min_eig, mean_phi) = kernel_spectrum(&kernel, &between);
     let min_eigenvalue = min_eig / mean_phi;
-    let ridge = config.ridge.unwrap_or(if min_eigenvalue < 0.0 {
-        -min_eigenvalue + RIDGE_MARGIN
-    } else {
-        0.0
-    });
-    if min_eigenvalue < 0.0 {
+    // Euclidean kernels are (conditionally) positive definite by theory, with the affine term
+    // for the multiquadric and thin-plate kernels, whose blocks have negative eigenvalues.
+    let euclidean = matches!(config.method, Method::Euclidean | Method::Pbw);
+    let ridge = config
+        .ridge
+        .unwrap_or(if min_eigenvalue < 0.0 && !euclidean {
+            -min_eigenvalue + RIDGE_MARGIN
+        } else {
+            0.0
+        });
+    if min_eigenvalue < 0.0 && !euclidean {
         warnings.push(format!(
             "the {} kernel matrix is indefinite (smallest eigenvalue {:.3e} of the mean |φ|); a ridge of {:.3e} × mean |φ| is added to its diagonal",
             config.method.name(),
@@ -389,6 +446,25 @@ pub fn bake_surface(
             0,
         )
     };
+    let dense = match geodesic_rows {
+        Some(g) => {
+            let nb = pbw::neighbours(&(&d.between / h));
+            let a = config.pbw_alpha;
+            dense
+                .iter()
+                .zip(g.iter().zip(&points))
+                .map(|(global, (gd, p))| {
+                    let local = pbw::local_weights(p, gd, &centres, &nb);
+                    local
+                        .iter()
+                        .zip(global)
+                        .map(|(l, g)| a * l + (1.0 - a) * g)
+                        .collect()
+                })
+                .collect()
+        }
+        None => dense,
+    };
     let form = match config.bake.form {
         RigForm::Weights => {
             // The prior's covariance under the method's own distances, so re-fitting a dropped
@@ -423,7 +499,11 @@ pub fn bake_surface(
     let report = SurfaceReport {
         method: config.method,
         form: config.bake.form,
-        kernel: config.bake.kernel.name(),
+        kernel: if config.method == Method::Pbw {
+            KernelKind::Multiquadric.name()
+        } else {
+            config.bake.kernel.name()
+        },
         min_eigenvalue,
         ridge,
         condition,
