@@ -44,7 +44,8 @@ pub struct BakeArgs {
     #[arg(long, value_enum, default_value_t = Method::Euclidean)]
     pub method: Method,
     /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
-    /// side of an opening may not move the other side. Needs --form weights.
+    /// side of an opening may not move the other side. Masks need the weights form, the
+    /// default with --masks.
     #[arg(long)]
     pub masks: bool,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, or K weights
