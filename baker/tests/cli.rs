@@ -346,3 +346,65 @@ fn help_documents_the_exit_codes() {
         assert!(help.contains(command), "{command} missing from --help");
     }
 }
+
+#[test]
+fn surface_aware_bakes_report_their_method_and_masks() {
+    let dir = temp_dir("surface");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let rig = dir.join("geodesic.fbk");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--method", "geodesic", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["method"], "geodesic");
+    assert_eq!(j["report"]["kernel"], "exponential");
+    assert_eq!(j["report"]["form"], "coefficients");
+    assert_eq!(j["report"]["openings"], 3);
+    assert_eq!(j["report"]["unreachable_vertices"], 740);
+    assert!(j["report"]["min_eigenvalue"].as_f64().unwrap() > 0.0);
+    let blob = std::fs::read(&rig).unwrap();
+    assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
+
+    let masked = dir.join("hybrid.fbk");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &masked,
+        &["--method", "hybrid", "--masks", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(
+        j["report"]["form"], "weights",
+        "masks pick the weights form"
+    );
+    assert_eq!(j["masks"], serde_json::json!(["mouth", "eyes"]));
+    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0);
+    assert!(Rig::from_bytes(&std::fs::read(&masked).unwrap()).is_ok());
+
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("pbw.fbk"),
+        &["--method", "pbw", "--json"],
+    );
+    assert_eq!(json_ok(&out)["report"]["kernel"], "multiquadric");
+
+    // Masks in the coefficient form, or without groups: bad input naming the layout.
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("x.fbk"),
+        &["--masks", "--form", "coefficients"],
+    );
+    assert_bad_input(&out, "facecap_jawmocap_layout.toml");
+    assert!(stderr(&out).contains("weights form"), "{}", stderr(&out));
+    let plain = dir.join("plain.toml");
+    let text = std::fs::read_to_string(&layout).unwrap();
+    std::fs::write(&plain, text.split("[groups]").next().unwrap()).unwrap();
+    let out = bake(&mesh_path(), &plain, &dir.join("y.fbk"), &["--masks"]);
+    assert_bad_input(&out, "plain.toml");
+    assert!(stderr(&out).contains("[groups]"), "{}", stderr(&out));
+}
