@@ -194,8 +194,13 @@ impl Scene {
     }
 }
 
-/// Fraction of a band's vertices pulled across the opening: nearer (predicted position) to the
-/// true position of the nearest rest vertex on the other side than to their own.
+/// Two sides count as parted at a vertex when its truth and that of its nearest rest neighbour
+/// across the opening are this far apart (metres); closer, "pulled across" means nothing.
+pub const PARTED: f64 = 0.002;
+
+/// Fraction of a band's vertices, among those where the opening parts (see [`PARTED`]), pulled
+/// across it: nearer (predicted position) to the true position of the nearest rest vertex on
+/// the other side than to their own.
 pub fn crossed_fraction(
     band: &[Option<Side>],
     rest: &[[f64; 3]],
@@ -207,14 +212,20 @@ pub fn crossed_fraction(
         .enumerate()
         .filter_map(|(v, s)| s.map(|s| (v, s)))
         .collect();
-    let across = members
-        .iter()
-        .filter(|&&(v, side)| {
-            let other = members.iter().filter(|m| m.1 != side).min_by(|a, b| {
-                distance(&rest[a.0], &rest[v]).total_cmp(&distance(&rest[b.0], &rest[v]))
-            });
-            other.is_some_and(|&(u, _)| distance(&got[v], &truth[u]) < distance(&got[v], &truth[v]))
-        })
-        .count();
-    across as f64 / members.len().max(1) as f64
+    let mut parted = 0usize;
+    let mut across = 0usize;
+    for &(v, side) in &members {
+        let other = members.iter().filter(|m| m.1 != side).min_by(|a, b| {
+            distance(&rest[a.0], &rest[v]).total_cmp(&distance(&rest[b.0], &rest[v]))
+        });
+        let Some(&(u, _)) = other else { continue };
+        if distance(&truth[u], &truth[v]) < PARTED {
+            continue;
+        }
+        parted += 1;
+        if distance(&got[v], &truth[u]) < distance(&got[v], &truth[v]) {
+            across += 1;
+        }
+    }
+    across as f64 / parted.max(1) as f64
 }
