@@ -408,3 +408,47 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     assert_bad_input(&out, "plain.toml");
     assert!(stderr(&out).contains("[groups]"), "{}", stderr(&out));
 }
+
+#[test]
+fn masks_take_vertex_sides_from_a_file() {
+    let dir = temp_dir("mask-sides");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    // Vertices on the lower lip (1351) and next to it, and the eye corners: the plumbing is what
+    // is tested here; `tests/tests/surface.rs` checks masks from vertex sets on real sides.
+    let sides = dir.join("sides.toml");
+    std::fs::write(
+        &sides,
+        "mouth = { upper = [1350], lower = [1351] }\neyes = { upper = [1795], lower = [1807] }\n",
+    )
+    .unwrap();
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("r.fbk"),
+        &["--masks", "--mask-sides", s(&sides), "--json"],
+    );
+    let j = json_ok(&out);
+    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0, "{j}");
+    std::fs::write(
+        &sides,
+        "mouth = { upper = [9999999], lower = [1] }\neyes = { upper = [1], lower = [2] }\n",
+    )
+    .unwrap();
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("r.fbk"),
+        &["--masks", "--mask-sides", s(&sides)],
+    );
+    assert_bad_input(&out, "sides.toml");
+    assert!(stderr(&out).contains("9999999"), "{}", stderr(&out));
+    std::fs::write(&sides, "mouth = { upper = [1], lower = [2] }\n").unwrap();
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("r.fbk"),
+        &["--masks", "--mask-sides", s(&sides)],
+    );
+    assert_bad_input(&out, "sides.toml");
+    assert!(stderr(&out).contains("\"eyes\""), "{}", stderr(&out));
+}

@@ -10,7 +10,7 @@ use super::{emit, print_json, weight_format, write_file, CliError};
 use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
 use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
-use crate::io::marker_groups::read_groups;
+use crate::io::marker_groups::{read_groups, read_vertex_sides};
 use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
 use crate::surface::{
@@ -48,6 +48,10 @@ pub struct BakeArgs {
     /// default with --masks.
     #[arg(long)]
     pub masks: bool,
+    /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
+    /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
+    #[arg(long, value_name = "FILE", requires = "masks")]
+    pub mask_sides: Option<PathBuf>,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, or K weights
     /// per vertex on marker displacements (default: coefficients; weights with --masks or pbw).
     #[arg(long, value_enum)]
@@ -222,17 +226,30 @@ fn run_surface(
         ));
     }
     let markers: Vec<SurfaceMarker> = placed.iter().map(SurfaceMarker::from_placed).collect();
+    let sides = match &args.mask_sides {
+        Some(path) => SideRule::VertexSets(
+            read_vertex_sides(path, &groups).map_err(|e| CliError::input(path, e.to_string()))?,
+        ),
+        None => SideRule::Auto,
+    };
     let config = args.surface_config();
     let baked = bake_surface(
         &SurfaceInput {
             mesh,
             markers: &markers,
             groups: &groups,
-            sides: &SideRule::Auto,
+            sides: &sides,
         },
         &config,
     )
-    .map_err(|e| CliError::input(&args.layout, format!("surface-aware bake failed: {e}")))?;
+    .map_err(|e| {
+        // Mask problems with given vertex sets are about the sides file.
+        let path = match (&e, &args.mask_sides) {
+            (crate::surface::SurfaceError::Mask(_), Some(sides)) => sides,
+            _ => &args.layout,
+        };
+        CliError::input(path, format!("surface-aware bake failed: {e}"))
+    })?;
     write_file(&args.output, &baked.blob)?;
     let summary = SurfaceSummary {
         output: args.output.clone(),

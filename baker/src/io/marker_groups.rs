@@ -66,6 +66,14 @@ pub enum GroupsError {
         /// The marker.
         marker: String,
     },
+    /// A vertex-sides file misses a mask or names one the layout does not have.
+    #[error("{}: {message}", path.display())]
+    Sides {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A side with no markers.
     #[error("{}: group \"{group}\" has no {side} markers", path.display())]
     EmptySide {
@@ -188,6 +196,57 @@ fn resolve(
     Ok(MarkerGroups { name, upper, lower })
 }
 
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawVertexSides {
+    upper: Vec<u32>,
+    lower: Vec<u32>,
+}
+
+/// Reads a vertex-sides file (TOML or JSON by extension): for each mask in `groups`, the glTF
+/// vertices of its upper and of its lower side, in `groups` order.
+///
+/// ```toml
+/// mouth = { upper = [10, 11, 12], lower = [20, 21] }
+/// eyes = { upper = [30], lower = [40] }
+/// ```
+pub fn read_vertex_sides(
+    path: &Path,
+    groups: &[MarkerGroups],
+) -> Result<Vec<(Vec<u32>, Vec<u32>)>, GroupsError> {
+    let text = std::fs::read_to_string(path).map_err(|source| GroupsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let sides_error = |message: String| GroupsError::Sides {
+        path: path.to_path_buf(),
+        message,
+    };
+    let json = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let mut raw: std::collections::BTreeMap<String, RawVertexSides> = if json {
+        serde_json::from_str(&text).map_err(|e| sides_error(e.to_string()))?
+    } else {
+        toml::from_str(&text).map_err(|e| sides_error(e.message().to_owned()))?
+    };
+    let out = groups
+        .iter()
+        .map(|g| {
+            raw.remove(&g.name)
+                .map(|r| (r.upper, r.lower))
+                .ok_or_else(|| sides_error(format!("no vertex sides for mask \"{}\"", g.name)))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(name) = raw.keys().next() {
+        return Err(sides_error(format!(
+            "mask \"{name}\" is not in the layout's [groups]"
+        )));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,6 +296,20 @@ mod tests {
             read_groups(&twice, &names),
             Err(GroupsError::Repeated { .. })
         ));
+        let sides = write("s.toml", "mouth = { upper = [1, 2], lower = [3] }\n");
+        assert_eq!(
+            read_vertex_sides(&sides, &g).unwrap(),
+            vec![(vec![1, 2], vec![3])]
+        );
+        let extra = write(
+            "x.json",
+            r#"{"mouth": {"upper": [1], "lower": [2]}, "nose": {"upper": [], "lower": []}}"#,
+        );
+        let e = read_vertex_sides(&extra, &g).unwrap_err().to_string();
+        assert!(e.contains("x.json") && e.contains("\"nose\""), "{e}");
+        let missing = write("m.toml", "");
+        let e = read_vertex_sides(&missing, &g).unwrap_err().to_string();
+        assert!(e.contains("\"mouth\""), "{e}");
         let empty = write("e.toml", "[groups]\nm = { upper = [], lower = [\"A\"] }\n");
         assert!(matches!(
             read_groups(&empty, &names),
