@@ -416,39 +416,25 @@ fn masks_take_vertex_sides_from_a_file() {
     // Vertices on the lower lip (1351) and next to it, and the eye corners: the plumbing is what
     // is tested here; `tests/tests/surface.rs` checks masks from vertex sets on real sides.
     let sides = dir.join("sides.toml");
-    std::fs::write(
-        &sides,
+    let bake_with = |text: &str, extra: &[&str]| {
+        std::fs::write(&sides, text).unwrap();
+        let mut args = vec!["--masks", "--mask-sides", s(&sides)];
+        args.extend_from_slice(extra);
+        bake(&mesh_path(), &layout, &dir.join("r.fbk"), &args)
+    };
+    let out = bake_with(
         "mouth = { upper = [1350], lower = [1351] }\neyes = { upper = [1795], lower = [1807] }\n",
-    )
-    .unwrap();
-    let out = bake(
-        &mesh_path(),
-        &layout,
-        &dir.join("r.fbk"),
-        &["--masks", "--mask-sides", s(&sides), "--json"],
+        &["--json"],
     );
     let j = json_ok(&out);
     assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0, "{j}");
-    std::fs::write(
-        &sides,
+    let out = bake_with(
         "mouth = { upper = [9999999], lower = [1] }\neyes = { upper = [1], lower = [2] }\n",
-    )
-    .unwrap();
-    let out = bake(
-        &mesh_path(),
-        &layout,
-        &dir.join("r.fbk"),
-        &["--masks", "--mask-sides", s(&sides)],
+        &[],
     );
     assert_bad_input(&out, "sides.toml");
     assert!(stderr(&out).contains("9999999"), "{}", stderr(&out));
-    std::fs::write(&sides, "mouth = { upper = [1], lower = [2] }\n").unwrap();
-    let out = bake(
-        &mesh_path(),
-        &layout,
-        &dir.join("r.fbk"),
-        &["--masks", "--mask-sides", s(&sides)],
-    );
+    let out = bake_with("mouth = { upper = [1], lower = [2] }\n", &[]);
     assert_bad_input(&out, "sides.toml");
     assert!(stderr(&out).contains("\"eyes\""), "{}", stderr(&out));
 }

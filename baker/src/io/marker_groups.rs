@@ -105,22 +105,31 @@ struct RawJsonFile {
     groups: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
-/// Reads the `groups` table of layout file `path` (TOML or JSON by extension), resolving
-/// marker names against `marker_names` (the layout's markers, in order). A file without the
-/// table has no masks.
-pub fn read_groups(path: &Path, marker_names: &[String]) -> Result<Vec<MarkerGroups>, GroupsError> {
+/// The text of `path` and whether it is JSON (by extension; TOML otherwise).
+fn read_text(path: &Path) -> Result<(String, bool), GroupsError> {
     let text = std::fs::read_to_string(path).map_err(|source| GroupsError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let parse = |message: String| GroupsError::Parse {
-        path: path.to_path_buf(),
-        message,
-    };
     let json = path
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    Ok((text, json))
+}
+
+/// One mask's sides as glTF vertex sets: (upper, lower).
+pub type VertexSets = (Vec<u32>, Vec<u32>);
+
+/// Reads the `groups` table of layout file `path` (TOML or JSON by extension), resolving
+/// marker names against `marker_names` (the layout's markers, in order). A file without the
+/// table has no masks.
+pub fn read_groups(path: &Path, marker_names: &[String]) -> Result<Vec<MarkerGroups>, GroupsError> {
+    let (text, json) = read_text(path)?;
+    let parse = |message: String| GroupsError::Parse {
+        path: path.to_path_buf(),
+        message,
+    };
     let raw: Vec<(String, RawSides)> = if json {
         let file: RawJsonFile = serde_json::from_str(&text).map_err(|e| parse(e.to_string()))?;
         file.groups
@@ -213,19 +222,12 @@ struct RawVertexSides {
 pub fn read_vertex_sides(
     path: &Path,
     groups: &[MarkerGroups],
-) -> Result<Vec<(Vec<u32>, Vec<u32>)>, GroupsError> {
-    let text = std::fs::read_to_string(path).map_err(|source| GroupsError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+) -> Result<Vec<VertexSets>, GroupsError> {
+    let (text, json) = read_text(path)?;
     let sides_error = |message: String| GroupsError::Sides {
         path: path.to_path_buf(),
         message,
     };
-    let json = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let mut raw: std::collections::BTreeMap<String, RawVertexSides> = if json {
         serde_json::from_str(&text).map_err(|e| sides_error(e.to_string()))?
     } else {
