@@ -246,13 +246,13 @@ pub fn bake(input: &BakeInput<'_>, config: &BakeConfig) -> Result<Baked, BakeErr
 }
 
 /// What a form's bake hands back for the blob and the report.
-struct FormOutput {
-    deformer: DeformerBytes,
-    frac_bits: u8,
+pub(crate) struct FormOutput {
+    pub(crate) deformer: DeformerBytes,
+    pub(crate) frac_bits: u8,
     /// Per vertex, the share of its weight or kernel mass that keeping K dropped.
-    dropped: Vec<f64>,
-    rounding: f64,
-    matrix_rounding: f64,
+    pub(crate) dropped: Vec<f64>,
+    pub(crate) rounding: f64,
+    pub(crate) matrix_rounding: f64,
 }
 
 fn weights_form(
@@ -263,13 +263,25 @@ fn weights_form(
 ) -> Result<FormOutput, BakeError> {
     let diagonal = 2.0 * f64::from(space.half_extent) * 3f64.sqrt();
     let covariance = sparsify::prior_covariance(input.marker_rest, config.prior_length * diagonal);
-    let mut dropped = Vec::with_capacity(input.vertices.len());
-    let rows: Vec<_> = input
-        .vertices
-        .iter()
-        .map(|v| {
-            let dense = system.weights_at(v);
-            let row = sparsify::sparsify_row(&dense, config.k, config.refit, Some(&covariance));
+    linear_deformer(
+        input.vertices.iter().map(|v| system.weights_at(v)),
+        config.k,
+        config.refit,
+        &covariance,
+    )
+}
+
+/// The `weights` form from each vertex's dense weights: keep K, re-fit, quantise.
+pub(crate) fn linear_deformer(
+    dense_rows: impl Iterator<Item = Vec<f64>>,
+    k: usize,
+    refit: Refit,
+    covariance: &nalgebra::DMatrix<f64>,
+) -> Result<FormOutput, BakeError> {
+    let mut dropped = Vec::new();
+    let rows: Vec<_> = dense_rows
+        .map(|dense| {
+            let row = sparsify::sparsify_row(&dense, k, refit, Some(covariance));
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
             row
@@ -352,20 +364,30 @@ fn coefficients_form(
         .resolve(&centres, config.width.map(|w| w / h), config.width_factor);
     let system = RbfSystem::new(&centres, kernel, config.affine, input.stiffness)?;
     let n = centres.len();
-    let k = config.k.min(n);
-    let mut dropped = Vec::with_capacity(input.vertices.len());
-    let rows: Vec<_> = input
-        .vertices
-        .iter()
-        .map(|p| {
-            let v = blob::to_rig_units(space, p);
-            let phi: Vec<f64> = (0..n)
-                .map(|i| {
-                    system
-                        .kernel()
-                        .phi(i, crate::mesh::distance(&v, &centres[i]))
-                })
-                .collect();
+    let phi_rows = input.vertices.iter().map(|p| {
+        let v = blob::to_rig_units(space, p);
+        (0..n)
+            .map(|i| {
+                system
+                    .kernel()
+                    .phi(i, crate::mesh::distance(&v, &centres[i]))
+            })
+            .collect()
+    });
+    coefficients_deformer(phi_rows, config.k.min(n), &system)
+}
+
+/// The `coefficients` form from each vertex's kernel values (in rig units) and the system
+/// solved in rig units: keep the K largest terms, quantise them and the coefficient map.
+pub(crate) fn coefficients_deformer(
+    phi_rows: impl Iterator<Item = Vec<f64>>,
+    k: usize,
+    system: &RbfSystem,
+) -> Result<FormOutput, BakeError> {
+    let n = system.len();
+    let mut dropped = Vec::new();
+    let rows: Vec<_> = phi_rows
+        .map(|phi: Vec<f64>| {
             let kept = sparsify::top_k(&phi, k);
             let total: f64 = phi.iter().map(|x| x.abs()).sum();
             dropped.push(
@@ -378,12 +400,13 @@ fn coefficients_form(
         })
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::KernelValues)?;
-    let m = sparsify::quantise_matrix(&system.coefficient_map(), config.affine.then_some(n));
+    let affine = system.affine();
+    let m = sparsify::quantise_matrix(&system.coefficient_map(), affine.then_some(n));
     Ok(FormOutput {
         deformer: DeformerBytes::Rbf {
             weight_frac_bits: q.frac_bits,
             k: k as u8,
-            affine: config.affine,
+            affine,
             row_shifts: m.shifts,
             matrix: m.entries,
             rows: q.words,

@@ -16,3 +16,4 @@ pub mod retarget;
 pub mod rigid;
 pub mod sparsify;
 pub mod stages;
+pub mod surface;

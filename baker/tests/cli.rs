@@ -479,3 +479,95 @@ fn compensate_writes_a_head_stabilised_capture() {
         again["residual_max"].as_f64().unwrap() <= summary["residual_max"].as_f64().unwrap() + 1e-9
     );
 }
+
+#[test]
+fn surface_aware_bakes_report_their_method_and_masks() {
+    let dir = temp_dir("surface");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let rig = dir.join("geodesic.fbk");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--method", "geodesic", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["method"], "geodesic");
+    assert_eq!(j["report"]["kernel"], "exponential");
+    assert_eq!(j["report"]["form"], "coefficients");
+    assert_eq!(j["report"]["openings"], 3);
+    assert_eq!(j["report"]["unreachable_vertices"], 740);
+    assert!(j["report"]["min_eigenvalue"].as_f64().unwrap() > 0.0);
+    let blob = std::fs::read(&rig).unwrap();
+    assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
+
+    let masked = dir.join("hybrid.fbk");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &masked,
+        &["--method", "hybrid", "--masks", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(
+        j["report"]["form"], "weights",
+        "masks pick the weights form"
+    );
+    assert_eq!(j["masks"], serde_json::json!(["mouth", "eyes"]));
+    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0);
+    assert!(Rig::from_bytes(&std::fs::read(&masked).unwrap()).is_ok());
+
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("pbw.fbk"),
+        &["--method", "pbw", "--json"],
+    );
+    assert_eq!(json_ok(&out)["report"]["kernel"], "multiquadric");
+
+    // Masks in the coefficient form, or without groups: bad input naming the layout.
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("x.fbk"),
+        &["--masks", "--form", "coefficients"],
+    );
+    assert_bad_input(&out, "facecap_jawmocap_layout.toml");
+    assert!(stderr(&out).contains("weights form"), "{}", stderr(&out));
+    let plain = dir.join("plain.toml");
+    let text = std::fs::read_to_string(&layout).unwrap();
+    std::fs::write(&plain, text.split("[groups]").next().unwrap()).unwrap();
+    let out = bake(&mesh_path(), &plain, &dir.join("y.fbk"), &["--masks"]);
+    assert_bad_input(&out, "plain.toml");
+    assert!(stderr(&out).contains("[groups]"), "{}", stderr(&out));
+}
+
+#[test]
+fn masks_take_vertex_sides_from_a_file() {
+    let dir = temp_dir("mask-sides");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    // Vertices on the lower lip (1351) and next to it, and the eye corners: the plumbing is what
+    // is tested here; `tests/tests/surface.rs` checks masks from vertex sets on real sides.
+    let sides = dir.join("sides.toml");
+    let bake_with = |text: &str, extra: &[&str]| {
+        std::fs::write(&sides, text).unwrap();
+        let mut args = vec!["--masks", "--mask-sides", s(&sides)];
+        args.extend_from_slice(extra);
+        bake(&mesh_path(), &layout, &dir.join("r.fbk"), &args)
+    };
+    let out = bake_with(
+        "mouth = { upper = [1350], lower = [1351] }\neyes = { upper = [1795], lower = [1807] }\n",
+        &["--json"],
+    );
+    let j = json_ok(&out);
+    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0, "{j}");
+    let out = bake_with(
+        "mouth = { upper = [9999999], lower = [1] }\neyes = { upper = [1], lower = [2] }\n",
+        &[],
+    );
+    assert_bad_input(&out, "sides.toml");
+    assert!(stderr(&out).contains("9999999"), "{}", stderr(&out));
+    let out = bake_with("mouth = { upper = [1], lower = [2] }\n", &[]);
+    assert_bad_input(&out, "sides.toml");
+    assert!(stderr(&out).contains("\"eyes\""), "{}", stderr(&out));
+}

@@ -1,12 +1,20 @@
 //! Writes `fixtures/facecap_jawmocap_layout.toml`: JawMoCap's 41 markers placed on the FaceCap
 //! head from nine landmarks found from the mesh's topology (see `facebake::placement`). The
-//! test `placement::tests` checks the committed file against a fresh placement.
+//! test `placement::tests` checks the committed file against a fresh placement. The file ends
+//! with the lip and eyelid marker groups of the surface-aware masks.
 //! `cargo run -p facebake-tests --example facecap_layout`
 use facebake::io::capture::read_capture;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
 use facebake::placement::{facecap_landmarks, place_from_landmarks};
 use facebake_tests::fixture;
+
+/// Which of JawMoCap's markers sit above and below the mouth and the eyes.
+const GROUPS: &str = "
+[groups]
+mouth = { upper = [\"Mouth_Up\", \"Mouth_UpL1\", \"Mouth_UpR1\"], lower = [\"Mouth_Down\", \"Mouth_DownL\", \"Mouth_DownR\", \"Chin\", \"Chin_L1\", \"Chin_R1\"] }
+eyes = { upper = [\"Leye_Up\", \"Reye_Up\"], lower = [\"Leye_Down\", \"Reye_Down\"] }
+";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)?;
@@ -19,6 +27,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh)?;
     let out = fixture("facecap_jawmocap_layout.toml");
     write_layout(&out, &layout)?;
+    // The discontinuity masks' marker groups (`facebake bake --masks`).
+    let mut text = std::fs::read_to_string(&out)?;
+    text.push_str(GROUPS);
+    std::fs::write(&out, text)?;
     println!(
         "wrote {} ({} markers, {} landmarks)",
         out.display(),

@@ -169,3 +169,60 @@ pub fn lip_vertices(truth: &GroundTruth) -> Vec<bool> {
         })
         .collect()
 }
+
+/// The FaceCap ground truth with the bundled JawMoCap layout (41 markers, lip and eyelid
+/// groups) and the truth's 6 static markers as anchors: the surface-aware methods' proof.
+///
+/// The layout's lip markers sit 13 mm above and 22 mm below the mouth line (Mouth_Down on the
+/// chin crease, where `jawOpen` moves it half as far as the lower lip), so no RBF can move the
+/// lip rims right; the proof moves them onto the lips ([`LIP_MARKER_OFFSET`]).
+pub fn facecap_scene() -> facebake::surface::evaluate::Scene {
+    facecap_scene_with(LIP_MARKER_OFFSET)
+}
+
+/// How far from the mouth's opening line the proof puts the lip markers: 5 mm, on the lips.
+pub const LIP_MARKER_OFFSET: f64 = 0.005;
+
+/// [`facecap_scene`] with the six lip markers moved `lip_offset` (metres) from the mouth's
+/// opening line (y = −43 mm on FaceCap) onto the lips, keeping their x; 0 keeps the layout.
+pub fn facecap_scene_with(lip_offset: f64) -> facebake::surface::evaluate::Scene {
+    let truth = facecap_truth();
+    let path = fixture("facecap_jawmocap_layout.toml");
+    let mut layout = facebake::io::layout::read_layout(&path).expect("layout reads");
+    if lip_offset > 0.0 {
+        use facebake::io::layout::MarkerAnchor;
+        for m in &mut layout.markers {
+            let sign = match m.name.as_str() {
+                "Mouth_Up" | "Mouth_UpL1" | "Mouth_UpR1" => 1.0,
+                "Mouth_Down" | "Mouth_DownL" | "Mouth_DownR" => -1.0,
+                _ => continue,
+            };
+            if let MarkerAnchor::Point(p) = m.anchor {
+                m.anchor = MarkerAnchor::Point([p[0], -0.043 + sign * lip_offset, p[2] + 0.01]);
+            }
+        }
+    }
+    let placed = facebake::io::layout::place_markers(&layout, &truth.mesh, 0.02)
+        .expect("layout places on the FaceCap head");
+    let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+    let groups = facebake::io::marker_groups::read_groups(&path, &names).expect("groups read");
+    facebake::surface::evaluate::Scene::new(truth, &placed, groups, FACECAP_STATIC_MARKERS)
+        .expect("scene builds")
+}
+
+/// Bake the scene's markers with a surface-aware configuration.
+pub fn bake_scene(
+    scene: &facebake::surface::evaluate::Scene,
+    config: &facebake::surface::SurfaceConfig,
+) -> facebake::surface::SurfaceBaked {
+    facebake::surface::bake_surface(
+        &facebake::surface::SurfaceInput {
+            mesh: &scene.truth.mesh,
+            markers: &scene.markers,
+            groups: &scene.groups,
+            sides: &facebake::surface::SideRule::Auto,
+        },
+        config,
+    )
+    .expect("surface bake succeeds")
+}

@@ -13,9 +13,13 @@ use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
 use crate::io::capture::{read_capture_with_units, Units};
 use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
+use crate::io::marker_groups::{read_groups, read_vertex_sides};
 use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
 use crate::stages::{bake_stages, HeadMarkers, RetargetKind, StagesConfig, StagesReport};
+use crate::surface::{
+    bake_surface, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker, SurfaceReport,
+};
 
 /// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
 /// bounding-box diagonal.
@@ -36,20 +40,38 @@ pub struct BakeArgs {
     /// The marker layout (.toml or .json).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
-    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights
-    /// per vertex on marker displacements, or planar bones (K control triangles per vertex).
-    #[arg(long, value_enum, default_value_t = BakeConfig::default().form)]
-    pub form: RigForm,
-    /// Radial kernel.
-    #[arg(long, value_enum, default_value_t = BakeConfig::default().kernel)]
-    pub kernel: KernelKind,
+    /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
+    /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
+    /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
+    /// half with a global multiquadric RBF; weights form). Geodesic, hybrid and pbw default to
+    /// the exponential kernel with width factor 1 (pbw: the multiquadric's width).
+    #[arg(long, value_enum, default_value_t = Method::Euclidean)]
+    pub method: Method,
+    /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
+    /// side of an opening may not move the other side. Masks need the weights form, the
+    /// default with --masks.
+    #[arg(long)]
+    pub masks: bool,
+    /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
+    /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
+    #[arg(long, value_name = "FILE", requires = "masks")]
+    pub mask_sides: Option<PathBuf>,
+    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
+    /// vertex on marker displacements, or planar bones (K control triangles per vertex)
+    /// (default: coefficients; weights with --masks or pbw).
+    #[arg(long, value_enum)]
+    pub form: Option<RigForm>,
+    /// Radial kernel (default: gaussian for euclidean, exponential for geodesic and hybrid).
+    #[arg(long, value_enum)]
+    pub kernel: Option<KernelKind>,
     /// Kernel width in mesh units (default: --width-factor × the mean nearest-marker distance;
     /// the inverse multiquadric uses per-marker radii and ignores it).
     #[arg(long, value_name = "W")]
     pub width: Option<f64>,
-    /// Width as a multiple of the mean nearest-marker distance, when --width is not given.
-    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().width_factor)]
-    pub width_factor: f64,
+    /// Width as a multiple of the mean nearest-marker distance, when --width is not given
+    /// (default: 0.75 for euclidean, 1 for geodesic and hybrid).
+    #[arg(long, value_name = "F")]
+    pub width_factor: Option<f64>,
     /// Leave out the affine term of the RBF system.
     #[arg(long)]
     pub no_affine: bool,
@@ -98,19 +120,43 @@ pub struct BakeArgs {
 }
 
 impl BakeArgs {
-    /// The bake configuration: the options given, the library's defaults for the rest.
+    /// Whether the bake needs the surface-aware path.
+    pub fn surface_aware(&self) -> bool {
+        self.method != Method::Euclidean || self.masks
+    }
+
+    /// The bake configuration: the options given, the defaults of the method for the rest.
     pub fn config(&self) -> BakeConfig {
-        let d = BakeConfig::default();
+        let d = if self.method == Method::Euclidean {
+            BakeConfig::default()
+        } else {
+            SurfaceConfig::default().bake
+        };
+        let form = if self.masks || self.method == Method::Pbw {
+            RigForm::Weights
+        } else {
+            d.form
+        };
         BakeConfig {
-            form: self.form,
-            kernel: self.kernel,
+            form: self.form.unwrap_or(form),
+            kernel: self.kernel.unwrap_or(d.kernel),
             width: self.width.or(d.width),
-            width_factor: self.width_factor,
+            width_factor: self.width_factor.unwrap_or(d.width_factor),
             affine: d.affine && !self.no_affine,
             k: self.k,
             refit: self.refit,
             planar_radius: self.planar_radius,
             ..d
+        }
+    }
+
+    /// The surface-aware configuration.
+    pub fn surface_config(&self) -> SurfaceConfig {
+        SurfaceConfig {
+            method: self.method,
+            masks: self.masks,
+            bake: self.config(),
+            ..SurfaceConfig::default()
         }
     }
 }
@@ -174,32 +220,182 @@ pub fn bake_layout(
     Ok((baked, placed))
 }
 
+/// What a surface-aware `bake` reports.
+#[derive(Debug, Serialize)]
+pub struct SurfaceSummary {
+    /// The rig written.
+    pub output: PathBuf,
+    /// The mesh file.
+    pub mesh: PathBuf,
+    /// The layout file.
+    pub layout: PathBuf,
+    /// Vertices of the rig.
+    pub vertices: usize,
+    /// Markers of the rig.
+    pub markers: usize,
+    /// Masks applied (group names).
+    pub masks: Vec<String>,
+    /// Weight format, `Q(23−F).F`.
+    pub weight_format: String,
+    /// The bake's own report.
+    pub report: SurfaceReport,
+    /// The capture stages, if a capture was given.
+    pub stages: Option<StagesReport>,
+}
+
+/// `facebake bake --method geodesic|hybrid` or `--masks`.
+fn run_surface(
+    args: &BakeArgs,
+    mesh: &FaceMesh,
+    layout: &MarkerLayout,
+) -> Result<ExitCode, CliError> {
+    let max_snap = args
+        .max_snap
+        .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
+    let placed = place_markers(layout, mesh, max_snap)?;
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let groups = read_groups(&args.layout, &names)
+        .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+    if args.masks && groups.is_empty() {
+        return Err(CliError::input(
+            &args.layout,
+            "--masks needs a [groups] table naming the upper and lower markers of each opening",
+        ));
+    }
+    let markers: Vec<SurfaceMarker> = placed.iter().map(SurfaceMarker::from_placed).collect();
+    let sides = match &args.mask_sides {
+        Some(path) => SideRule::VertexSets(
+            read_vertex_sides(path, &groups).map_err(|e| CliError::input(path, e.to_string()))?,
+        ),
+        None => SideRule::Auto,
+    };
+    let config = args.surface_config();
+    let baked = bake_surface(
+        &SurfaceInput {
+            mesh,
+            markers: &markers,
+            groups: &groups,
+            sides: &sides,
+        },
+        &config,
+    )
+    .map_err(|e| {
+        // Mask problems with given vertex sets are about the sides file.
+        let path = match (&e, &args.mask_sides) {
+            (crate::surface::SurfaceError::Mask(_), Some(sides)) => sides,
+            _ => &args.layout,
+        };
+        CliError::input(path, format!("surface-aware bake failed: {e}"))
+    })?;
+    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
+    write_file(&args.output, &blob)?;
+    let summary = SurfaceSummary {
+        output: args.output.clone(),
+        mesh: args.mesh.clone(),
+        layout: args.layout.clone(),
+        vertices: mesh.positions.len(),
+        markers: markers.len(),
+        masks: if config.masks {
+            groups.iter().map(|g| g.name.clone()).collect()
+        } else {
+            Vec::new()
+        },
+        weight_format: weight_format(baked.report.weight_frac_bits),
+        report: baked.report,
+        stages,
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        let r = &summary.report;
+        let mut out = String::new();
+        outln!(
+            out,
+            "baked {} vertices with {} markers: {} RBF, {} kernel, {}",
+            summary.vertices,
+            summary.markers,
+            r.method.name(),
+            r.kernel,
+            form_text(r.form)
+        );
+        outln!(
+            out,
+            "masks: {}; openings found: {}; vertices masked: {}",
+            if summary.masks.is_empty() {
+                "none".to_string()
+            } else {
+                summary.masks.join(", ")
+            },
+            r.openings,
+            r.masked_vertices
+        );
+        outln!(
+            out,
+            "kernel matrix smallest eigenvalue {:.3e} × mean |φ|, ridge {:.3e}, condition {:.2e}, geodesic asymmetry {:.1} %",
+            r.min_eigenvalue,
+            r.ridge,
+            r.condition,
+            100.0 * r.geodesic_asymmetry
+        );
+        outln!(
+            out,
+            "weights {}, {} → {}",
+            summary.weight_format,
+            bytes_text(blob.len()),
+            summary.output.display()
+        );
+        if let Some(st) = &summary.stages {
+            outln!(
+                out,
+                "capture stages: head markers {}, retargeting {:?}",
+                st.head_markers.join(", "),
+                st.retarget
+            );
+        }
+        for w in &r.warnings {
+            outln!(out, "warning: {w}");
+        }
+        emit(&out);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// With `--capture`, bake the capture stages for the `placed` markers and add them to `blob`.
+fn attach_stages(
+    args: &BakeArgs,
+    placed: &[PlacedMarker],
+    blob: &[u8],
+) -> Result<(Vec<u8>, Option<StagesReport>), CliError> {
+    let Some(path) = &args.capture else {
+        return Ok((blob.to_vec(), None));
+    };
+    let capture = read_capture_with_units(path, args.capture_units)?;
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+    let space = super::load_rig(&args.output, blob)?.space();
+    let config = StagesConfig {
+        neutral: args.neutral.clone(),
+        head: args.head_markers.clone(),
+        max_displacement: args.max_displacement,
+        retarget: args.retarget,
+    };
+    let stages = bake_stages(&capture, &names, &character, &space, &config)
+        .map_err(|e| CliError::input(path, e.to_string()))?;
+    let blob = crate::blob::with_stages(blob, &stages.bytes)
+        .map_err(|e| CliError::input(path, e.to_string()))?;
+    Ok((blob, Some(stages.report)))
+}
+
 /// Run `facebake bake`.
 pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
     let layout = read_layout(&args.layout)?;
+    if args.surface_aware() {
+        return run_surface(args, &mesh, &layout);
+    }
     let config = args.config();
     let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
-    let (blob, stages) = match &args.capture {
-        Some(path) => {
-            let capture = read_capture_with_units(path, args.capture_units)?;
-            let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-            let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
-            let space = super::load_rig(&args.output, &baked.blob)?.space();
-            let config = StagesConfig {
-                neutral: args.neutral.clone(),
-                head: args.head_markers.clone(),
-                max_displacement: args.max_displacement,
-                retarget: args.retarget,
-            };
-            let stages = bake_stages(&capture, &names, &character, &space, &config)
-                .map_err(|e| CliError::input(path, e.to_string()))?;
-            let blob = crate::blob::with_stages(&baked.blob, &stages.bytes)
-                .map_err(|e| CliError::input(path, e.to_string()))?;
-            (blob, Some(stages.report))
-        }
-        None => (baked.blob.clone(), None),
-    };
+    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
     write_file(&args.output, &blob)?;
     let mut report = baked.report;
     report.sizes.total = blob.len();

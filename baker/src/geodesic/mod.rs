@@ -421,6 +421,17 @@ impl Geodesics {
             .collect()
     }
 
+    /// Distance along mesh edges from the nearest of `vertices` to every vertex
+    /// (`f64::INFINITY` where none of them is reachable). Indices beyond the mesh are ignored.
+    pub fn from_vertex_set(&self, vertices: &[u32]) -> Vec<f64> {
+        let starts: Vec<(u32, f64)> = vertices
+            .iter()
+            .filter(|&&v| (v as usize) < self.positions.len())
+            .map(|&v| (v, 0.0))
+            .collect();
+        dijkstra::distances(&self.graph, &starts)
+    }
+
     /// The value of the distance field `field` (from [`Geodesics::from_sources`]) at `target`.
     ///
     /// Edge Dijkstra: the shortest way onto the target's triangle through a corner (or straight
@@ -454,8 +465,18 @@ impl Geodesics {
     /// heat method's is nearly symmetric. Sources in different components are `f64::INFINITY`
     /// apart.
     pub fn between(&self, sources: &[Source]) -> Result<Vec<Vec<f64>>, GeodesicError> {
-        let seeds = self.all_seeds(sources)?;
         let fields = self.from_sources(sources)?;
+        self.between_fields(sources, &fields)
+    }
+
+    /// [`Geodesics::between`] from fields already computed by [`Geodesics::from_sources`]
+    /// for the same `sources`.
+    pub fn between_fields(
+        &self,
+        sources: &[Source],
+        fields: &[Vec<f64>],
+    ) -> Result<Vec<Vec<f64>>, GeodesicError> {
+        let seeds = self.all_seeds(sources)?;
         Ok(fields
             .iter()
             .zip(&seeds)

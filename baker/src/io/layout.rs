@@ -21,6 +21,9 @@
 //!   on the surface, and refuses it if that is farther than the caller's `max_snap`.
 //! - `stiffness`: a number from 1 to 9 (default 1), how firmly the marker pins the surface.
 //!
+//! An optional `groups` table names the marker groups of discontinuity masks (see
+//! [`crate::io::marker_groups`]); `read_layout` skips it.
+//!
 //! Each marker has exactly one of `vertex` and `point`; no other keys are allowed. Marker
 //! names must be unique, and no two markers may sit on the same (welded) vertex or point.
 //! Markers keep their file order.
@@ -252,6 +255,9 @@ impl<'de> Deserialize<'de> for RawMarkers {
 #[serde(deny_unknown_fields)]
 struct RawLayout {
     markers: RawMarkers,
+    /// Marker groups for discontinuity masks, read by [`crate::io::marker_groups`].
+    #[serde(default, rename = "groups")]
+    _groups: Option<serde::de::IgnoredAny>,
 }
 
 #[derive(Clone, Copy)]

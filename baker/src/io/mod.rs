@@ -4,4 +4,5 @@ pub mod capture;
 pub mod glb;
 pub mod gltf_mesh;
 pub mod layout;
+pub mod marker_groups;
 pub mod npy;

@@ -60,6 +60,26 @@ impl RbfSystem {
         affine: bool,
         stiffness: &[f64],
     ) -> Result<Self, SolveError> {
+        let distances = DMatrix::from_fn(centres.len(), centres.len(), |j, i| {
+            distance(&centres[j], &centres[i])
+        });
+        Self::with_distances(centres, &distances, kernel, affine, stiffness, 0.0)
+    }
+
+    /// Build and factor the system from given centre-to-centre distances (geodesic, hybrid):
+    /// `distances[(j, i)]` is centre `i`'s distance as seen at centre `j`, so the interpolant
+    /// reproduces the markers exactly when vertices use the same distance function. The
+    /// affine block still uses the centres' positions. `ridge`, a fraction of the mean |φ|, is
+    /// added to every diagonal entry of the kernel block (on top of the stiffness), to keep an
+    /// indefinite kernel matrix away from singularity.
+    pub fn with_distances(
+        centres: &[[f64; 3]],
+        distances: &DMatrix<f64>,
+        kernel: Kernel,
+        affine: bool,
+        stiffness: &[f64],
+        ridge: f64,
+    ) -> Result<Self, SolveError> {
         let n = centres.len();
         let needed = if affine { 5 } else { 2 };
         if n < needed {
@@ -72,12 +92,12 @@ impl RbfSystem {
         let mut a = DMatrix::<f64>::zeros(size, size);
         for j in 0..n {
             for i in 0..n {
-                a[(j, i)] = kernel.phi(i, distance(&centres[j], &centres[i]));
+                a[(j, i)] = kernel.phi(i, distances[(j, i)]);
             }
         }
         let mean_phi = a.view((0, 0), (n, n)).iter().map(|x| x.abs()).sum::<f64>() / (n * n) as f64;
         for (i, s) in stiffness.iter().enumerate().take(n) {
-            a[(i, i)] += (s - 1.0) / 8.0 * STIFFNESS_AT_9 * mean_phi;
+            a[(i, i)] += ((s - 1.0) / 8.0 * STIFFNESS_AT_9 + ridge) * mean_phi;
         }
         if affine {
             for (j, x) in centres.iter().enumerate() {
@@ -136,11 +156,16 @@ impl RbfSystem {
 
     /// g(v): the kernel values at `v`, then `[1, v]` with the affine term.
     fn basis(&self, v: &[f64; 3]) -> Vec<f64> {
-        let mut g: Vec<f64> = self
-            .centres
+        let d: Vec<f64> = self.centres.iter().map(|x| distance(v, x)).collect();
+        self.basis_from(&d, v)
+    }
+
+    /// g(v) from the distances `d[i]` of point `v` to each centre.
+    fn basis_from(&self, d: &[f64], v: &[f64; 3]) -> Vec<f64> {
+        let mut g: Vec<f64> = d
             .iter()
             .enumerate()
-            .map(|(i, x)| self.kernel.phi(i, distance(v, x)))
+            .map(|(i, &r)| self.kernel.phi(i, r))
             .collect();
         if self.affine {
             g.extend_from_slice(&[1.0, v[0], v[1], v[2]]);
@@ -150,9 +175,23 @@ impl RbfSystem {
 
     /// The dense weights of point `v`: displacement(v) = Σ_i w_i D_i.
     pub fn weights_at(&self, v: &[f64; 3]) -> Vec<f64> {
-        let g = DVector::from_vec(self.basis(v));
+        let d: Vec<f64> = self.centres.iter().map(|x| distance(v, x)).collect();
+        self.weights_from_distances(&d, v)
+    }
+
+    /// The dense weights of point `v` whose distance to centre `i` is `d[i]` (the distance
+    /// function the system was built with).
+    pub fn weights_from_distances(&self, d: &[f64], v: &[f64; 3]) -> Vec<f64> {
+        let g = DVector::from_vec(self.basis_from(d, v));
         let n = self.len();
         (0..n).map(|i| self.inverse.column(i).dot(&g)).collect()
+    }
+
+    /// The kernel block Φ (without stiffness or ridge), `n × n`.
+    pub fn kernel_block(&self, distances: &DMatrix<f64>) -> DMatrix<f64> {
+        DMatrix::from_fn(self.len(), self.len(), |j, i| {
+            self.kernel.phi(i, distances[(j, i)])
+        })
     }
 
     /// Solve for the coefficients [α; β] of one frame's marker displacements, per axis

@@ -1,0 +1,323 @@
+//! Discontinuity masks (paper 000 §4.3, paper 003 §4.2): the markers of one side of an opening
+//! (upper lip, upper eyelid) may not move the other side.
+//!
+//! Each vertex gets, per mask, a side and a strength in [0, 1]. The side comes from (a) given
+//! vertex sets (nearest set along the mesh edges) or (c) automatically, from the marker group
+//! nearest along the surface: the geodesic runs around the opening, so the lower lip is nearer
+//! the lower-lip markers even where the upper lip is closer in space. The strength decays as a
+//! Gaussian of the distance to the mask's openings (automatic) or to its vertex sets, so the
+//! mask fades out away from the opening instead of cutting the cheek. A masked vertex's weights
+//! are `s · w_masked + (1 − s) · w_all`, `w_masked` from an RBF over the markers its side may see.
+
+use std::collections::HashMap;
+
+use nalgebra::DMatrix;
+use thiserror::Error;
+
+use crate::io::marker_groups::MarkerGroups;
+use crate::rbf::{Kernel, RbfSystem, SolveError};
+
+use super::geometry::SurfaceGeometry;
+
+/// Strengths below this leave a vertex unmasked.
+const MIN_STRENGTH: f64 = 1e-6;
+
+/// A side of an opening.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// Upper lip / upper eyelid side.
+    Upper,
+    /// Lower lip / jaw / lower eyelid side.
+    Lower,
+}
+
+/// How vertex sides are found.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum SideRule {
+    /// From the nearest marker group along the surface, fading with the distance from the
+    /// openings nearest the mask's markers.
+    #[default]
+    Auto,
+    /// Per mask (in group order), the glTF vertices of its upper and of its lower side.
+    VertexSets(Vec<(Vec<u32>, Vec<u32>)>),
+}
+
+/// Masks could not be set up.
+#[derive(Debug, Error)]
+pub enum MaskError {
+    /// Automatic sides need an opening near the mask's markers.
+    #[error("mask \"{0}\": the mesh has no opening (boundary loop) to separate its sides; give vertex sets")]
+    NoOpening(String),
+    /// Vertex sets for a different number of masks.
+    #[error("{sets} vertex-set pairs for {masks} masks")]
+    SetCount {
+        /// Pairs given.
+        sets: usize,
+        /// Masks.
+        masks: usize,
+    },
+    /// A vertex set names a vertex the mesh does not have.
+    #[error("mask \"{mask}\": vertex {vertex} is beyond the mesh's {vertex_count} vertices")]
+    VertexOutOfRange {
+        /// The mask.
+        mask: String,
+        /// The vertex.
+        vertex: u32,
+        /// Vertices in the mesh.
+        vertex_count: usize,
+    },
+    /// A masked sub-system failed.
+    #[error("mask \"{mask}\": {source}")]
+    Solve {
+        /// The mask.
+        mask: String,
+        /// Why.
+        source: SolveError,
+    },
+}
+
+/// One mask's side and strength at every glTF vertex.
+#[derive(Debug, Clone)]
+pub struct MaskSides {
+    /// The mask's groups.
+    pub groups: MarkerGroups,
+    /// Per glTF vertex, its side (`None`: unreachable).
+    pub side: Vec<Option<Side>>,
+    /// Per glTF vertex, the mask's strength.
+    pub strength: Vec<f64>,
+    /// Openings (indices into the geometry's) this mask separates (automatic rule).
+    pub openings: Vec<usize>,
+}
+
+/// Per mask, the openings whose loop centre is nearer one of its markers than any other
+/// mask's markers.
+pub fn assign_openings(
+    groups: &[MarkerGroups],
+    geometry: &SurfaceGeometry,
+    markers: &[[f64; 3]],
+) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new(); groups.len()];
+    for (o, opening) in geometry.openings.iter().enumerate() {
+        let nearest = groups
+            .iter()
+            .enumerate()
+            .map(|(g, grp)| {
+                let d = grp
+                    .upper
+                    .iter()
+                    .chain(&grp.lower)
+                    .map(|&m| crate::mesh::distance(&markers[m], &opening.centre))
+                    .fold(f64::INFINITY, f64::min);
+                (g, d)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((g, _)) = nearest {
+            out[g].push(o);
+        }
+    }
+    out
+}
+
+fn gaussian(d: f64, width: f64) -> f64 {
+    if d.is_finite() {
+        (-(d / width) * (d / width)).exp()
+    } else {
+        0.0
+    }
+}
+
+/// Sides and strengths of every mask: full strength within `plateau` of the openings (or the
+/// vertex sets), then a Gaussian fade of width `decay` (asset units).
+pub fn vertex_sides(
+    groups: &[MarkerGroups],
+    rule: &SideRule,
+    geometry: &SurfaceGeometry,
+    markers: &[[f64; 3]],
+    plateau: f64,
+    decay: f64,
+) -> Result<Vec<MaskSides>, MaskError> {
+    let vertex_count = geometry.weld.len();
+    let openings = assign_openings(groups, geometry, markers);
+    if let SideRule::VertexSets(sets) = rule {
+        if sets.len() != groups.len() {
+            return Err(MaskError::SetCount {
+                sets: sets.len(),
+                masks: groups.len(),
+            });
+        }
+    }
+    groups
+        .iter()
+        .enumerate()
+        .map(|(g, grp)| {
+            // Per welded vertex: distance to the upper side, to the lower side, to the mask.
+            let nearest = |list: &[usize], x: usize| {
+                list.iter()
+                    .map(|&m| geometry.fields[m][x])
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let (up, low, reach): (Vec<f64>, Vec<f64>, Vec<f64>) = match rule {
+                SideRule::Auto => {
+                    if openings[g].is_empty() {
+                        return Err(MaskError::NoOpening(grp.name.clone()));
+                    }
+                    let welded = geometry.fields.first().map_or(0, Vec::len);
+                    let reach = (0..welded)
+                        .map(|x| {
+                            openings[g]
+                                .iter()
+                                .map(|&o| geometry.opening_distance[o][x])
+                                .fold(f64::INFINITY, f64::min)
+                        })
+                        .collect();
+                    (
+                        (0..welded).map(|x| nearest(&grp.upper, x)).collect(),
+                        (0..welded).map(|x| nearest(&grp.lower, x)).collect(),
+                        reach,
+                    )
+                }
+                SideRule::VertexSets(sets) => {
+                    let welded_set = |set: &[u32]| {
+                        set.iter()
+                            .map(|&v| {
+                                geometry.weld.get(v as usize).copied().ok_or_else(|| {
+                                    MaskError::VertexOutOfRange {
+                                        mask: grp.name.clone(),
+                                        vertex: v,
+                                        vertex_count,
+                                    }
+                                })
+                            })
+                            .collect::<Result<Vec<u32>, _>>()
+                    };
+                    let up = geometry.geodesics.from_vertex_set(&welded_set(&sets[g].0)?);
+                    let low = geometry.geodesics.from_vertex_set(&welded_set(&sets[g].1)?);
+                    let reach = up.iter().zip(&low).map(|(a, b)| a.min(*b)).collect();
+                    (up, low, reach)
+                }
+            };
+            let side = geometry
+                .weld
+                .iter()
+                .map(|&x| {
+                    let (u, l) = (up[x as usize], low[x as usize]);
+                    match (u.is_finite(), l.is_finite()) {
+                        (false, false) => None,
+                        _ if u <= l => Some(Side::Upper),
+                        _ => Some(Side::Lower),
+                    }
+                })
+                .collect();
+            let strength = geometry
+                .weld
+                .iter()
+                .map(|&x| gaussian((reach[x as usize] - plateau).max(0.0), decay))
+                .collect();
+            Ok(MaskSides {
+                groups: grp.clone(),
+                side,
+                strength,
+                openings: openings[g].clone(),
+            })
+        })
+        .collect()
+}
+
+/// What a masked solve needs besides the sides: the system over every marker and the inputs
+/// to rebuild it over a subset.
+pub struct MaskedSolve<'a> {
+    /// The system over every marker.
+    pub full: &'a RbfSystem,
+    /// Marker positions the system uses (rig units).
+    pub centres: &'a [[f64; 3]],
+    /// Marker-to-marker distances the system uses.
+    pub between: &'a DMatrix<f64>,
+    /// The kernel over every marker.
+    pub kernel: &'a Kernel,
+    /// Stiffness per marker.
+    pub stiffness: &'a [f64],
+    /// Ridge of the full system.
+    pub ridge: f64,
+}
+
+/// A kernel restricted to `kept` centres.
+fn kernel_subset(kernel: &Kernel, kept: &[usize]) -> Kernel {
+    match kernel {
+        Kernel::InverseMultiquadric { radii } => Kernel::InverseMultiquadric {
+            radii: kept.iter().map(|&i| radii[i]).collect(),
+        },
+        other => other.clone(),
+    }
+}
+
+/// Dense weights of every vertex (`distances[v]` its distances, `points[v]` its position in the
+/// system's units) with the masks applied. Returns the rows and how many vertices a mask
+/// touched.
+pub fn masked_weights(
+    solve: &MaskedSolve<'_>,
+    masks: &[MaskSides],
+    distances: &[Vec<f64>],
+    points: &[[f64; 3]],
+) -> Result<(Vec<Vec<f64>>, usize), MaskError> {
+    let n = solve.full.len();
+    let mut systems: HashMap<Vec<bool>, (Vec<usize>, RbfSystem)> = HashMap::new();
+    let mut touched = 0;
+    let mut rows = Vec::with_capacity(points.len());
+    for (v, (d, p)) in distances.iter().zip(points).enumerate() {
+        let full = solve.full.weights_from_distances(d, p);
+        let mut excluded = vec![false; n];
+        let mut strength = 0.0f64;
+        let mut name = "";
+        for mask in masks {
+            let s = mask.strength[v];
+            let Some(side) = mask.side[v] else { continue };
+            if s <= MIN_STRENGTH {
+                continue;
+            }
+            let other = match side {
+                Side::Upper => &mask.groups.lower,
+                Side::Lower => &mask.groups.upper,
+            };
+            for &m in other {
+                excluded[m] = true;
+            }
+            strength = strength.max(s);
+            name = &mask.groups.name;
+        }
+        if strength == 0.0 {
+            rows.push(full);
+            continue;
+        }
+        touched += 1;
+        if !systems.contains_key(&excluded) {
+            let kept: Vec<usize> = (0..n).filter(|&i| !excluded[i]).collect();
+            let centres: Vec<[f64; 3]> = kept.iter().map(|&i| solve.centres[i]).collect();
+            let between = DMatrix::from_fn(kept.len(), kept.len(), |j, i| {
+                solve.between[(kept[j], kept[i])]
+            });
+            let stiffness: Vec<f64> = kept.iter().map(|&i| solve.stiffness[i]).collect();
+            let system = RbfSystem::with_distances(
+                &centres,
+                &between,
+                kernel_subset(solve.kernel, &kept),
+                solve.full.affine(),
+                &stiffness,
+                solve.ridge,
+            )
+            .map_err(|source| MaskError::Solve {
+                mask: name.to_owned(),
+                source,
+            })?;
+            systems.insert(excluded.clone(), (kept, system));
+        }
+        let (kept, system) = &systems[&excluded];
+        let sub_d: Vec<f64> = kept.iter().map(|&i| d[i]).collect();
+        let sub = system.weights_from_distances(&sub_d, p);
+        let mut row: Vec<f64> = full.iter().map(|w| (1.0 - strength) * w).collect();
+        for (&i, w) in kept.iter().zip(sub) {
+            row[i] += strength * w;
+        }
+        rows.push(row);
+    }
+    Ok((rows, touched))
+}
