@@ -140,6 +140,10 @@ pub struct StagesConfig {
     pub max_displacement: f64,
     /// The retargeting method.
     pub retarget: RetargetKind,
+    /// Rig markers the capture never has (paper 000 §5.2: inner lips, say): rebuilt from their
+    /// nearest real markers every frame. Any other rig marker missing from the capture is an
+    /// error.
+    pub virtual_markers: Vec<String>,
 }
 
 impl Default for StagesConfig {
@@ -149,6 +153,7 @@ impl Default for StagesConfig {
             head: HeadMarkers::MostRigid(4),
             max_displacement: 0.5,
             retarget: RetargetKind::Rbf,
+            virtual_markers: Vec::new(),
         }
     }
 }
@@ -188,9 +193,12 @@ pub enum StagesError {
         /// The frame (0-based).
         frame: usize,
     },
-    /// A named head marker is not a rig marker.
-    #[error("head marker {0:?} is not one of the rig's markers")]
+    /// A named head marker is not a rig marker the capture has.
+    #[error("head marker {0:?} is not one of the rig's markers in the capture")]
     UnknownHeadMarker(String),
+    /// A virtual marker is not a rig marker.
+    #[error("virtual marker {0:?} is not one of the rig's markers")]
+    UnknownVirtualMarker(String),
     /// Head markers: too few, too many, or repeated.
     #[error("{0} head markers given; compensation needs 3 to {MAX_HEAD_MARKERS} distinct ones")]
     HeadMarkerCount(usize),
@@ -219,6 +227,8 @@ pub struct StagesReport {
     pub neutral_frames: Range<usize>,
     /// Capture markers the rig does not use.
     pub unused_capture_markers: Vec<String>,
+    /// Rig markers the capture does not have, rebuilt from their neighbours every frame.
+    pub virtual_markers: Vec<String>,
     /// Actor half extent, metres.
     pub actor_half_extent: f64,
     /// The capture's own length unit (the stages work in metres).
@@ -456,17 +466,37 @@ pub fn bake_stages(
     let original_units = capture.units;
     let capture = &capture.in_metres();
     let file = capture.source.display().to_string();
-    let columns: Vec<usize> = marker_names
+    // Each rig marker's column in the capture; `None` for a virtual marker (one the capture
+    // never has, rebuilt from its neighbours every frame).
+    let columns: Vec<Option<usize>> = marker_names
         .iter()
-        .map(|name| {
-            capture
-                .marker_index(name)
-                .ok_or_else(|| StagesError::MissingMarker {
-                    file: file.clone(),
-                    name: name.clone(),
-                })
+        .map(|name| match capture.marker_index(name) {
+            Some(c) => Ok(Some(c)),
+            None if config.virtual_markers.contains(name) => Ok(None),
+            None => Err(StagesError::MissingMarker {
+                file: file.clone(),
+                name: name.clone(),
+            }),
         })
         .collect::<Result<_, _>>()?;
+    if let Some(name) = config
+        .virtual_markers
+        .iter()
+        .find(|v| !marker_names.contains(v))
+    {
+        return Err(StagesError::UnknownVirtualMarker(name.clone()));
+    }
+    // Rig marker indices of the markers the capture has, and their columns.
+    let real: Vec<usize> = (0..marker_names.len())
+        .filter(|&j| columns[j].is_some())
+        .collect();
+    let real_columns: Vec<usize> = columns.iter().flatten().copied().collect();
+    if real.len() < 4 {
+        return Err(StagesError::OutOfRange(format!(
+            "{file}: only {} of the rig's markers are in the capture; retargeting needs 4",
+            real.len()
+        )));
+    }
     let range = config.neutral.clone();
     if range.is_empty() || range.end > capture.frame_count() {
         return Err(StagesError::NeutralRange {
@@ -476,17 +506,16 @@ pub fn bake_stages(
             frames: capture.frame_count(),
         });
     }
-    // The neutral frames, rig marker order, capture units.
+    // The neutral frames, the capture's markers in rig order, metres.
     let neutral_frames: Vec<Vec<[f64; 3]>> = range
         .clone()
         .map(|f| {
-            columns
-                .iter()
-                .zip(marker_names)
-                .map(|(&c, name)| {
+            real.iter()
+                .zip(&real_columns)
+                .map(|(&j, &c)| {
                     capture.frames[f][c].ok_or_else(|| StagesError::NeutralIncomplete {
                         file: file.clone(),
-                        name: name.clone(),
+                        name: marker_names[j].clone(),
                         frame: f,
                     })
                 })
@@ -494,13 +523,25 @@ pub fn bake_stages(
         })
         .collect::<Result<_, _>>()?;
     let count = neutral_frames.len() as f64;
-    let neutral_capture: Vec<[f64; 3]> = (0..marker_names.len())
-        .map(|j| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[j][c]).sum::<f64>() / count))
+    let real_neutral: Vec<[f64; 3]> = (0..real.len())
+        .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
         .collect();
-    let actor_space = space_for(&neutral_capture);
-    let neutral: Vec<[f64; 3]> = neutral_capture
+    let actor_space = space_for(&real_neutral);
+    let real_units: Vec<[f64; 3]> = real_neutral
         .iter()
         .map(|p| to_rig_units(&actor_space, p))
+        .collect();
+    // Virtual markers' neutral positions: the character's position carried into actor units
+    // by the RBF map from the character's real markers to the actor's.
+    let real_character: Vec<[f64; 3]> = real.iter().map(|&j| character[j]).collect();
+    let back = (real.len() < marker_names.len())
+        .then(|| RetargetMap::new(&real_character, &real_units))
+        .transpose()?;
+    let neutral: Vec<[f64; 3]> = (0..marker_names.len())
+        .map(|j| match real.iter().position(|&r| r == j) {
+            Some(i) => real_units[i],
+            None => back.as_ref().map_or([0.0; 3], |b| b.map(&character[j])),
+        })
         .collect();
 
     let (head, picked, head_spread) = match &config.head {
@@ -512,6 +553,7 @@ pub fn bake_stages(
                     marker_names
                         .iter()
                         .position(|m| m == n)
+                        .filter(|&j| columns[j].is_some())
                         .ok_or_else(|| StagesError::UnknownHeadMarker(n.clone()))
                 })
                 .collect::<Result<_, _>>()?;
@@ -520,15 +562,20 @@ pub fn bake_stages(
             if idx.len() != names.len() || !(3..=MAX_HEAD_MARKERS).contains(&idx.len()) {
                 return Err(StagesError::HeadMarkerCount(names.len()));
             }
-            let spread = spread_of(&complete_sample(capture, &columns), &idx);
+            let in_real: Vec<usize> = idx
+                .iter()
+                .filter_map(|j| real.iter().position(|r| r == j))
+                .collect();
+            let spread = spread_of(&complete_sample(capture, &real_columns), &in_real);
             (idx, false, spread)
         }
         HeadMarkers::MostRigid(size) => {
             if !(3..=MAX_HEAD_MARKERS).contains(size) {
                 return Err(StagesError::HeadMarkerCount(*size));
             }
-            let (idx, spread) = most_rigid_subset(&complete_sample(capture, &columns), *size)?;
-            (idx, true, spread)
+            let (in_real, spread) =
+                most_rigid_subset(&complete_sample(capture, &real_columns), *size)?;
+            (in_real.iter().map(|&i| real[i]).collect(), true, spread)
         }
     };
     if !head.is_empty() {
@@ -537,9 +584,12 @@ pub fn bake_stages(
         kabsch(&pts, &pts)?;
     }
 
+    // Fill neighbours: the nearest markers the capture has (a virtual one is never present).
     let fill: Vec<Vec<(usize, f64)>> = (0..neutral.len())
         .map(|j| {
-            let mut others: Vec<(usize, f64)> = (0..neutral.len())
+            let mut others: Vec<(usize, f64)> = real
+                .iter()
+                .copied()
                 .filter(|&k| k != j)
                 .map(|k| (k, distance(&neutral[j], &neutral[k])))
                 .collect();
@@ -592,6 +642,10 @@ pub fn bake_stages(
             .iter()
             .filter(|n| !marker_names.contains(n))
             .cloned()
+            .collect(),
+        virtual_markers: (0..marker_names.len())
+            .filter(|&j| columns[j].is_none())
+            .map(|j| marker_names[j].clone())
             .collect(),
         actor_half_extent: f64::from(actor_space.half_extent),
         units: original_units.symbol().to_string(),

@@ -111,6 +111,16 @@ pub struct BakeArgs {
     /// Planar form: bone radius as a multiple of the closest connected-marker distance.
     #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius)]
     pub planar_radius: f64,
+    /// Layout markers the capture never has (e.g. inner lips), comma-separated: rebuilt from
+    /// their nearest captured markers every frame (paper 000 §5.2). Any other layout marker
+    /// missing from the capture is an error.
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        requires = "capture"
+    )]
+    pub virtual_markers: Vec<String>,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -378,6 +388,7 @@ fn attach_stages(
         head: args.head_markers.clone(),
         max_displacement: args.max_displacement,
         retarget: args.retarget,
+        virtual_markers: args.virtual_markers.clone(),
     };
     let stages = bake_stages(&capture, &names, &character, &space, &config)
         .map_err(|e| CliError::input(path, e.to_string()))?;
@@ -563,6 +574,13 @@ fn print_text(s: &BakeSummary) {
             st.retarget_condition,
             st.max_alpha_rounding
         );
+        if !st.virtual_markers.is_empty() {
+            outln!(
+                out,
+                "  virtual       not in the capture, rebuilt from neighbours every frame: {}",
+                st.virtual_markers.join(", ")
+            );
+        }
         if !st.unused_capture_markers.is_empty() {
             outln!(
                 out,

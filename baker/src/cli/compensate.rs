@@ -12,7 +12,7 @@ use super::bake::{parse_frames, parse_head};
 use super::{emit, parse_units, print_json, CliError};
 use crate::io::capture::{read_capture_with_units, write_csv, Capture, Units};
 use crate::pivot::{estimate_pivot, PivotEstimate};
-use crate::rigid::{kabsch, most_rigid_subset, RigidTransform};
+use crate::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
 use crate::stages::HeadMarkers;
 
 /// Arguments of `facebake compensate`.
@@ -30,12 +30,26 @@ pub struct CompensateArgs {
     /// Head markers: comma-separated names, `auto` (the 4 most rigid) or `auto:N`.
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head)]
     pub head_markers: HeadMarkers,
+    /// The rigid fit: least squares over every present head marker (kabsch), or paper 003's
+    /// three-point method on the first three head markers (three-point).
+    #[arg(long, value_enum, default_value_t = Fit::Kabsch)]
+    pub fit: Fit,
     /// Where to write the compensated capture (CSV, the capture's units).
     #[arg(short, long, value_name = "CSV")]
     pub output: PathBuf,
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// How each frame's head motion is fitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+pub enum Fit {
+    /// Least squares (Kabsch/Horn), reflection-safe, any n ≥ 3.
+    Kabsch,
+    /// Paper 003 §2.1: unit edge vectors of three markers and their cross product; needs the
+    /// first three head markers present.
+    ThreePoint,
 }
 
 /// What `compensate` reports.
@@ -49,6 +63,8 @@ pub struct CompensateSummary {
     pub units: String,
     /// Head markers used.
     pub head_markers: Vec<String>,
+    /// The fit used.
+    pub fit: Fit,
     /// RMS residual of the head fit per frame, capture units (`None` where it could not be fitted
     /// and the previous fit was held).
     pub residuals: Vec<Option<f64>>,
@@ -123,7 +139,14 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             .collect();
         let from: Vec<[f64; 3]> = present.iter().map(|&h| neutral[h]).collect();
         let to: Vec<[f64; 3]> = present.iter().filter_map(|&h| frame[h]).collect();
-        match kabsch(&from, &to) {
+        let fitted = match args.fit {
+            Fit::Kabsch => kabsch(&from, &to),
+            Fit::ThreePoint if present.len() >= 3 && present[..3] == head[..3] => {
+                three_point(&[from[0], from[1], from[2]], &[to[0], to[1], to[2]])
+            }
+            Fit::ThreePoint => Err(crate::rigid::RigidError::TooFewPoints(present.len())),
+        };
+        match fitted {
             Ok(fit) => {
                 residuals.push(Some(fit.rms_residual(&from, &to)));
                 last = fit;
@@ -163,6 +186,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             .iter()
             .map(|&h| capture.marker_names[h].clone())
             .collect(),
+        fit: args.fit,
         residual_mean: fitted.iter().sum::<f64>() / fitted.len().max(1) as f64,
         residual_max: fitted.iter().copied().fold(0.0, f64::max),
         residuals,

@@ -228,7 +228,35 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     let rig = load_rig(&args.rig, &bytes)?;
     let names = marker_names(&rig);
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    let capture = read_capture_with_units(&args.markers, args.capture_units)?.select(&name_refs)?;
+    let full = read_capture_with_units(&args.markers, args.capture_units)?;
+    // A rig with capture stages rebuilds markers the capture lacks (virtual markers); without
+    // stages every rig marker must be in the capture.
+    let absent: Vec<&str> = name_refs
+        .iter()
+        .copied()
+        .filter(|n| full.marker_index(n).is_none())
+        .collect();
+    let capture = if rig.stages().is_some() && absent.len() < name_refs.len() {
+        let present: Vec<&str> = name_refs
+            .iter()
+            .copied()
+            .filter(|n| !absent.contains(n))
+            .collect();
+        let mut selected = full.select(&present)?;
+        let columns: Vec<Option<usize>> = name_refs
+            .iter()
+            .map(|n| present.iter().position(|p| p == n))
+            .collect();
+        selected.frames = selected
+            .frames
+            .iter()
+            .map(|f| columns.iter().map(|c| c.and_then(|c| f[c])).collect())
+            .collect();
+        selected.marker_names = names.clone();
+        selected
+    } else {
+        full.select(&name_refs)?
+    };
     let raw = capture.in_metres().frames;
     let frames = match rig.stages() {
         Some(_) => Vec::new(),
@@ -334,6 +362,13 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             summary.frames,
             summary.vertices
         );
+        if !absent.is_empty() && summary.stages.is_some() {
+            outln!(
+                out,
+                "not in the capture, rebuilt or held every frame: {}",
+                absent.join(", ")
+            );
+        }
         if let Some(st) = &summary.stages {
             outln!(
                 out,
