@@ -108,6 +108,14 @@ pub struct JawMoCapRig {
 /// Bake FaceCap with `fixtures/facecap_jawmocap_layout.toml` and the JawMoCap capture's stages
 /// (neutral frame 0, the baker's own choice of head markers).
 pub fn jawmocap_rig(stages: &facebake::stages::StagesConfig) -> JawMoCapRig {
+    jawmocap_rig_with(&BakeConfig::default(), stages)
+}
+
+/// [`jawmocap_rig`] with the deformation baked by `bake` (any form, planar bones included).
+pub fn jawmocap_rig_with(
+    bake: &BakeConfig,
+    stages: &facebake::stages::StagesConfig,
+) -> JawMoCapRig {
     use facebake::cli::bake::bake_layout;
     let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
         .expect("FaceCap head loads");
@@ -115,8 +123,7 @@ pub fn jawmocap_rig(stages: &facebake::stages::StagesConfig) -> JawMoCapRig {
         .expect("layout reads");
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let (baked, placed) =
-        bake_layout(&mesh, &layout, &BakeConfig::default(), None).expect("FaceCap bakes");
+    let (baked, placed) = bake_layout(&mesh, &layout, bake, None).expect("FaceCap bakes");
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
     let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("rig loads");

@@ -310,3 +310,67 @@ fn the_automatic_control_surface_leaves_out_the_openings() {
     assert!(kept.iter().all(|t| !spans(t) && all.contains(t)));
     assert!(kept.len() + opening <= all.len());
 }
+
+/// Planar bones driven by a real capture: JawMoCap retargeted onto FaceCap by the runtime's
+/// capture stages. The runtime's vertices match eqs 1–12 in f64 evaluated on the runtime's own
+/// character markers, and the whole f64 chain (Kabsch, unquantised retargeting, eqs 1–12 with
+/// the bake's exact positions) within the same bar.
+#[test]
+fn runtime_matches_the_f64_equations_on_jawmocap() {
+    use facebake::planar::reference::PlanarReference;
+    use facebake::stages::{StagesConfig, StateF64};
+    use facebake_runtime::PlayState;
+    let j = facebake_tests::jawmocap_rig_with(
+        &facebake_tests::planar_config(8),
+        &StagesConfig::default(),
+    );
+    let rig = Rig::from_bytes(&j.blob).unwrap();
+    assert!(matches!(rig.deformer(), Deformer::PlanarBones(_)));
+    let own = PlanarReference::from_rig(&rig).expect("a planar rig");
+    let exact = j
+        .baked
+        .planar
+        .as_ref()
+        .expect("the planar bake has its reference");
+    let stages = rig.stages().expect("stages");
+    let space = rig.space();
+    let actor_space = stages.actor_space;
+    let diagonal = j.mesh.diagonal();
+    let to_asset = |m: &[f64; 3]| {
+        [0, 1, 2].map(|c| f64::from(space.centre[c]) + m[c] * f64::from(space.half_extent))
+    };
+    let (mut state, mut ref_state) = (PlayState::new(), StateF64::default());
+    let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let (mut worst_own, mut worst_chain) = (0.0f64, 0.0f64);
+    for frame in j.frames.iter().step_by(4) {
+        let actor: Vec<Option<[i32; 3]>> = frame
+            .iter()
+            .map(|p| p.and_then(|p| actor_space.to_rig_f64(p).ok()))
+            .collect();
+        stages.solve(&mut state, &actor, &mut markers);
+        rig.deform(&markers, &mut out).unwrap();
+        let got: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+        let runtime_markers: Vec<[f64; 3]> =
+            markers.iter().map(|q| space.to_asset_f64(*q)).collect();
+        let (want_own, _) = own.frame(&runtime_markers);
+        let (chain_markers, _) = j.stages.reference.solve(&mut ref_state, frame);
+        let chain_markers: Vec<[f64; 3]> = chain_markers.iter().map(to_asset).collect();
+        let (want_chain, _) = exact.frame(&chain_markers);
+        for ((g, o), c) in got.iter().zip(&want_own).zip(&want_chain) {
+            worst_own = worst_own.max(distance(g, o));
+            worst_chain = worst_chain.max(distance(g, c));
+        }
+    }
+    println!(
+        "planar on JawMoCap: runtime vs eqs 1–12 on its own markers {:.3e}, vs the whole f64 chain {:.3e} of the diagonal",
+        worst_own / diagonal,
+        worst_chain / diagonal
+    );
+    assert!(worst_own / diagonal <= 2e-5, "{:.3e}", worst_own / diagonal);
+    assert!(
+        worst_chain / diagonal <= 2e-5,
+        "{:.3e}",
+        worst_chain / diagonal
+    );
+}
