@@ -571,3 +571,70 @@ fn masks_take_vertex_sides_from_a_file() {
     assert_bad_input(&out, "sides.toml");
     assert!(stderr(&out).contains("\"eyes\""), "{}", stderr(&out));
 }
+
+#[test]
+fn mask_images_render_and_bake_back() {
+    let dir = temp_dir("mask-images");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let out = facebake(&[
+        "mask-images",
+        "--mesh",
+        s(&mesh_path()),
+        "--mesh-name",
+        "head",
+        "--layout",
+        s(&layout),
+        "-o",
+        s(&dir),
+        "--json",
+    ]);
+    let written = json_ok(&out);
+    assert_eq!(written.as_array().unwrap().len(), 2, "{written}");
+    let (mouth, eyes) = (dir.join("mouth.png"), dir.join("eyes.png"));
+    assert!(mouth.is_file() && eyes.is_file());
+    let rig = dir.join("masked.fbk");
+    let mouth_arg = format!("mouth={}", s(&mouth));
+    let eyes_arg = format!("eyes={}", s(&eyes));
+    let extra = [
+        "--mesh-name",
+        "head",
+        "--masks",
+        "--mask-image",
+        &mouth_arg,
+        "--mask-image",
+        &eyes_arg,
+        "--json",
+    ];
+    let summary = json_ok(&bake(&mesh_path(), &layout, &rig, &extra));
+    assert!(
+        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        "{summary}"
+    );
+    // A mask the layout does not have, and a file that is not a PNG, are bad input.
+    let nose = format!("nose={}", s(&mouth));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--mesh-name", "head", "--masks", "--mask-image", &nose],
+    );
+    assert_bad_input(&out, "facecap_jawmocap_layout.toml");
+    let not_png = dir.join("not.png");
+    std::fs::write(&not_png, b"not an image").unwrap();
+    let bad = format!("mouth={}", s(&not_png));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &[
+            "--mesh-name",
+            "head",
+            "--masks",
+            "--mask-image",
+            &bad,
+            "--mask-image",
+            &eyes_arg,
+        ],
+    );
+    assert_bad_input(&out, "not.png");
+}

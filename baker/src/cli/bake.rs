@@ -56,6 +56,16 @@ pub struct BakeArgs {
     /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
     #[arg(long, value_name = "FILE", requires = "masks")]
     pub mask_sides: Option<PathBuf>,
+    /// With --masks: a mask's sides from a grey PNG in the mesh's cylindrical projection (paper
+    /// 000 §4.3; white = upper side, black = lower, grey = unmasked), as `NAME=FILE`, once per
+    /// mask of the layout's `[groups]`. `facebake mask-images` writes templates.
+    #[arg(
+        long,
+        value_name = "NAME=FILE",
+        requires = "masks",
+        conflicts_with = "mask_sides"
+    )]
+    pub mask_image: Vec<String>,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
     /// vertex on marker displacements, or planar bones (K control triangles per vertex)
     /// (default: coefficients; weights with --masks or pbw).
@@ -277,6 +287,9 @@ fn run_surface(
         Some(path) => SideRule::VertexSets(
             read_vertex_sides(path, &groups).map_err(|e| CliError::input(path, e.to_string()))?,
         ),
+        None if !args.mask_image.is_empty() => {
+            SideRule::VertexSets(mask_images(&args.mask_image, &groups, mesh, &args.layout)?)
+        }
         None => SideRule::Auto,
     };
     let config = args.surface_config();
@@ -368,6 +381,43 @@ fn run_surface(
         emit(&out);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The vertex sides of every mask from `--mask-image NAME=FILE` arguments, in `groups` order.
+fn mask_images(
+    args: &[String],
+    groups: &[crate::io::marker_groups::MarkerGroups],
+    mesh: &FaceMesh,
+    layout: &std::path::Path,
+) -> Result<Vec<crate::io::marker_groups::VertexSets>, CliError> {
+    let mut given = std::collections::BTreeMap::new();
+    for a in args {
+        let (name, file) = a.split_once('=').ok_or_else(|| {
+            CliError::input(layout, format!("--mask-image {a:?}: expected NAME=FILE"))
+        })?;
+        if !groups.iter().any(|g| g.name == name) {
+            return Err(CliError::input(
+                layout,
+                format!(
+                    "--mask-image names mask \"{name}\", which the layout's [groups] does not have"
+                ),
+            ));
+        }
+        given.insert(name.to_string(), PathBuf::from(file));
+    }
+    groups
+        .iter()
+        .map(|g| {
+            let path = given.get(&g.name).ok_or_else(|| {
+                CliError::input(layout, format!("no --mask-image for mask \"{}\"", g.name))
+            })?;
+            crate::io::mask_image::read_sides(path, &mesh.positions, &mesh.triangles).map_err(|e| {
+                let text = e.to_string();
+                let prefix = format!("{}: ", path.display());
+                CliError::input(path, text.strip_prefix(&prefix).unwrap_or(&text))
+            })
+        })
+        .collect()
 }
 
 /// With `--capture`, bake the capture stages for the `placed` markers and add them to `blob`.

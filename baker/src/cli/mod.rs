@@ -16,6 +16,7 @@ pub mod bake;
 pub mod compensate;
 pub mod demo;
 pub mod inspect;
+pub mod mask_images;
 pub mod mocap;
 pub mod play;
 pub mod verify;
@@ -80,6 +81,10 @@ pub enum Command {
     /// per frame and estimate the rotation pivot.
     #[command(after_help = EXIT_CODES)]
     Compensate(compensate::CompensateArgs),
+    /// Render a layout's mask sides (lips, eyelids) as PNGs in the mesh's cylindrical
+    /// projection, to inspect or paint over for `bake --mask-image`.
+    #[command(after_help = EXIT_CODES)]
+    MaskImages(mask_images::MaskImagesArgs),
 }
 
 /// Why a command failed. Every variant's message names the file it is about.
@@ -179,6 +184,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Verify(a) => verify::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Compensate(a) => compensate::run(&a),
+        Command::MaskImages(a) => mask_images::run(&a),
     }
 }
 

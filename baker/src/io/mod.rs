@@ -5,4 +5,5 @@ pub mod glb;
 pub mod gltf_mesh;
 pub mod layout;
 pub mod marker_groups;
+pub mod mask_image;
 pub mod npy;

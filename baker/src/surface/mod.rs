@@ -267,6 +267,29 @@ fn kernel_spectrum(kernel: &Kernel, between: &DMatrix<f64>) -> (f64, f64) {
     (min, mean)
 }
 
+/// The sides and strengths of every mask of `input` (its groups, by its side rule), as a masked
+/// bake computes them: what `facebake mask-images` renders.
+pub fn mask_sides(
+    input: &SurfaceInput<'_>,
+    config: &SurfaceConfig,
+) -> Result<Vec<masks::MaskSides>, SurfaceError> {
+    let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
+    let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
+    let spacing = {
+        let r = crate::rbf::kernel::nearest_distances(&rest);
+        r.iter().sum::<f64>() / r.len().max(1) as f64
+    };
+    let geometry = SurfaceGeometry::new(input.mesh, &sources, config.geodesic)?;
+    Ok(masks::vertex_sides(
+        input.groups,
+        input.sides,
+        &geometry,
+        &rest,
+        config.mask_plateau_factor * spacing,
+        config.mask_decay_factor * spacing,
+    )?)
+}
+
 /// Bake a surface-aware rig.
 pub fn bake_surface(
     input: &SurfaceInput<'_>,
