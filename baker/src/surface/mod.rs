@@ -280,11 +280,22 @@ pub fn mask_sides(
         r.iter().sum::<f64>() / r.len().max(1) as f64
     };
     let geometry = SurfaceGeometry::new(input.mesh, &sources, config.geodesic)?;
+    sides_of(input, config, &geometry, &rest, spacing)
+}
+
+/// The masks' sides with the plateau and decay of `config`, scaled by the marker `spacing`.
+fn sides_of(
+    input: &SurfaceInput<'_>,
+    config: &SurfaceConfig,
+    geometry: &SurfaceGeometry,
+    rest: &[[f64; 3]],
+    spacing: f64,
+) -> Result<Vec<masks::MaskSides>, SurfaceError> {
     Ok(masks::vertex_sides(
         input.groups,
         input.sides,
-        &geometry,
-        &rest,
+        geometry,
+        rest,
         config.mask_plateau_factor * spacing,
         config.mask_decay_factor * spacing,
     )?)
@@ -445,14 +456,7 @@ pub fn bake_surface(
         ));
     }
     let (dense, masked_vertices) = if masked {
-        let sides = masks::vertex_sides(
-            input.groups,
-            input.sides,
-            &geometry,
-            &rest,
-            config.mask_plateau_factor * spacing,
-            config.mask_decay_factor * spacing,
-        )?;
+        let sides = sides_of(input, config, &geometry, &rest, spacing)?;
         masks::masked_weights(
             &masks::MaskedSolve {
                 full: &system,
