@@ -265,6 +265,7 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
         head_markers: Bytes(&stages.head_markers),
         max_displacement: stages.max_displacement,
         fill: Bytes(&stages.fill),
+        anchors: Bytes(&stages.anchors),
         retarget: match &stages.proportional {
             Some((shift, matrices, rest)) => RetargetForm::PerMarker(PerMarker {
                 shift: *shift,

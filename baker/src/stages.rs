@@ -144,6 +144,10 @@ pub struct StagesConfig {
     /// nearest real markers every frame. Any other rig marker missing from the capture is an
     /// error.
     pub virtual_markers: Vec<String>,
+    /// Static anchors (paper 003: back of the head, neck): rig markers pinned at their rest
+    /// position on the character every frame, whatever the capture says of them, so the regions
+    /// around them do not move.
+    pub anchor_markers: Vec<String>,
 }
 
 impl Default for StagesConfig {
@@ -154,6 +158,7 @@ impl Default for StagesConfig {
             max_displacement: 0.5,
             retarget: RetargetKind::Rbf,
             virtual_markers: Vec::new(),
+            anchor_markers: Vec::new(),
         }
     }
 }
@@ -196,8 +201,8 @@ pub enum StagesError {
     /// A named head marker is not a rig marker the capture has.
     #[error("head marker {0:?} is not one of the rig's markers in the capture")]
     UnknownHeadMarker(String),
-    /// A virtual marker is not a rig marker.
-    #[error("virtual marker {0:?} is not one of the rig's markers")]
+    /// A virtual or anchor marker is not a rig marker.
+    #[error("virtual or anchor marker {0:?} is not one of the rig's markers")]
     UnknownVirtualMarker(String),
     /// Head markers: too few, too many, or repeated.
     #[error("{0} head markers given; compensation needs 3 to {MAX_HEAD_MARKERS} distinct ones")]
@@ -229,6 +234,8 @@ pub struct StagesReport {
     pub unused_capture_markers: Vec<String>,
     /// Rig markers the capture does not have, rebuilt from their neighbours every frame.
     pub virtual_markers: Vec<String>,
+    /// Rig markers pinned at rest every frame.
+    pub anchor_markers: Vec<String>,
     /// Actor half extent, metres.
     pub actor_half_extent: f64,
     /// The capture's own length unit (the stages work in metres).
@@ -269,6 +276,8 @@ pub struct StagesBytes {
     /// Proportional retargeting instead of the RBF map: (shift, matrices, rest) as the runtime's
     /// `PerMarker` holds them.
     pub proportional: Option<(u8, Vec<u8>, Vec<u8>)>,
+    /// Anchor marker indices, ascending.
+    pub anchors: Vec<u8>,
 }
 
 /// The baked stages: bytes for the blob, the f64 reference and a report.
@@ -471,6 +480,7 @@ pub fn bake_stages(
     let columns: Vec<Option<usize>> = marker_names
         .iter()
         .map(|name| match capture.marker_index(name) {
+            _ if config.anchor_markers.contains(name) => Ok(None),
             Some(c) => Ok(Some(c)),
             None if config.virtual_markers.contains(name) => Ok(None),
             None => Err(StagesError::MissingMarker {
@@ -481,6 +491,13 @@ pub fn bake_stages(
         .collect::<Result<_, _>>()?;
     if let Some(name) = config
         .virtual_markers
+        .iter()
+        .find(|v| !marker_names.contains(v))
+    {
+        return Err(StagesError::UnknownVirtualMarker(name.clone()));
+    }
+    if let Some(name) = config
+        .anchor_markers
         .iter()
         .find(|v| !marker_names.contains(v))
     {
@@ -584,9 +601,13 @@ pub fn bake_stages(
         kabsch(&pts, &pts)?;
     }
 
-    // Fill neighbours: the nearest markers the capture has (a virtual one is never present).
+    // Fill neighbours: the nearest markers the capture has (a virtual one is never present); an
+    // anchor has none, so the runtime holds it at zero displacement: at rest.
     let fill: Vec<Vec<(usize, f64)>> = (0..neutral.len())
         .map(|j| {
+            if config.anchor_markers.contains(&marker_names[j]) {
+                return Vec::new();
+            }
             let mut others: Vec<(usize, f64)> = real
                 .iter()
                 .copied()
@@ -622,6 +643,19 @@ pub fn bake_stages(
     if let Some(p) = &proportional {
         bytes.proportional = Some(encode_proportional(p)?);
     }
+    bytes.anchors = (0..marker_names.len())
+        .filter(|&j| config.anchor_markers.contains(&marker_names[j]))
+        .map(|j| j as u8)
+        .collect();
+    if bytes
+        .anchors
+        .iter()
+        .any(|&a| head.contains(&usize::from(a)))
+    {
+        return Err(StagesError::OutOfRange(
+            "an anchor marker cannot also be a head marker".into(),
+        ));
+    }
     let max_alpha_rounding = alpha_rounding(&map, bytes.alpha_shift);
     let reference = StagesF64 {
         actor_space,
@@ -643,8 +677,9 @@ pub fn bake_stages(
             .filter(|n| !marker_names.contains(n))
             .cloned()
             .collect(),
+        anchor_markers: config.anchor_markers.clone(),
         virtual_markers: (0..marker_names.len())
-            .filter(|&j| columns[j].is_none())
+            .filter(|&j| columns[j].is_none() && !config.anchor_markers.contains(&marker_names[j]))
             .map(|j| marker_names[j].clone())
             .collect(),
         actor_half_extent: f64::from(actor_space.half_extent),
@@ -810,6 +845,7 @@ fn encode(
         linear,
         offset,
         proportional: None,
+        anchors: Vec::new(),
     })
 }
 

@@ -353,3 +353,36 @@ fn virtual_markers_are_rebuilt_every_frame() {
     // Pinned (measured: mean 0.290 mm, max 7.04 mm).
     assert!(mean < 0.35 && max < 9.0, "{mean} {max}");
 }
+
+/// Static anchors (paper 003): the jaw-side markers Chin_L2 and Chin_R2 declared anchors stay at
+/// their rest positions on the character in every frame, whatever the capture does, and pin
+/// the skin around them; they are reported as held.
+#[test]
+fn anchor_markers_stay_at_rest() {
+    let config = StagesConfig {
+        anchor_markers: vec!["Chin_L2".to_string(), "Chin_R2".to_string()],
+        ..StagesConfig::default()
+    };
+    let j = facebake_tests::jawmocap_rig(&config);
+    assert_eq!(j.stages.report.anchor_markers, ["Chin_L2", "Chin_R2"]);
+    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let stages = rig.stages().unwrap();
+    let anchors: Vec<usize> = ["Chin_L2", "Chin_R2"]
+        .iter()
+        .map(|n| rig.marker_index(n).unwrap())
+        .collect();
+    let mut state = PlayState::new();
+    let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let mut worst = 0.0f64;
+    let space = rig.space();
+    for frame in j.frames.iter().step_by(3) {
+        let report = stages.solve(&mut state, &to_actor(&rig, frame), &mut markers);
+        for &a in &anchors {
+            assert!(report.held.contains(a));
+            let rest = space.to_asset_f64(rig.marker_rest(a).unwrap());
+            worst = worst.max(dist(&space.to_asset_f64(markers[a]), &rest));
+        }
+    }
+    println!("anchors: furthest from rest {worst:.3e} m");
+    assert!(worst < 1e-6, "{worst}");
+}

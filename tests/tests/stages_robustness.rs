@@ -77,6 +77,24 @@ fn every_stages_error_is_distinct() {
             "{head:?}"
         );
     }
+    let head0 = s.head_markers.0[0];
+    for anchors in [vec![3u8, 2], vec![200], vec![head0]] {
+        let anchors: &'static [u8] = anchors.leak();
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().anchors = Bytes(anchors)),
+            StagesError::BadAnchors,
+            "{anchors:?}"
+        );
+    }
+    // An anchor must have no fill neighbours (marker 1 has some in the real blob).
+    let with_fill: &'static [u8] = vec![1u8].leak();
+    let one_head = s.head_markers.0.contains(&1);
+    if !one_head {
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().anchors = Bytes(with_fill)),
+            StagesError::BadAnchors
+        );
+    }
     for bad in [0, -1, (1 << 30) + 1] {
         assert_eq!(
             with(&|d| d.stages.as_mut().unwrap().max_displacement = bad),

@@ -131,6 +131,15 @@ pub struct BakeArgs {
         requires = "capture"
     )]
     pub virtual_markers: Vec<String>,
+    /// Static anchors, comma-separated: layout markers (back of the head, neck) pinned at rest
+    /// every frame, whatever the capture says of them (paper 003).
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        requires = "capture"
+    )]
+    pub anchor_markers: Vec<String>,
     /// Where to write the rig blob.
     #[arg(short, long, value_name = "RIG")]
     pub output: PathBuf,
@@ -439,6 +448,7 @@ fn attach_stages(
         max_displacement: args.max_displacement,
         retarget: args.retarget,
         virtual_markers: args.virtual_markers.clone(),
+        anchor_markers: args.anchor_markers.clone(),
     };
     let stages = bake_stages(&capture, &names, &character, &space, &config)
         .map_err(|e| CliError::input(path, e.to_string()))?;
@@ -629,6 +639,13 @@ fn print_text(s: &BakeSummary) {
                 out,
                 "  virtual       not in the capture, rebuilt from neighbours every frame: {}",
                 st.virtual_markers.join(", ")
+            );
+        }
+        if !st.anchor_markers.is_empty() {
+            outln!(
+                out,
+                "  anchors       pinned at rest every frame: {}",
+                st.anchor_markers.join(", ")
             );
         }
         if !st.unused_capture_markers.is_empty() {

@@ -116,6 +116,11 @@ pub struct Stages<'a> {
     /// The retargeting map.
     #[serde(borrow)]
     pub retarget: RetargetForm<'a>,
+    /// Static anchors (paper 003): `u8` marker indices, strictly ascending, none of them a head
+    /// marker. Their samples are ignored and, having no fill neighbours, they are held at zero
+    /// displacement: the character's markers stay at rest and pin the skin around them.
+    #[serde(borrow)]
+    pub anchors: Bytes<'a>,
 }
 
 /// Why a rig's capture stages are invalid. Every variant is a distinct failure.
@@ -139,6 +144,8 @@ pub enum StagesError {
     },
     /// Head markers: a count other than 0 or 3..=32, an index out of range, or not ascending.
     BadHeadMarkers,
+    /// Anchors: an index out of range, not ascending, a head marker, or one with fill neighbours.
+    BadAnchors,
     /// `max_displacement` is not in (0, [`INPUT_LIMIT`]].
     BadMaxDisplacement,
     /// A fill neighbour names a missing marker or the marker itself, or has a negative weight.
@@ -201,6 +208,9 @@ impl core::fmt::Display for StagesError {
             }
             Self::BadHeadMarkers => f.write_str(
                 "head markers must be none or 3 to 32 distinct marker indices in ascending order",
+            ),
+            Self::BadAnchors => f.write_str(
+                "anchors must be distinct marker indices in ascending order, not head markers, without fill neighbours",
             ),
             Self::BadMaxDisplacement => {
                 f.write_str("max displacement must be in (0, 64] actor units")
@@ -281,6 +291,26 @@ impl<'a> Stages<'a> {
         if !(ascending && in_range && count_ok) {
             return Err(StagesError::BadHeadMarkers);
         }
+        let anchors = self.anchors.0;
+        let anchor_fill_empty = |a: u8| {
+            self.fill
+                .0
+                .get(
+                    usize::from(a) * FILL_NEIGHBOURS * 4
+                        ..(usize::from(a) + 1) * FILL_NEIGHBOURS * 4,
+                )
+                .is_some_and(|w| {
+                    w.chunks_exact(4)
+                        .all(|x| crate::fixed::unpack_influence(le_i32(x) as u32).1 == 0)
+                })
+        };
+        if !(anchors.windows(2).all(|w| w[0] < w[1])
+            && anchors
+                .iter()
+                .all(|&a| usize::from(a) < markers && !head.contains(&a)))
+        {
+            return Err(StagesError::BadAnchors);
+        }
         if !(1..=INPUT_LIMIT).contains(&self.max_displacement) {
             return Err(StagesError::BadMaxDisplacement);
         }
@@ -297,6 +327,9 @@ impl<'a> Stages<'a> {
                     return Err(StagesError::BadFillNeighbour { marker });
                 }
             }
+        }
+        if !anchors.iter().all(|&a| anchor_fill_empty(a)) {
+            return Err(StagesError::BadAnchors);
         }
         let r = match &self.retarget {
             RetargetForm::Rbf(r) => r,
@@ -390,6 +423,7 @@ impl<'a> Stages<'a> {
         let mut present = MarkerSet::EMPTY;
         for (j, p) in actor.iter().enumerate().take(markers) {
             match p {
+                _ if self.anchors.0.contains(&(j as u8)) => {}
                 Some(p) if p.iter().all(|c| c.unsigned_abs() <= INPUT_LIMIT as u32) => {
                     present.insert(j)
                 }
