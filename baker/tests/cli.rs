@@ -638,3 +638,71 @@ fn mask_images_render_and_bake_back() {
     );
     assert_bad_input(&out, "not.png");
 }
+
+/// Side rule (a) from a glTF vertex attribute: a copy of FaceCap carrying `_MASK_MOUTH` and
+/// `_MASK_EYES` (+1 above the lip / eye line, −1 below, 0 elsewhere) round-trips through the GLB
+/// writer and loader, and masks a bake; a missing attribute is bad input naming the mesh.
+#[test]
+fn masks_from_gltf_vertex_attributes() {
+    let dir = temp_dir("mask-attribute");
+    let mut mesh = load_mesh(&mesh_path(), Some("head"), None).unwrap();
+    let side = |y: f64, line: f64| if y > line { 1.0f32 } else { -1.0 };
+    let mouth: Vec<f32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let near = p[0].abs() < 0.03 && (-0.07..-0.02).contains(&p[1]) && p[2] > 0.03;
+            if near {
+                side(p[1], -0.043)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let eyes: Vec<f32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let near =
+                (0.01..0.06).contains(&p[0].abs()) && (0.015..0.045).contains(&p[1]) && p[2] > 0.02;
+            if near {
+                side(p[1], 0.029)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    mesh.attributes.insert("_MASK_MOUTH".into(), mouth.clone());
+    mesh.attributes.insert("_MASK_EYES".into(), eyes);
+    let glb = dir.join("masked_head.glb");
+    facebake::io::glb::write_glb_with_morphs(&glb, &mesh, &[]).unwrap();
+    let back = load_mesh(&glb, Some("head"), None).unwrap();
+    assert_eq!(back.attributes.get("_MASK_MOUTH"), Some(&mouth));
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let rig = dir.join("rig.fbk");
+    let args = [
+        "--mesh-name",
+        "head",
+        "--masks",
+        "--mask-attribute",
+        "mouth=_MASK_MOUTH",
+        "--mask-attribute",
+        "eyes=_MASK_EYES",
+        "--json",
+    ];
+    let summary = json_ok(&bake(&glb, &layout, &rig, &args));
+    assert!(
+        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        "{summary}"
+    );
+    let missing = [
+        "--mesh-name",
+        "head",
+        "--masks",
+        "--mask-attribute",
+        "mouth=_NOPE",
+        "--mask-attribute",
+        "eyes=_MASK_EYES",
+    ];
+    assert_bad_input(&bake(&glb, &layout, &rig, &missing), "masked_head.glb");
+}

@@ -66,6 +66,11 @@ pub struct BakeArgs {
         conflicts_with = "mask_sides"
     )]
     pub mask_image: Vec<String>,
+    /// With --masks: a mask's sides from a float vertex attribute of the mesh's primitive (a
+    /// glTF application-specific attribute such as `_MASK_MOUTH`: above 0.5 upper side, below
+    /// -0.5 lower, between unmasked), as `NAME=ATTRIBUTE`, once per mask.
+    #[arg(long, value_name = "NAME=ATTRIBUTE", requires = "masks", conflicts_with_all = ["mask_sides", "mask_image"])]
+    pub mask_attribute: Vec<String>,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
     /// vertex on marker displacements, or planar bones (K control triangles per vertex)
     /// (default: coefficients; weights with --masks or pbw).
@@ -296,9 +301,20 @@ fn run_surface(
         Some(path) => SideRule::VertexSets(
             read_vertex_sides(path, &groups).map_err(|e| CliError::input(path, e.to_string()))?,
         ),
-        None if !args.mask_image.is_empty() => {
-            SideRule::VertexSets(mask_images(&args.mask_image, &groups, mesh, &args.layout)?)
-        }
+        None if !args.mask_image.is_empty() => SideRule::VertexSets(named_sides(
+            "--mask-image",
+            &args.mask_image,
+            &groups,
+            &args.layout,
+            |file| image_sides(file, mesh),
+        )?),
+        None if !args.mask_attribute.is_empty() => SideRule::VertexSets(named_sides(
+            "--mask-attribute",
+            &args.mask_attribute,
+            &groups,
+            &args.layout,
+            |attr| attribute_sides(attr, mesh),
+        )?),
         None => SideRule::Auto,
     };
     let config = args.surface_config();
@@ -392,41 +408,94 @@ fn run_surface(
     Ok(ExitCode::SUCCESS)
 }
 
-/// The vertex sides of every mask from `--mask-image NAME=FILE` arguments, in `groups` order.
-fn mask_images(
+/// The vertex sides of every mask from `--mask-image NAME=FILE` or `--mask-attribute
+/// NAME=ATTRIBUTE` arguments (`flag` names which), in `groups` order: `read` turns one value into
+/// that mask's sides.
+fn named_sides(
+    flag: &str,
     args: &[String],
     groups: &[crate::io::marker_groups::MarkerGroups],
-    mesh: &FaceMesh,
     layout: &std::path::Path,
+    read: impl Fn(&str) -> Result<crate::io::marker_groups::VertexSets, CliError>,
 ) -> Result<Vec<crate::io::marker_groups::VertexSets>, CliError> {
     let mut given = std::collections::BTreeMap::new();
     for a in args {
-        let (name, file) = a.split_once('=').ok_or_else(|| {
-            CliError::input(layout, format!("--mask-image {a:?}: expected NAME=FILE"))
-        })?;
+        let (name, value) = a
+            .split_once('=')
+            .ok_or_else(|| CliError::input(layout, format!("{flag} {a:?}: expected NAME=VALUE")))?;
         if !groups.iter().any(|g| g.name == name) {
             return Err(CliError::input(
                 layout,
-                format!(
-                    "--mask-image names mask \"{name}\", which the layout's [groups] does not have"
-                ),
+                format!("{flag} names mask \"{name}\", which the layout's [groups] does not have"),
             ));
         }
-        given.insert(name.to_string(), PathBuf::from(file));
+        given.insert(name.to_string(), value.to_string());
     }
     groups
         .iter()
         .map(|g| {
-            let path = given.get(&g.name).ok_or_else(|| {
-                CliError::input(layout, format!("no --mask-image for mask \"{}\"", g.name))
+            let value = given.get(&g.name).ok_or_else(|| {
+                CliError::input(layout, format!("no {flag} for mask \"{}\"", g.name))
             })?;
-            crate::io::mask_image::read_sides(path, &mesh.positions, &mesh.triangles).map_err(|e| {
-                let text = e.to_string();
-                let prefix = format!("{}: ", path.display());
-                CliError::input(path, text.strip_prefix(&prefix).unwrap_or(&text))
-            })
+            read(value)
         })
         .collect()
+}
+
+/// A mask's sides from a mask image (see [`crate::io::mask_image`]).
+fn image_sides(
+    file: &str,
+    mesh: &FaceMesh,
+) -> Result<crate::io::marker_groups::VertexSets, CliError> {
+    let path = PathBuf::from(file);
+    crate::io::mask_image::read_sides(&path, &mesh.positions, &mesh.triangles).map_err(|e| {
+        let text = e.to_string();
+        let prefix = format!("{}: ", path.display());
+        CliError::input(&path, text.strip_prefix(&prefix).unwrap_or(&text))
+    })
+}
+
+/// A mask's sides from a per-vertex float attribute of the mesh: above ½ the upper side, below
+/// −½ the lower side, between unmasked.
+fn attribute_sides(
+    name: &str,
+    mesh: &FaceMesh,
+) -> Result<crate::io::marker_groups::VertexSets, CliError> {
+    let values = mesh.attributes.get(name).ok_or_else(|| {
+        let known: Vec<&str> = mesh.attributes.keys().map(String::as_str).collect();
+        CliError::input(
+            &mesh.source,
+            format!(
+                "mesh \"{}\" has no float vertex attribute {name:?} (it has: {})",
+                mesh.mesh_name,
+                if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                }
+            ),
+        )
+    })?;
+    let pick = |keep: &dyn Fn(f32) -> bool| {
+        values
+            .iter()
+            .enumerate()
+            .filter(|(_, &x)| keep(x))
+            .map(|(v, _)| v as u32)
+            .collect::<Vec<u32>>()
+    };
+    let (upper, lower) = (pick(&|x| x > 0.5), pick(&|x| x < -0.5));
+    if upper.is_empty() || lower.is_empty() {
+        return Err(CliError::input(
+            &mesh.source,
+            format!(
+                "vertex attribute {name:?} puts {} vertices on the upper side (> 0.5) and {} on the lower (< -0.5): a mask needs both",
+                upper.len(),
+                lower.len()
+            ),
+        ));
+    }
+    Ok((upper, lower))
 }
 
 /// With `--capture`, bake the capture stages for the `placed` markers and add them to `blob`.

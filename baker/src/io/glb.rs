@@ -117,7 +117,8 @@ impl Bin {
     }
 }
 
-/// Writes `mesh` with one morph target per frame (delta = frame − rest) as a GLB at `path`.
+/// Writes `mesh` (with its application-specific `_` attributes) with one morph target per frame
+/// (delta = frame − rest) as a GLB at `path`.
 ///
 /// Each frame is `(name, positions)` with one position per glTF vertex of `mesh`.
 pub fn write_glb_with_morphs(
@@ -158,6 +159,13 @@ pub fn write_glb_with_morphs(
         );
         attributes["NORMAL"] = json!(bin.accessor(json!({"bufferView": view,
             "componentType": FLOAT, "count": n, "type": "VEC3"})));
+    }
+    for (name, values) in &mesh.attributes {
+        if values.len() == n {
+            let view = bin.view(values.iter().map(|x| x.to_le_bytes()), Some(ARRAY_BUFFER));
+            attributes[name] = json!(bin.accessor(json!({"bufferView": view,
+                "componentType": FLOAT, "count": n, "type": "SCALAR"})));
+        }
     }
     let view = bin.view(
         mesh.triangles.iter().flatten().map(|i| i.to_le_bytes()),

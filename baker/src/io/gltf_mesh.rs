@@ -52,6 +52,9 @@ pub struct FaceMesh {
     pub welded_triangles: Vec<[u32; 3]>,
     /// Morph targets in file order.
     pub morph_targets: Vec<MorphTarget>,
+    /// Application-specific vertex attributes (glTF names starting with `_`) holding one float
+    /// per vertex, by name (e.g. `_MASK_MOUTH`); others are not read.
+    pub attributes: std::collections::BTreeMap<String, Vec<f32>>,
 }
 
 /// Failure to load a mesh: the file and what is wrong with it.
@@ -394,6 +397,28 @@ fn load(
         });
     }
 
+    let mut attributes = std::collections::BTreeMap::new();
+    for (semantic, accessor) in prim.attributes() {
+        let gltf::Semantic::Extras(name) = semantic else {
+            continue;
+        };
+        if accessor.dimensions() != gltf::accessor::Dimensions::Scalar
+            || accessor.data_type() != gltf::accessor::DataType::F32
+        {
+            continue;
+        }
+        let values: Vec<f32> = gltf::accessor::Iter::<f32>::new(accessor, |b| {
+            buffers.get(b.index()).map(|d| &d.0[..])
+        })
+        .map(|it| it.collect())
+        .unwrap_or_default();
+        let what = format!("_{name}");
+        if values.len() != vertex_count {
+            return Err(short(&what, vertex_count, values.len()));
+        }
+        attributes.insert(what, values);
+    }
+
     let (weld, welded_positions) = weld_positions(&positions);
     let welded_triangles = triangles
         .iter()
@@ -409,6 +434,7 @@ fn load(
         welded_positions,
         welded_triangles,
         morph_targets,
+        attributes,
     })
 }
 
