@@ -60,6 +60,8 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
+// Parsed once per process: the size of the largest variant (bake's options) does not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum Command {
     /// Bake a mesh and a marker layout into a rig blob (.fbk).
     #[command(after_help = EXIT_CODES)]
