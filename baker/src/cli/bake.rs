@@ -11,6 +11,7 @@ use std::ops::Range;
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
 use crate::io::capture::{read_capture_with_units, Units};
+use crate::io::control_triangles::{check_shapes, read_triangles};
 use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
 use crate::io::marker_groups::{read_groups, read_vertex_sides};
@@ -57,7 +58,8 @@ pub struct BakeArgs {
     #[arg(long, value_name = "FILE", requires = "masks")]
     pub mask_sides: Option<PathBuf>,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
-    /// vertex on marker displacements, or planar bones (K control triangles per vertex)
+    /// vertex on marker displacements, or planar bones (K control triangles per vertex; the
+    /// layout's `triangles = [["A", "B", "C"], ..]` when given, else built automatically)
     /// (default: coefficients; weights with --masks or pbw).
     #[arg(long, value_enum)]
     pub form: Option<RigForm>,
@@ -213,6 +215,9 @@ pub fn bake_layout(
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let rest: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
     let stiffness: Vec<f64> = placed.iter().map(|m| m.stiffness).collect();
+    if let Some(t) = &config.control_triangles {
+        check_shapes(&layout.source, t, &names, &rest)?;
+    }
     let baked = bake(
         &BakeInput {
             vertices: &mesh.positions,
@@ -404,7 +409,11 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     if args.surface_aware() {
         return run_surface(args, &mesh, &layout);
     }
-    let config = args.config();
+    let mut config = args.config();
+    if config.form == RigForm::Planar {
+        let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+        config.control_triangles = read_triangles(&args.layout, &names)?;
+    }
     let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
     let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
     write_file(&args.output, &blob)?;

@@ -21,6 +21,9 @@ use region::{falloff, Frame, Region, V3};
 /// Default bone radius as a multiple of the closest connected-marker distance (§4.2).
 pub const DEFAULT_RADIUS_FACTOR: f64 = 1.0;
 
+/// A control triangle whose smallest angle at rest is below this (degrees) is degenerate.
+pub const DEGENERATE_ANGLE_DEGREES: f64 = 0.5;
+
 /// The planar influences could not be baked.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanarError {
@@ -118,7 +121,7 @@ pub fn frames(markers: &[V3], triangles: &[[usize; 3]]) -> Result<Vec<Frame>, Pl
             let corners = t.map(|m| markers[m]);
             let angle = triangulate::smallest_angle_degrees(corners);
             match Frame::new(corners) {
-                Some(f) if angle >= 0.5 => Ok(f),
+                Some(f) if angle >= DEGENERATE_ANGLE_DEGREES => Ok(f),
                 _ => Err(PlanarError::DegenerateTriangle {
                     triangle: i,
                     markers: *t,
