@@ -621,4 +621,24 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
     let out = with(r#"[["Chin", "ForeHead_L", "Chin"]]"#);
     assert_bad_input(&out, "layout.toml");
     assert!(stderr(&out).contains("twice"), "{}", stderr(&out));
+
+    // Masks apply to planar bones: the same control surface, other influences.
+    let masked = dir.join("masked.fbk");
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &masked,
+        &["--form", "planar", "--masks", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["form"], "planar");
+    assert_eq!(
+        j["report"]["planar"]["triangles"].as_array().unwrap().len(),
+        auto
+    );
+    assert_ne!(
+        std::fs::read(&masked).unwrap(),
+        std::fs::read(dir.join("auto.fbk")).unwrap(),
+        "masks change which triangles the lips ride"
+    );
 }

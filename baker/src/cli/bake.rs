@@ -19,7 +19,8 @@ use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
 use crate::stages::{bake_stages, HeadMarkers, RetargetKind, StagesConfig, StagesReport};
 use crate::surface::{
-    bake_surface, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker, SurfaceReport,
+    bake_surface, planar_allowance, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker,
+    SurfaceReport,
 };
 
 /// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
@@ -134,7 +135,7 @@ pub struct BakeArgs {
 impl BakeArgs {
     /// Whether the bake needs the surface-aware path.
     pub fn surface_aware(&self) -> bool {
-        self.method != Method::Euclidean || self.masks
+        (self.method != Method::Euclidean || self.masks) && self.form != Some(RigForm::Planar)
     }
 
     /// The bake configuration: the options given, the defaults of the method for the rest.
@@ -203,12 +204,14 @@ pub struct BakeSummary {
 }
 
 /// Place `layout` on `mesh` (snapping `point` markers at most `max_snap`, default 1% of the
-/// diagonal) and bake it with `config`. Errors name the layout file.
+/// diagonal) and bake it with `config`; with `planar_masks` (planar form), apply the layout's
+/// `[groups]` masks with that side rule. Errors name the layout file.
 pub fn bake_layout(
     mesh: &FaceMesh,
     layout: &MarkerLayout,
     config: &BakeConfig,
     max_snap: Option<f64>,
+    planar_masks: Option<&SideRule>,
 ) -> Result<(Baked, Vec<PlacedMarker>), CliError> {
     let max_snap = max_snap.unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
     let placed = place_markers(layout, mesh, max_snap)?;
@@ -218,6 +221,30 @@ pub fn bake_layout(
     if let Some(t) = &config.control_triangles {
         check_shapes(&layout.source, t, &names, &rest)?;
     }
+    let allowance = match planar_masks {
+        Some(rule) => {
+            let groups = read_groups(&layout.source, &names)
+                .map_err(|e| CliError::input(&layout.source, e.to_string()))?;
+            if groups.is_empty() {
+                return Err(CliError::input(
+                    &layout.source,
+                    "--masks needs a [groups] table naming the upper and lower markers of each opening",
+                ));
+            }
+            let markers: Vec<SurfaceMarker> =
+                placed.iter().map(SurfaceMarker::from_placed).collect();
+            let input = SurfaceInput {
+                mesh,
+                markers: &markers,
+                groups: &groups,
+                sides: rule,
+            };
+            let allowance = planar_allowance(&input, &SurfaceConfig::default())
+                .map_err(|e| CliError::input(&layout.source, format!("planar masks: {e}")))?;
+            Some(allowance)
+        }
+        None => None,
+    };
     let baked = bake(
         &BakeInput {
             vertices: &mesh.positions,
@@ -225,6 +252,7 @@ pub fn bake_layout(
             marker_rest: &rest,
             stiffness: &stiffness,
             triangles: &mesh.triangles,
+            planar_masks: allowance.as_ref(),
         },
         config,
     )
@@ -414,7 +442,20 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
         config.control_triangles = read_triangles(&args.layout, &names)?;
     }
-    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
+    let sides = match &args.mask_sides {
+        Some(path) => {
+            let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+            let groups = read_groups(&args.layout, &names)
+                .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+            SideRule::VertexSets(
+                read_vertex_sides(path, &groups)
+                    .map_err(|e| CliError::input(path, e.to_string()))?,
+            )
+        }
+        None => SideRule::Auto,
+    };
+    let masks = (args.masks && config.form == RigForm::Planar).then_some(&sides);
+    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap, masks)?;
     let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
     write_file(&args.output, &blob)?;
     let mut report = baked.report;

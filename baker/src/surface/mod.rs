@@ -267,6 +267,45 @@ fn kernel_spectrum(kernel: &Kernel, between: &DMatrix<f64>) -> (f64, f64) {
     (min, mean)
 }
 
+/// The discontinuity masks of `input` for planar bones (see
+/// [`masks::marker_allowance`]): the same sides and strengths the masked RBF uses, from
+/// `config`'s geodesics, plateau and decay.
+pub fn planar_allowance(
+    input: &SurfaceInput<'_>,
+    config: &SurfaceConfig,
+) -> Result<crate::planar::MarkerAllowance, SurfaceError> {
+    let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
+    let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
+    let spacing = mean_spacing(&rest);
+    let geometry = SurfaceGeometry::new(input.mesh, &sources, config.geodesic)?;
+    let sides = mask_sides(input, config, &geometry, &rest, spacing)?;
+    Ok(masks::marker_allowance(&sides, input.mesh.positions.len()))
+}
+
+/// Every mask's sides and strengths with `config`'s plateau and decay (× `spacing`).
+fn mask_sides(
+    input: &SurfaceInput<'_>,
+    config: &SurfaceConfig,
+    geometry: &SurfaceGeometry,
+    rest: &[[f64; 3]],
+    spacing: f64,
+) -> Result<Vec<masks::MaskSides>, MaskError> {
+    masks::vertex_sides(
+        input.groups,
+        input.sides,
+        geometry,
+        rest,
+        config.mask_plateau_factor * spacing,
+        config.mask_decay_factor * spacing,
+    )
+}
+
+/// Mean nearest-marker distance.
+fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
+    let r = crate::rbf::kernel::nearest_distances(rest);
+    r.iter().sum::<f64>() / r.len().max(1) as f64
+}
+
 /// Bake a surface-aware rig.
 pub fn bake_surface(
     input: &SurfaceInput<'_>,
@@ -308,10 +347,7 @@ pub fn bake_surface(
     let names: Vec<String> = input.markers.iter().map(|m| m.name.clone()).collect();
     let stiffness: Vec<f64> = input.markers.iter().map(|m| m.stiffness).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
-    let spacing = {
-        let r = crate::rbf::kernel::nearest_distances(&rest);
-        r.iter().sum::<f64>() / r.len().max(1) as f64
-    };
+    let spacing = mean_spacing(&rest);
     let geometry = SurfaceGeometry::new(mesh, &sources, config.geodesic)?;
     let kind = match config.method {
         Method::Euclidean => DistanceKind::Euclidean,
@@ -422,14 +458,7 @@ pub fn bake_surface(
         ));
     }
     let (dense, masked_vertices) = if masked {
-        let sides = masks::vertex_sides(
-            input.groups,
-            input.sides,
-            &geometry,
-            &rest,
-            config.mask_plateau_factor * spacing,
-            config.mask_decay_factor * spacing,
-        )?;
+        let sides = mask_sides(input, config, &geometry, &rest, spacing)?;
         masks::masked_weights(
             &masks::MaskedSolve {
                 full: &system,
