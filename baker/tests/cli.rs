@@ -641,4 +641,17 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         std::fs::read(dir.join("auto.fbk")).unwrap(),
         "masks change which triangles the lips ride"
     );
+    // A surface-aware method does not apply to planar bones: refused, not ignored.
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &dir.join("geodesic.fbk"),
+        &["--form", "planar", "--method", "geodesic", "--masks"],
+    );
+    assert_bad_input(&out, "facecap_jawmocap_layout.toml");
+    assert!(
+        stderr(&out).contains("no surface-aware method"),
+        "{}",
+        stderr(&out)
+    );
 }

@@ -135,7 +135,7 @@ pub struct BakeArgs {
 impl BakeArgs {
     /// Whether the bake needs the surface-aware path.
     pub fn surface_aware(&self) -> bool {
-        (self.method != Method::Euclidean || self.masks) && self.form != Some(RigForm::Planar)
+        self.method != Method::Euclidean || (self.masks && self.form != Some(RigForm::Planar))
     }
 
     /// The bake configuration: the options given, the defaults of the method for the rest.

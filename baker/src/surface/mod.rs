@@ -180,9 +180,9 @@ pub enum SurfaceError {
     #[error(transparent)]
     Bake(#[from] BakeError),
     /// Planar bones blend control-triangle frames, not RBF distances: no surface-aware method
-    /// applies to them.
+    /// applies to them (masks do, through [`planar_allowance`]).
     #[error(
-        "planar bones take no surface-aware method: bake them with --method euclidean and no masks"
+        "planar bones take no surface-aware method: bake them with --method euclidean (masks apply with --form planar --masks)"
     )]
     PlanarForm,
 }
