@@ -93,6 +93,8 @@ pub struct BakeInput<'a> {
     /// The mesh's triangles (same vertex order as `vertices`): the planar form measures skin
     /// distances on them to keep control triangles off the mouth and eye openings.
     pub triangles: &'a [[u32; 3]],
+    /// Planar form: discontinuity masks per vertex (`None`: unmasked).
+    pub planar_masks: Option<&'a crate::planar::MarkerAllowance>,
 }
 
 /// The bake failed.
@@ -309,9 +311,12 @@ fn planar_form(
         input.vertices,
         input.triangles,
         input.marker_rest,
-        config.control_triangles.as_deref(),
-        config.k,
-        config.planar_radius,
+        &crate::planar::PlanarOptions {
+            given: config.control_triangles.as_deref(),
+            k: config.k,
+            radius_factor: config.planar_radius,
+            masks: input.planar_masks,
+        },
         |x| blob::to_rig_units(space, x),
     )?;
     let triangles = p.triangles.iter().map(|t| t.map(|m| m as u8)).collect();

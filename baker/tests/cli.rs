@@ -706,3 +706,87 @@ fn masks_from_gltf_vertex_attributes() {
     ];
     assert_bad_input(&bake(&glb, &layout, &rig, &missing), "masked_head.glb");
 }
+
+#[test]
+fn planar_bakes_take_control_triangles_from_the_layout() {
+    let dir = temp_dir("planar-triangles");
+    let text = std::fs::read_to_string(fixture("facecap_jawmocap_layout.toml")).unwrap();
+    let layout = dir.join("layout.toml");
+    let with = |triangles: &str| {
+        // A top-level key must come before the layout's tables.
+        std::fs::write(&layout, format!("triangles = {triangles}\n{text}")).unwrap();
+        bake(
+            &mesh_path(),
+            &layout,
+            &dir.join("planar.fbk"),
+            &["--form", "planar", "--json"],
+        )
+    };
+    let out = with(
+        r#"[["ForeHead_M", "ForeHead_L", "Leyebrow_M"], ["ForeHead_M", "Leyebrow_M", "Eyebrow_Center"],
+            ["Mouth_Up", "Mouth_UpL1", "NoseHead_L"], ["Mouth_Down", "Mouth_DownL", "Chin"]]"#,
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["form"], "planar");
+    assert_eq!(
+        j["report"]["planar"]["triangles"],
+        serde_json::json!([[0, 1, 3], [0, 3, 6], [28, 30, 12], [29, 34, 36]]),
+        "the layout's triangles, by marker index"
+    );
+    let blob = std::fs::read(dir.join("planar.fbk")).unwrap();
+    assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
+
+    // Without the list, the automatic control surface (many more triangles).
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &dir.join("auto.fbk"),
+        &["--form", "planar", "--json"],
+    );
+    let auto = json_ok(&out)["report"]["planar"]["triangles"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert!(auto > 4, "{auto} automatic triangles");
+
+    let out = with(r#"[["ForeHead_M", "ForeHead_L", "Leyebrow_M"], ["Mouth_Up", "Nope", "Chin"]]"#);
+    assert_bad_input(&out, "layout.toml");
+    let e = stderr(&out);
+    assert!(e.contains("triangles[1]") && e.contains("\"Nope\""), "{e}");
+    let out = with(r#"[["Chin", "ForeHead_L", "Chin"]]"#);
+    assert_bad_input(&out, "layout.toml");
+    assert!(stderr(&out).contains("twice"), "{}", stderr(&out));
+
+    // Masks apply to planar bones: the same control surface, other influences.
+    let masked = dir.join("masked.fbk");
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &masked,
+        &["--form", "planar", "--masks", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["form"], "planar");
+    assert_eq!(
+        j["report"]["planar"]["triangles"].as_array().unwrap().len(),
+        auto
+    );
+    assert_ne!(
+        std::fs::read(&masked).unwrap(),
+        std::fs::read(dir.join("auto.fbk")).unwrap(),
+        "masks change which triangles the lips ride"
+    );
+    // A surface-aware method does not apply to planar bones: refused, not ignored.
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &dir.join("geodesic.fbk"),
+        &["--form", "planar", "--method", "geodesic", "--masks"],
+    );
+    assert_bad_input(&out, "facecap_jawmocap_layout.toml");
+    assert!(
+        stderr(&out).contains("no surface-aware method"),
+        "{}",
+        stderr(&out)
+    );
+}

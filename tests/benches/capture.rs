@@ -63,6 +63,7 @@ fn hundred() -> Case {
             marker_rest: &rest,
             stiffness: &vec![1.0; names.len()],
             triangles: &truth.mesh.triangles,
+            planar_masks: None,
         },
         &BakeConfig::default(),
     )

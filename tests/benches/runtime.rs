@@ -394,6 +394,7 @@ fn synthetic_cases() -> Vec<Case> {
         marker_rest: &marker_rest,
         stiffness: &stiffness,
         triangles: &[],
+        planar_masks: None,
     };
     let configs = [4, 8]
         .into_iter()

@@ -35,6 +35,7 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
             marker_rest: &rest,
             stiffness: &stiffness,
             triangles: &truth.mesh.triangles,
+            planar_masks: None,
         },
         config,
     )
@@ -123,7 +124,7 @@ pub fn jawmocap_rig_with(
         .expect("layout reads");
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let (baked, placed) = bake_layout(&mesh, &layout, bake, None).expect("FaceCap bakes");
+    let (baked, placed) = bake_layout(&mesh, &layout, bake, None, None).expect("FaceCap bakes");
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
     let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("rig loads");
@@ -232,4 +233,40 @@ pub fn bake_scene(
         config,
     )
     .expect("surface bake succeeds")
+}
+
+/// Bake planar bones (K = `k`, automatic control surface) on the scene's markers, with the
+/// layout's lip and eyelid masks (automatic sides, the surface-aware defaults) when `masked`.
+pub fn bake_scene_planar(
+    scene: &facebake::surface::evaluate::Scene,
+    k: usize,
+    masked: bool,
+) -> Baked {
+    let allowance = masked.then(|| {
+        facebake::surface::planar_allowance(
+            &facebake::surface::SurfaceInput {
+                mesh: &scene.truth.mesh,
+                markers: &scene.markers,
+                groups: &scene.groups,
+                sides: &facebake::surface::SideRule::Auto,
+            },
+            &facebake::surface::SurfaceConfig::default(),
+        )
+        .expect("planar masks build")
+    });
+    let names: Vec<String> = scene.markers.iter().map(|m| m.name.clone()).collect();
+    let rest: Vec<[f64; 3]> = scene.markers.iter().map(|m| m.rest).collect();
+    let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
+    bake(
+        &BakeInput {
+            vertices: &scene.truth.mesh.positions,
+            marker_names: &names,
+            marker_rest: &rest,
+            stiffness: &stiffness,
+            triangles: &scene.truth.mesh.triangles,
+            planar_masks: allowance.as_ref(),
+        },
+        &planar_config(k),
+    )
+    .expect("planar bake succeeds")
 }

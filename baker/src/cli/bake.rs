@@ -11,6 +11,7 @@ use std::ops::Range;
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
 use crate::io::capture::{read_capture_with_units, Units};
+use crate::io::control_triangles::{check_shapes, read_triangles};
 use crate::io::gltf_mesh::{load_mesh, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
 use crate::io::marker_groups::{read_groups, read_vertex_sides};
@@ -18,7 +19,8 @@ use crate::rbf::KernelKind;
 use crate::sparsify::Refit;
 use crate::stages::{bake_stages, HeadMarkers, RetargetKind, StagesConfig, StagesReport};
 use crate::surface::{
-    bake_surface, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker, SurfaceReport,
+    bake_surface, planar_allowance, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker,
+    SurfaceReport,
 };
 
 /// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
@@ -72,7 +74,8 @@ pub struct BakeArgs {
     #[arg(long, value_name = "NAME=ATTRIBUTE", requires = "masks", conflicts_with_all = ["mask_sides", "mask_image"])]
     pub mask_attribute: Vec<String>,
     /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
-    /// vertex on marker displacements, or planar bones (K control triangles per vertex)
+    /// vertex on marker displacements, or planar bones (K control triangles per vertex; the
+    /// layout's `triangles = [["A", "B", "C"], ..]` when given, else built automatically)
     /// (default: coefficients; weights with --masks or pbw).
     #[arg(long, value_enum)]
     pub form: Option<RigForm>,
@@ -156,7 +159,7 @@ pub struct BakeArgs {
 impl BakeArgs {
     /// Whether the bake needs the surface-aware path.
     pub fn surface_aware(&self) -> bool {
-        self.method != Method::Euclidean || self.masks
+        self.method != Method::Euclidean || (self.masks && self.form != Some(RigForm::Planar))
     }
 
     /// The bake configuration: the options given, the defaults of the method for the rest.
@@ -225,18 +228,47 @@ pub struct BakeSummary {
 }
 
 /// Place `layout` on `mesh` (snapping `point` markers at most `max_snap`, default 1% of the
-/// diagonal) and bake it with `config`. Errors name the layout file.
+/// diagonal) and bake it with `config`; with `planar_masks` (planar form), apply the layout's
+/// `[groups]` masks with that side rule. Errors name the layout file.
 pub fn bake_layout(
     mesh: &FaceMesh,
     layout: &MarkerLayout,
     config: &BakeConfig,
     max_snap: Option<f64>,
+    planar_masks: Option<&SideRule>,
 ) -> Result<(Baked, Vec<PlacedMarker>), CliError> {
     let max_snap = max_snap.unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
     let placed = place_markers(layout, mesh, max_snap)?;
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let rest: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
     let stiffness: Vec<f64> = placed.iter().map(|m| m.stiffness).collect();
+    if let Some(t) = &config.control_triangles {
+        check_shapes(&layout.source, t, &names, &rest)?;
+    }
+    let allowance = match planar_masks {
+        Some(rule) => {
+            let groups = read_groups(&layout.source, &names)
+                .map_err(|e| CliError::input(&layout.source, e.to_string()))?;
+            if groups.is_empty() {
+                return Err(CliError::input(
+                    &layout.source,
+                    "--masks needs a [groups] table naming the upper and lower markers of each opening",
+                ));
+            }
+            let markers: Vec<SurfaceMarker> =
+                placed.iter().map(SurfaceMarker::from_placed).collect();
+            let input = SurfaceInput {
+                mesh,
+                markers: &markers,
+                groups: &groups,
+                sides: rule,
+            };
+            let allowance = planar_allowance(&input, &SurfaceConfig::default())
+                .map_err(|e| CliError::input(&layout.source, format!("planar masks: {e}")))?;
+            Some(allowance)
+        }
+        None => None,
+    };
     let baked = bake(
         &BakeInput {
             vertices: &mesh.positions,
@@ -244,6 +276,7 @@ pub fn bake_layout(
             marker_rest: &rest,
             stiffness: &stiffness,
             triangles: &mesh.triangles,
+            planar_masks: allowance.as_ref(),
         },
         config,
     )
@@ -533,8 +566,25 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     if args.surface_aware() {
         return run_surface(args, &mesh, &layout);
     }
-    let config = args.config();
-    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap)?;
+    let mut config = args.config();
+    if config.form == RigForm::Planar {
+        let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+        config.control_triangles = read_triangles(&args.layout, &names)?;
+    }
+    let sides = match &args.mask_sides {
+        Some(path) => {
+            let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
+            let groups = read_groups(&args.layout, &names)
+                .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+            SideRule::VertexSets(
+                read_vertex_sides(path, &groups)
+                    .map_err(|e| CliError::input(path, e.to_string()))?,
+            )
+        }
+        None => SideRule::Auto,
+    };
+    let masks = (args.masks && config.form == RigForm::Planar).then_some(&sides);
+    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap, masks)?;
     let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
     write_file(&args.output, &blob)?;
     let mut report = baked.report;

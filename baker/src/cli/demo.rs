@@ -175,7 +175,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     write_layout(&layout_path, &truth.layout())?;
     wrote(&layout_path, "marker layout (40 vertex anchors)");
     let layout = read_layout(&layout_path)?;
-    let (baked, _) = bake_layout(&truth.mesh, &layout, &BakeConfig::default(), None)?;
+    let (baked, _) = bake_layout(&truth.mesh, &layout, &BakeConfig::default(), None, None)?;
     let rig_path = dir.join("facecap.fbk");
     write_file(&rig_path, &baked.blob)?;
     wrote(&rig_path, "rig blob");

@@ -68,7 +68,7 @@ pub fn run(
     let mesh = load_mesh(&mesh_path, Some(MESH_NAME), None)?;
     let layout = read_layout(&layout_path)?;
     let capture = read_capture(&capture_path)?;
-    let (baked, placed) = bake_layout(&mesh, &layout, &BakeConfig::default(), None)?;
+    let (baked, placed) = bake_layout(&mesh, &layout, &BakeConfig::default(), None, None)?;
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
     let space = load_rig(&layout_path, &baked.blob)?.space();

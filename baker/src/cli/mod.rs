@@ -98,6 +98,9 @@ pub enum CliError {
     /// A layout could not be read, written or placed.
     #[error(transparent)]
     Layout(#[from] LayoutError),
+    /// A layout's control triangles are wrong.
+    #[error(transparent)]
+    Triangles(Box<crate::io::control_triangles::TrianglesError>),
     /// A capture could not be read or written.
     #[error(transparent)]
     Capture(#[from] CaptureError),
@@ -161,6 +164,12 @@ impl CliError {
             path: path.to_path_buf(),
             source,
         }
+    }
+}
+
+impl From<crate::io::control_triangles::TrianglesError> for CliError {
+    fn from(e: crate::io::control_triangles::TrianglesError) -> Self {
+        Self::Triangles(Box::new(e))
     }
 }
 

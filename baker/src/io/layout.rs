@@ -22,7 +22,8 @@
 //! - `stiffness`: a number from 1 to 9 (default 1), how firmly the marker pins the surface.
 //!
 //! An optional `groups` table names the marker groups of discontinuity masks (see
-//! [`crate::io::marker_groups`]); `read_layout` skips it.
+//! [`crate::io::marker_groups`]); `read_layout` skips it, and so the optional `triangles` list
+//! of planar bones' control triangles (see [`crate::io::control_triangles`]).
 //!
 //! Each marker has exactly one of `vertex` and `point`; no other keys are allowed. Marker
 //! names must be unique, and no two markers may sit on the same (welded) vertex or point.
@@ -258,6 +259,9 @@ struct RawLayout {
     /// Marker groups for discontinuity masks, read by [`crate::io::marker_groups`].
     #[serde(default, rename = "groups")]
     _groups: Option<serde::de::IgnoredAny>,
+    /// Control triangles of planar bones, read by [`crate::io::control_triangles`].
+    #[serde(default, rename = "triangles")]
+    _triangles: Option<serde::de::IgnoredAny>,
 }
 
 #[derive(Clone, Copy)]

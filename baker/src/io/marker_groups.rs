@@ -106,7 +106,7 @@ struct RawJsonFile {
 }
 
 /// The text of `path` and whether it is JSON (by extension; TOML otherwise).
-fn read_text(path: &Path) -> Result<(String, bool), GroupsError> {
+pub(crate) fn read_text(path: &Path) -> Result<(String, bool), GroupsError> {
     let text = std::fs::read_to_string(path).map_err(|source| GroupsError::Io {
         path: path.to_path_buf(),
         source,

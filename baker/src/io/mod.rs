@@ -1,6 +1,7 @@
 //! Readers and writers for the files the baker touches.
 
 pub mod capture;
+pub mod control_triangles;
 pub mod glb;
 pub mod gltf_mesh;
 pub mod layout;

@@ -21,6 +21,9 @@ use region::{falloff, Frame, Region, V3};
 /// Default bone radius as a multiple of the closest connected-marker distance (§4.2).
 pub const DEFAULT_RADIUS_FACTOR: f64 = 1.0;
 
+/// A control triangle whose smallest angle at rest is below this (degrees) is degenerate.
+pub const DEGENERATE_ANGLE_DEGREES: f64 = 0.5;
+
 /// The planar influences could not be baked.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanarError {
@@ -118,7 +121,7 @@ pub fn frames(markers: &[V3], triangles: &[[usize; 3]]) -> Result<Vec<Frame>, Pl
             let corners = t.map(|m| markers[m]);
             let angle = triangulate::smallest_angle_degrees(corners);
             match Frame::new(corners) {
-                Some(f) if angle >= 0.5 => Ok(f),
+                Some(f) if angle >= DEGENERATE_ANGLE_DEGREES => Ok(f),
                 _ => Err(PlanarError::DegenerateTriangle {
                     triangle: i,
                     markers: *t,
@@ -129,35 +132,56 @@ pub fn frames(markers: &[V3], triangles: &[[usize; 3]]) -> Result<Vec<Frame>, Pl
         .collect()
 }
 
-/// Per vertex, its at most `k` bones by eq 12's weight, renormalised to sum to one. A vertex
-/// within no bone's radius rides its closest bone alone (weight one), so every vertex follows
-/// the control surface (and a rigid motion of the markers moves the whole mesh rigidly).
+/// Discontinuity masks for planar bones: per vertex, the markers it may ride only partly, each
+/// with the share of eq 12's weight kept for a control triangle holding it (0: forbidden). Built
+/// from the surface-aware masks' sides by [`crate::surface::masks::marker_allowance`].
+pub type MarkerAllowance = Vec<Vec<(usize, f64)>>;
+
+/// The share of eq 12's weight vertex allowance `allowed` keeps for triangle `t`: the least
+/// over its markers.
+fn keep(allowed: &[(usize, f64)], t: &[usize; 3]) -> f64 {
+    allowed
+        .iter()
+        .filter(|(m, _)| t.contains(m))
+        .map(|&(_, k)| k)
+        .fold(1.0, f64::min)
+}
+
+/// Per vertex, its at most `k` bones by eq 12's weight (scaled by `masks`, if any),
+/// renormalised to sum to one. A vertex within no bone's radius rides its closest bone alone
+/// (weight one; the closest the masks allow, if any), so every vertex follows the control
+/// surface (and a rigid motion of the markers moves the whole mesh rigidly).
 pub fn influences(
     vertices: &[V3],
+    triangles: &[[usize; 3]],
     frames: &[Frame],
     radii: &[f64],
     k: usize,
+    masks: Option<&MarkerAllowance>,
 ) -> Vec<Vec<Influence>> {
     vertices
         .iter()
-        .map(|s| {
-            let mut all: Vec<(usize, Region, f64, f64)> = frames
+        .enumerate()
+        .map(|(v, s)| {
+            let allowed = masks.map_or(&[][..], |m| &m[v][..]);
+            let mut all: Vec<(usize, Region, f64, f64, f64)> = frames
                 .iter()
                 .zip(radii)
                 .enumerate()
                 .map(|(t, (f, &r))| {
                     let region = f.classify(s);
                     let d = f.distance(region, s);
-                    (t, region, d, falloff(d, r))
+                    let kept = keep(allowed, &triangles[t]);
+                    (t, region, d, kept * falloff(d, r), kept)
                 })
                 .collect();
             all.sort_by(|a, b| b.3.total_cmp(&a.3).then(a.2.total_cmp(&b.2)));
             if all.first().is_none_or(|a| a.3 <= 0.0) {
-                // Nothing in range: the closest bone.
-                all.sort_by(|a, b| a.2.total_cmp(&b.2));
+                // Nothing in range: the closest bone, preferring those the masks allow.
+                all.sort_by(|a, b| (a.4 <= 0.0).cmp(&(b.4 <= 0.0)).then(a.2.total_cmp(&b.2)));
                 return all
                     .first()
-                    .map(|&(triangle, region, _, _)| Influence {
+                    .map(|&(triangle, region, ..)| Influence {
                         triangle,
                         region,
                         weight: 1.0,
@@ -169,7 +193,7 @@ pub fn influences(
             all.retain(|a| a.3 > 0.0);
             let total: f64 = all.iter().map(|a| a.3).sum();
             all.into_iter()
-                .map(|(triangle, region, _, w)| Influence {
+                .map(|(triangle, region, _, w, _)| Influence {
                     triangle,
                     region,
                     weight: w / total,
@@ -260,6 +284,18 @@ pub struct PlanarBake {
     pub max_weight_rounding: f64,
 }
 
+/// What the planar bake is made of besides the mesh and markers.
+pub struct PlanarOptions<'a> {
+    /// The control triangles; `None` builds the automatic control surface.
+    pub given: Option<&'a [[usize; 3]]>,
+    /// Bones per vertex.
+    pub k: usize,
+    /// Bone radius as a multiple of the closest connected-marker distance.
+    pub radius_factor: f64,
+    /// Discontinuity masks, per vertex (see [`MarkerAllowance`]).
+    pub masks: Option<&'a MarkerAllowance>,
+}
+
 /// Bake planar bones: the control surface (`given` triangles, or the automatic one from the
 /// mesh's `vertices` and `faces`), then every vertex's influences. Positions in asset units;
 /// `to_rig` maps them to rig units, where the local coordinates are stored.
@@ -267,18 +303,29 @@ pub fn bake(
     vertices: &[V3],
     faces: &[[u32; 3]],
     markers: &[V3],
-    given: Option<&[[usize; 3]]>,
-    k: usize,
-    radius_factor: f64,
+    options: &PlanarOptions<'_>,
     to_rig: impl Fn(&V3) -> V3,
 ) -> Result<PlanarBake, PlanarError> {
+    let PlanarOptions {
+        given,
+        k,
+        radius_factor,
+        masks,
+    } = *options;
     let triangles = match given {
         Some(t) => t.to_vec(),
         None => triangulate::control_surface(vertices, faces, markers)?,
     };
     let rest_frames = frames(markers, &triangles)?;
     let radii = radii(markers, &triangles, radius_factor);
-    let all = influences(vertices, &rest_frames, &radii, usize::MAX);
+    let all = influences(
+        vertices,
+        &triangles,
+        &rest_frames,
+        &radii,
+        usize::MAX,
+        masks,
+    );
     let rig_markers: Vec<V3> = markers.iter().map(&to_rig).collect();
     let rig_frames = frames(&rig_markers, &triangles)?;
     let (mut rows, mut records, mut dropped) = (vec![], vec![], vec![]);
@@ -373,12 +420,8 @@ mod tests {
         let r = radii(&m, &tris, 1.0);
         // The closest connected marker of every corner is 1 away.
         assert_eq!(r, vec![1.0, 1.0]);
-        let rows = influences(
-            &[[0.7, 0.3, 0.0], [0.5, 0.5, 0.05], [9.0, 9.0, 9.0]],
-            &f,
-            &r,
-            8,
-        );
+        let points = [[0.7, 0.3, 0.0], [0.5, 0.5, 0.05], [0.0, 9.0, 0.0]];
+        let rows = influences(&points, &tris, &f, &r, 8, None);
         // Inside triangle 0, in R_A of 0 (weight 1) and in an edge slab of 1.
         assert_eq!(rows[0][0].triangle, 0);
         assert_eq!(rows[0][0].region, Region::Triangle);
@@ -389,6 +432,17 @@ mod tests {
         // Far away: the closest bone alone.
         assert_eq!(rows[2].len(), 1);
         assert_eq!(rows[2][0].weight, 1.0);
+        // Masks: marker 1 forbidden for the first vertex, halved for the second; the third
+        // may not ride marker 3, so its closest allowed bone is triangle 0.
+        let masks = vec![vec![(1, 0.0)], vec![(1, 0.5)], vec![(3, 0.0)]];
+        let masked = influences(&points, &tris, &f, &r, 8, Some(&masks));
+        assert!(masked[0].iter().all(|i| i.triangle == 1));
+        assert!((masked[1][0].weight - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(masked[1][0].triangle, 1);
+        assert_eq!(masked[2].len(), 1);
+        assert_eq!(masked[2][0].triangle, 0);
+        // Unmasked, the far vertex rides triangle 1 (its closest); check the test means it.
+        assert_eq!(rows[2][0].triangle, 1);
     }
 
     #[test]

@@ -223,6 +223,44 @@ pub fn vertex_sides(
         .collect()
 }
 
+/// The other side's markers of one mask at one vertex, if the mask touches it there: the
+/// markers the vertex may not see, and the mask's strength.
+fn other_side(mask: &MaskSides, v: usize) -> Option<(&[usize], f64)> {
+    let s = mask.strength[v];
+    let side = mask.side[v]?;
+    if s <= MIN_STRENGTH {
+        return None;
+    }
+    let other = match side {
+        Side::Upper => &mask.groups.lower,
+        Side::Lower => &mask.groups.upper,
+    };
+    Some((other, s))
+}
+
+/// The masks for planar bones: per vertex, each marker of another side's group with the share
+/// `1 − strength` of eq 12's weight a control triangle holding it keeps (0 at full strength, so
+/// a vertex on one side does not ride a triangle with a marker of the other side).
+pub fn marker_allowance(
+    masks: &[MaskSides],
+    vertex_count: usize,
+) -> crate::planar::MarkerAllowance {
+    (0..vertex_count)
+        .map(|v| {
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            for (other, s) in masks.iter().filter_map(|m| other_side(m, v)) {
+                for &m in other {
+                    match row.iter_mut().find(|e| e.0 == m) {
+                        Some(e) => e.1 = e.1.min(1.0 - s),
+                        None => row.push((m, 1.0 - s)),
+                    }
+                }
+            }
+            row
+        })
+        .collect()
+}
+
 /// What a masked solve needs besides the sides: the system over every marker and the inputs
 /// to rebuild it over a subset.
 pub struct MaskedSolve<'a> {
@@ -269,14 +307,8 @@ pub fn masked_weights(
         let mut strength = 0.0f64;
         let mut name = "";
         for mask in masks {
-            let s = mask.strength[v];
-            let Some(side) = mask.side[v] else { continue };
-            if s <= MIN_STRENGTH {
+            let Some((other, s)) = other_side(mask, v) else {
                 continue;
-            }
-            let other = match side {
-                Side::Upper => &mask.groups.lower,
-                Side::Lower => &mask.groups.upper,
             };
             for &m in other {
                 excluded[m] = true;

@@ -180,9 +180,9 @@ pub enum SurfaceError {
     #[error(transparent)]
     Bake(#[from] BakeError),
     /// Planar bones blend control-triangle frames, not RBF distances: no surface-aware method
-    /// applies to them.
+    /// applies to them (masks do, through [`planar_allowance`]).
     #[error(
-        "planar bones take no surface-aware method: bake them with --method euclidean and no masks"
+        "planar bones take no surface-aware method: bake them with --method euclidean (masks apply with --form planar --masks)"
     )]
     PlanarForm,
 }
@@ -275,15 +275,22 @@ pub fn mask_sides(
 ) -> Result<Vec<masks::MaskSides>, SurfaceError> {
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
-    let spacing = {
-        let r = crate::rbf::kernel::nearest_distances(&rest);
-        r.iter().sum::<f64>() / r.len().max(1) as f64
-    };
     let geometry = SurfaceGeometry::new(input.mesh, &sources, config.geodesic)?;
-    sides_of(input, config, &geometry, &rest, spacing)
+    sides_of(input, config, &geometry, &rest, mean_spacing(&rest))
 }
 
-/// The masks' sides with the plateau and decay of `config`, scaled by the marker `spacing`.
+/// The discontinuity masks of `input` for planar bones (see
+/// [`masks::marker_allowance`]): the same sides and strengths the masked RBF uses, from
+/// `config`'s geodesics, plateau and decay.
+pub fn planar_allowance(
+    input: &SurfaceInput<'_>,
+    config: &SurfaceConfig,
+) -> Result<crate::planar::MarkerAllowance, SurfaceError> {
+    let sides = mask_sides(input, config)?;
+    Ok(masks::marker_allowance(&sides, input.mesh.positions.len()))
+}
+
+/// Every mask's sides and strengths with `config`'s plateau and decay (× `spacing`).
 fn sides_of(
     input: &SurfaceInput<'_>,
     config: &SurfaceConfig,
@@ -299,6 +306,12 @@ fn sides_of(
         config.mask_plateau_factor * spacing,
         config.mask_decay_factor * spacing,
     )?)
+}
+
+/// Mean nearest-marker distance.
+fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
+    let r = crate::rbf::kernel::nearest_distances(rest);
+    r.iter().sum::<f64>() / r.len().max(1) as f64
 }
 
 /// Bake a surface-aware rig.
@@ -342,10 +355,7 @@ pub fn bake_surface(
     let names: Vec<String> = input.markers.iter().map(|m| m.name.clone()).collect();
     let stiffness: Vec<f64> = input.markers.iter().map(|m| m.stiffness).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
-    let spacing = {
-        let r = crate::rbf::kernel::nearest_distances(&rest);
-        r.iter().sum::<f64>() / r.len().max(1) as f64
-    };
+    let spacing = mean_spacing(&rest);
     let geometry = SurfaceGeometry::new(mesh, &sources, config.geodesic)?;
     let kind = match config.method {
         Method::Euclidean => DistanceKind::Euclidean,
