@@ -697,7 +697,7 @@ pub fn bake_stages(
 
 /// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in
 /// rig marker order.
-fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
+pub(crate) fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
     let complete: Vec<Vec<[f64; 3]>> = capture
         .frames
         .iter()

@@ -57,12 +57,7 @@ impl<'a> Case<'a> {
 /// The three bakes and the jaw-open frame's markers (asset units).
 fn bakes() -> (Vec<(&'static str, Baked)>, Vec<[f64; 3]>) {
     let truth = facecap_truth();
-    let frame = truth
-        .frames
-        .iter()
-        .position(|f| f.name == "jaw open")
-        .expect("the FaceCap sequence has a jaw-open frame");
-    let markers = truth.markers_of(&truth.positions(frame));
+    let markers = truth.markers_of(&truth.positions(facebake_tests::jaw_open_frame(&truth)));
     let configs: [(&str, BakeConfig); 3] = [
         ("planar_k8", planar_config(8)),
         ("weights_k8", weights_config()),

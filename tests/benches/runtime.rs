@@ -342,12 +342,7 @@ fn form_name(form: RigForm) -> &'static str {
 /// The FaceCap bakes, both forms at K = 8 and K = 4, fed the "jaw open" frame.
 fn facecap_cases() -> Vec<Case> {
     let truth = facecap_truth();
-    let frame = truth
-        .frames
-        .iter()
-        .position(|f| f.name == "jaw open")
-        .expect("the FaceCap sequence has a jaw-open frame");
-    let markers = truth.markers_of(&truth.positions(frame));
+    let markers = truth.markers_of(&truth.positions(facebake_tests::jaw_open_frame(&truth)));
     let configs = [8, 4]
         .into_iter()
         .flat_map(|k| [weights_at(k), coefficients_at(k)]);

@@ -123,12 +123,7 @@ fn main() {
 fn diagnose(scene: &facebake::surface::evaluate::Scene, blob: &[u8]) {
     let rig = facebake_runtime::Rig::from_bytes(blob).unwrap();
     let space = rig.space();
-    let f = scene
-        .truth
-        .frames
-        .iter()
-        .position(|f| f.name == "jaw open")
-        .unwrap();
+    let f = facebake_tests::jaw_open_frame(&scene.truth);
     let t = scene.truth.positions(f);
     let q: Vec<[i32; 3]> = scene
         .markers_of(&t)

@@ -42,6 +42,15 @@ pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
     .expect("bake succeeds")
 }
 
+/// Index of the ground truth's "jaw open" frame, the frame the benches feed their rigs.
+pub fn jaw_open_frame(truth: &GroundTruth) -> usize {
+    truth
+        .frames
+        .iter()
+        .position(|f| f.name == "jaw open")
+        .expect("the FaceCap sequence has a jaw-open frame")
+}
+
 /// The FaceCap truth and its default bake, built once per test binary.
 pub fn facecap_default() -> &'static (GroundTruth, Baked) {
     static CELL: std::sync::OnceLock<(GroundTruth, Baked)> = std::sync::OnceLock::new();

@@ -105,12 +105,8 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             Ok(sum)
         })
         .collect::<Result<_, CliError>>()?;
-    let complete: Vec<Vec<[f64; 3]>> = capture
-        .frames
-        .iter()
-        .filter_map(|f| f.iter().copied().collect::<Option<Vec<_>>>())
-        .step_by(capture.frame_count().div_ceil(600).max(1))
-        .collect();
+    let all: Vec<usize> = (0..n).collect();
+    let complete = crate::stages::complete_sample(&capture, &all);
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
             .iter()

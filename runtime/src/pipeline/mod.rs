@@ -445,11 +445,10 @@ impl<'a> Stages<'a> {
             };
             let a = fit.compensate(*p);
             let d = [0, 1, 2].map(|c| i64::from(a[c]) - i64::from(u[c]));
-            let sq: i64 = d
-                .iter()
-                .map(|v| v.clamp(&-limit, &limit) * v.clamp(&-limit, &limit))
-                .sum();
-            if d.iter().any(|v| v.abs() > limit) || sq > limit * limit {
+            // The squares are only formed once every |d| ≤ limit ≤ 2^30: below 2^62 in all.
+            let far = d.iter().any(|v| v.abs() > limit)
+                || d.iter().map(|v| v * v).sum::<i64>() > limit * limit;
+            if far {
                 present.remove(j);
                 report.rejected.insert(j);
             } else {
@@ -482,12 +481,14 @@ impl<'a> Stages<'a> {
             }
         }
 
-        for (j, o) in out.iter_mut().enumerate().take(markers) {
-            let u = self.neutral(j).unwrap_or([0; 3]);
-            let a = [0, 1, 2].map(|c| u[c].saturating_add(displacement[j][c]));
+        for (j, (o, d)) in out.iter_mut().zip(&displacement).enumerate().take(markers) {
             *o = match &self.retarget {
-                RetargetForm::Rbf(r) => retarget::map(r, self.actor_neutral.0, a),
-                RetargetForm::PerMarker(p) => retarget::per_marker(p, j, displacement[j]),
+                RetargetForm::Rbf(r) => {
+                    let u = self.neutral(j).unwrap_or([0; 3]);
+                    let a = [0, 1, 2].map(|c| u[c].saturating_add(d[c]));
+                    retarget::map(r, self.actor_neutral.0, a)
+                }
+                RetargetForm::PerMarker(p) => retarget::per_marker(p, j, *d),
             };
         }
         report
