@@ -37,8 +37,8 @@
 //!
 //! * `format`: makes the format internals public, for the baker that writes blobs, the tests
 //!   and the firmware harness: the modules `format` (sections, records, header writer),
-//!   `deformer` and `stages` (section types), `fixed` and `checksum`, and [`Rig::data`],
-//!   [`Rig::deformer`], [`Rig::stages`], [`Rig::weight_frac_bits`]. A player needs none of it.
+//!   `deformer` and `stages` (section types), `fixed` and `checksum`, and `Rig::data`,
+//!   `Rig::deformer`, `Rig::stages`, `Rig::weight_frac_bits`. A player needs none of it.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]

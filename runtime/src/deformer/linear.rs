@@ -7,7 +7,7 @@
 //!
 //! # Why it cannot overflow, and why it fits 16-bit lanes
 //!
-//! The loader guarantees Σ_k |w[v,k]| ≤ 2¹⁵ − 1 for every vertex (so every weight is an `i16`)
+//! The loader guarantees `Σ_k |w[v,k]| ≤ 2¹⁵ − 1` for every vertex (so every weight is an `i16`)
 //! and F ≤ 14. Split a displacement into 16-bit halves, `d = hi · 2¹⁶ + lo` with `lo = d as i16`
 //! (signed) and `hi = (d − lo) >> 16`. With |d| ≤ 2^(15+F): |lo| ≤ 2¹⁵ and |hi| ≤ 2^(F−1), both
 //! `i16`. Then
@@ -25,7 +25,7 @@
 //!
 //! Two implementations compute exactly this integer, so their outputs are bit for bit equal:
 //!
-//! * [`portable`]: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
+//! * `portable`: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
 //!   and axis; one `SMLAL` on a Cortex-M4);
 //! * `sse2` (x86-64): the halves of every marker's displacement in one 128-bit table entry; two
 //!   influences at a time, their halves are interleaved (`punpcklwd`/`punpckhwd`) and multiplied by

@@ -1,6 +1,7 @@
 //! The deformers: the per-frame routines that move the vertices with the markers, one module
 //! each. A deformer's module owns its section type (what the blob stores), its validation, its
-//! cost and its per-frame `deform`, all with the one signature shape of [`DeformerSection`].
+//! cost and its per-frame `deform`, all with the one signature shape of the crate-private trait `DeformerSection`
+//! (`deformer/contract.rs`).
 //! [`Deformer`] is the blob's choice of deformer and dispatches to it: one arm per deformer per
 //! operation, here and nowhere else.
 //!
@@ -8,7 +9,7 @@
 //! * [`rbf`]: per-frame RBF coefficients, then K radial terms per vertex plus an affine part;
 //! * [`planar`]: planar bones, per-frame frames of marker triangles (paper 000 §4.1–4.2).
 //!
-//! A new deformer is a new module implementing [`DeformerSection`] and a variant here (appended:
+//! A new deformer is a new module implementing `DeformerSection` and a variant here (appended:
 //! the variant index is the blob's encoding).
 
 mod contract;

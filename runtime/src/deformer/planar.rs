@@ -7,7 +7,7 @@
 //!    e_i = V_{i+1} − V_i (Q8.24, saturated to ±2³⁰, i.e. 64 rig units: the mesh spans ±1),
 //!    the unit normal
 //!    n = unit(e₀ × (V₂ − V₀)) and the unit in-plane edge normals u_i = unit(e_i × n), both Q1.30
-//!    from [`normalize3`] (each component within 2 LSB of the exact unit vector). The cross
+//!    from `sqrt::normalize3` (each component within 2 LSB of the exact unit vector). The cross
 //!    products are taken on the edges shifted right until every component is below 2³⁰, so
 //!    they fit `i64` whatever the marker positions; the shift only drops low bits of large
 //!    edges (a relative change below 2⁻³⁰).

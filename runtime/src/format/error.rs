@@ -1,8 +1,8 @@
 //! Why a byte string is not a loadable rig: [`LoadError`], with [`StagesLoadError`] for the
 //! capture stages section. Both implement [`core::error::Error`].
 //!
-//! Depends only on the leaves [`crate::fixed`] and [`crate::format::records`] (for the bounds
-//! its messages state), so every module that validates a section can use it.
+//! Depends only on the leaves `fixed` and `format::records` (for the bounds its messages state),
+//! so every module that validates a section can use it.
 
 use crate::fixed::{
     LINEAR_WEIGHT_ABS_SUM_MAX, MAX_INFLUENCES, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS,
@@ -25,7 +25,7 @@ pub enum LoadError {
         /// Bytes after the end of the payload.
         extra: usize,
     },
-    /// The first eight bytes are not [`MAGIC`].
+    /// The first eight bytes are not `MAGIC`.
     BadMagic,
     /// A format version this crate does not read.
     UnsupportedVersion {
@@ -41,18 +41,18 @@ pub enum LoadError {
         /// CRC of the payload.
         computed: u32,
     },
-    /// The payload is not a postcard-encoded [`RigData`].
+    /// The payload is not a postcard-encoded `RigData`.
     Malformed,
     /// The payload decodes but leaves bytes unread.
     PayloadTrailingBytes,
     /// `space` holds a non-finite value or a non-positive half extent.
     BadSpace,
-    /// `marker_count` is 0 or above [`MAX_MARKERS`].
+    /// `marker_count` is 0 or above `MAX_MARKERS`.
     BadMarkerCount {
         /// The count in the blob.
         found: u16,
     },
-    /// `max_influences` is 0 or above [`MAX_INFLUENCES`].
+    /// `max_influences` is 0 or above `MAX_INFLUENCES`.
     BadMaxInfluences {
         /// The value in the blob.
         found: u8,
@@ -109,13 +109,13 @@ pub enum LoadError {
     },
     /// The capture stages are invalid.
     Stages(StagesLoadError),
-    /// A vertex's linear weights have Σ|w| above [`LINEAR_WEIGHT_ABS_SUM_MAX`], the bound the
+    /// A vertex's linear weights have Σ|w| above `LINEAR_WEIGHT_ABS_SUM_MAX`, the bound the
     /// linear deformer's 32-bit sums rest on.
     WeightsTooLarge {
         /// The vertex.
         vertex: usize,
     },
-    /// A planar rig has no control triangle or more than [`MAX_TRIANGLES`].
+    /// A planar rig has no control triangle or more than `MAX_TRIANGLES`.
     BadTriangleCount {
         /// The count in the blob.
         found: u16,
@@ -261,7 +261,7 @@ pub enum StagesLoadError {
         /// Bytes the section has.
         found: usize,
     },
-    /// An actor neutral coordinate lies beyond ±[`NEUTRAL_LIMIT`].
+    /// An actor neutral coordinate lies beyond ±`NEUTRAL_LIMIT`.
     NeutralOutOfRange {
         /// The marker.
         marker: usize,
@@ -270,24 +270,24 @@ pub enum StagesLoadError {
     BadHeadMarkers,
     /// Anchors: an index out of range, not ascending, a head marker, or one with fill neighbours.
     BadAnchors,
-    /// `max_displacement` is not in (0, [`INPUT_LIMIT`]].
+    /// `max_displacement` is not in (0, `INPUT_LIMIT`].
     BadMaxDisplacement,
     /// A fill neighbour names a missing marker or the marker itself, or has a negative weight.
     BadFillNeighbour {
         /// The marker being rebuilt.
         marker: usize,
     },
-    /// A retarget radius is not in (0, [`NEUTRAL_LIMIT`]].
+    /// A retarget radius is not in (0, `NEUTRAL_LIMIT`].
     BadRadius {
         /// The marker.
         marker: usize,
     },
-    /// A retarget coefficient is beyond ±[`ALPHA_LIMIT`].
+    /// A retarget coefficient is beyond ±`ALPHA_LIMIT`.
     AlphaOutOfRange {
         /// The marker.
         marker: usize,
     },
-    /// `alpha_shift` above [`MAX_ALPHA_SHIFT`] or `linear_shift` outside [`LINEAR_SHIFTS`].
+    /// `alpha_shift` above `MAX_ALPHA_SHIFT` or `linear_shift` outside `LINEAR_SHIFTS`.
     BadShift,
 }
 

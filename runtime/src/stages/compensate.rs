@@ -11,7 +11,7 @@
 //! [`SQUARINGS`] repeated squarings A ← A² (each renormalised by a power of two) raise A to the
 //! power 2³²: every other direction shrinks by (λ₂/λ₁)^(2³²). Any column of the result is then
 //! the eigenvector up to scale; the one with the largest diagonal entry is taken and normalised
-//! ([`crate::sqrt::normalize`]). No loop depends on the data; the cost is fixed.
+//! (`sqrt::normalize`). No loop depends on the data; the cost is fixed.
 //!
 //! Formats: positions Q8.24 (actor units), centred coordinates clamped to ±2²⁸ (16 units: a head
 //! is at most a few units across), S in `i64` (at most 32 products below 2⁵⁶), N and A
@@ -25,7 +25,7 @@ use crate::sqrt::{isqrt_u64, normalize, UNIT_FRAC_BITS};
 
 /// Most head markers a rig may name.
 pub const MAX_HEAD_MARKERS: usize = 32;
-/// Fewest head markers a rig may name when it names any: a rigid fit needs three.
+/// Fewest head markers a rig may name when it names any, and a rigid fit needs: three.
 const MIN_HEAD_MARKERS: usize = 3;
 
 /// Check the `head_markers` section: `u8` indices below `markers`, strictly ascending; none (no
@@ -205,7 +205,7 @@ impl HeadPairs {
     /// The least-squares rigid motion carrying the neutral points onto the current ones.
     pub fn fit(&self) -> Result<RigidFit, FitFailure> {
         let n = self.len;
-        if n < 3 {
+        if n < MIN_HEAD_MARKERS {
             return Err(FitFailure::TooFew);
         }
         let cn = centroid(&self.neutral[..n]);

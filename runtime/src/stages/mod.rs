@@ -57,7 +57,7 @@ pub struct Stages<'a> {
     /// Largest plausible displacement of a compensated marker from its neutral position,
     /// Q8.24 actor units, in (0, [`INPUT_LIMIT`]].
     pub max_displacement: i32,
-    /// Per marker, [`FILL_NEIGHBOURS`] packed words (neighbour index, Q8.16 weight ≥ 0; weight 0
+    /// Per marker, [`FILL_NEIGHBOURS`](crate::format::records::FILL_NEIGHBOURS) packed words (neighbour index, Q8.16 weight ≥ 0; weight 0
     /// marks an unused slot), `u32` LE.
     #[serde(borrow)]
     pub fill: Bytes<'a>,

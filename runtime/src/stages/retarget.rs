@@ -20,7 +20,7 @@
 //! |---|---|---|
 //! | a, uᵢ | Q8.24 actor units | \|a\| ≤ 2³⁰ (input limit), \|uᵢ\| ≤ 2²⁶ and 0 < rᵢ ≤ 2²⁶ (loader) |
 //! | ‖a − uᵢ‖² + rᵢ² | `u64`, Q16.48 | below 3 · 2⁶² + 2⁵² < 2⁶⁴ |
-//! | φ̃ᵢ | Q0.30 from [`crate::sqrt::rsqrt_u64`] | ≤ 2³⁰ (+ rounding) |
+//! | φ̃ᵢ | Q0.30 from `sqrt::rsqrt_u64` | ≤ 2³⁰ (+ rounding) |
 //! | α̃ᵢ | `i32`, scale 2^−`alpha_shift` | \|q\| < 2²³ (loader): 256 terms stay below 2⁶¹ |
 //! | L | `i32`, scale 2^−`linear_shift` | any `i32`: three products with \|a\| ≤ 2³⁰ stay below 2⁶³ |
 //! | b, f(a) | Q8.24 character rig units | saturated at the `i32` range |
