@@ -30,8 +30,10 @@
 //! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
 //! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |
 //!
-//! Imports only go down this table's dependency order (`cost`, `fixed`, `format/records` and
-//! `format/error` are leaves or near-leaves); there are no cycles between modules.
+//! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
+//! crate; `format/records` imports only `fixed`, `format/error` only `fixed` and `records`; the
+//! deformers and the stages build on those; `format` (the payload) imports the deformers and the
+//! stages; `rig` sits on top. `.ci/module-cycles.sh` checks the graph in CI.
 //!
 //! # Features
 //!

@@ -274,7 +274,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                         Retarget::Rbf(_) => "RBF",
                         Retarget::Proportional(_) => "proportional",
                     },
-                    c.retarget_radial_functions,
+                    c.retarget_kernels,
                     c.retarget_multiply_adds
                 ),
             }

