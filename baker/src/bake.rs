@@ -335,7 +335,7 @@ fn planar_form(
             triangles,
             rows: p.records,
         },
-        frac_bits: facebake_runtime::format::PLANAR_WEIGHT_FRAC_BITS,
+        frac_bits: facebake_runtime::deformer::planar::PLANAR_WEIGHT_FRAC_BITS,
         dropped: p.dropped,
         rounding: p.max_weight_rounding,
         matrix_rounding: 0.0,

@@ -1,10 +1,15 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
-use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, PlanarBones, PlanarInfluence, RbfCoefficients,
-    RigData, Space, MAX_MARKERS,
-};
-use facebake_runtime::pipeline::{PerMarker, Retarget, RetargetForm, Stages};
+use facebake_runtime::deformer::linear::LinearDeformer;
+use facebake_runtime::deformer::planar::{self, PlanarDeformer, PlanarInfluence};
+use facebake_runtime::deformer::rbf::RbfDeformer;
+use facebake_runtime::deformer::Deformer;
+use facebake_runtime::format::header::header_for;
+use facebake_runtime::format::records::{Bytes, MAX_MARKERS, PLANAR_INFLUENCE_BYTES};
+use facebake_runtime::format::{self, RigData};
+use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Retarget};
+use facebake_runtime::stages::Stages;
+use facebake_runtime::Space;
 
 use crate::stages::StagesBytes;
 
@@ -169,7 +174,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
                 .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
                 .collect::<Result<Vec<u8>, _>>()?;
             words = le_words(rows);
-            Deformer::Linear(LinearInfluences {
+            Deformer::Linear(LinearDeformer {
                 weight_frac_bits: *weight_frac_bits,
                 max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
                 influence_counts: Bytes(&counts),
@@ -193,7 +198,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
             words = le_words(rows);
             shifts = row_shifts.clone();
             matrix = m.iter().flat_map(|q| q.to_le_bytes()).collect::<Vec<u8>>();
-            Deformer::RbfCoefficients(RbfCoefficients {
+            Deformer::Rbf(RbfDeformer {
                 influences_per_vertex: *k,
                 weight_frac_bits: *weight_frac_bits,
                 affine: *affine,
@@ -209,15 +214,15 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
                 .collect::<Result<Vec<u8>, _>>()?;
             let mut w = Vec::new();
             for r in rows.iter().flatten() {
-                let b = format::write_planar_influence(r).ok_or_else(|| {
+                let b = planar::write_planar_influence(r).ok_or_else(|| {
                     BlobError::Limits(format!("control triangle {} out of range", r.triangle))
                 })?;
                 w.extend_from_slice(&b);
             }
             words = w;
-            record_bytes = format::PLANAR_INFLUENCE_BYTES;
+            record_bytes = PLANAR_INFLUENCE_BYTES;
             tris = triangles.iter().flatten().copied().collect::<Vec<u8>>();
-            Deformer::PlanarBones(PlanarBones {
+            Deformer::Planar(PlanarDeformer {
                 max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
                 triangle_count: u16::try_from(triangles.len())
                     .map_err(|_| BlobError::Limits("too many control triangles".into()))?,
@@ -240,7 +245,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
     };
     let payload = postcard::to_allocvec(&data)?;
     let header =
-        format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
+        header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
     let mut blob = header.to_vec();
     blob.extend_from_slice(&payload);
     let sizes = BlobSizes {
@@ -255,8 +260,8 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
 /// A sealed blob with the capture stages `stages` added (or replaced): the rig is decoded through
 /// the runtime's own loader, so `blob` must be a valid rig.
 pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
-    let payload =
-        format::open(blob).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    let payload = format::header::open(blob)
+        .map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
     let mut data =
         format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
     data.stages = Some(Stages {
@@ -267,12 +272,12 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
         fill: Bytes(&stages.fill),
         anchors: Bytes(&stages.anchors),
         retarget: match &stages.proportional {
-            Some((shift, matrices, rest)) => RetargetForm::PerMarker(PerMarker {
+            Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,
                 matrices: Bytes(matrices),
                 rest: Bytes(rest),
             }),
-            None => RetargetForm::Rbf(Retarget {
+            None => Retarget::Rbf(RbfRetarget {
                 radii: Bytes(&stages.radii),
                 alpha_shift: stages.alpha_shift,
                 alpha: Bytes(&stages.alpha),
@@ -284,7 +289,7 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
     });
     let payload = postcard::to_allocvec(&data)?;
     let header =
-        format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
+        header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
     let mut out = header.to_vec();
     out.extend_from_slice(&payload);
     // The stages must pass the runtime's own checks too.

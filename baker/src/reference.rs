@@ -5,8 +5,9 @@
 //! * [`SparseF64`]: the baked rig evaluated in f64 from the blob's own (quantised) numbers, so the
 //!   runtime's fixed-point arithmetic can be compared with exact arithmetic on identical data.
 
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::POS_FRAC_BITS;
-use facebake_runtime::format::{read_influence, Deformer, INFLUENCE_BYTES};
+use facebake_runtime::format::records::{read_influence, INFLUENCE_BYTES};
 use facebake_runtime::{Rig, Space};
 
 use crate::rbf::RbfSystem;
@@ -104,7 +105,7 @@ impl SparseF64 {
                 ),
                 None,
             ),
-            Deformer::RbfCoefficients(r) => {
+            Deformer::Rbf(r) => {
                 let k = usize::from(r.influences_per_vertex);
                 let rows =
                     dequantise_rows(r.influences.0, (0..rig.vertex_count()).map(|_| k), scale);
@@ -123,7 +124,7 @@ impl SparseF64 {
                     .collect();
                 (rows, Some((matrix, r.affine)))
             }
-            Deformer::PlanarBones(_) => (Vec::new(), None),
+            Deformer::Planar(_) => (Vec::new(), None),
         };
         Self {
             space: rig.space(),

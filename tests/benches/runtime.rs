@@ -40,8 +40,9 @@ use criterion::{Criterion, Throughput};
 use facebake::bake::{bake, BakeConfig, BakeInput, Baked, RigForm};
 use facebake::ground_truth::SplitMix64;
 use facebake::mesh::farthest_point_sampling;
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
-use facebake_runtime::format::{Deformer, MAX_MARKERS};
+use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, weights_config};
 
