@@ -238,6 +238,7 @@ pub fn bake_scene(
             markers: &scene.markers,
             groups: &scene.groups,
             sides: &facebake::surface::SideRule::Auto,
+            head: &[],
         },
         config,
     )
@@ -258,6 +259,7 @@ pub fn bake_scene_planar(
                 markers: &scene.markers,
                 groups: &scene.groups,
                 sides: &facebake::surface::SideRule::Auto,
+                head: &[],
             },
             &facebake::surface::SurfaceConfig::default(),
         )

@@ -107,6 +107,7 @@ fn masks_need_the_weights_form() {
             markers: &scene().markers,
             groups: &scene().groups,
             sides: &facebake::surface::SideRule::Auto,
+            head: &[],
         },
         &c,
     )
@@ -164,6 +165,7 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
             markers: &scene().markers,
             groups: &scene().groups,
             sides: &facebake::surface::SideRule::VertexSets(sets),
+            head: &[],
         },
         &c,
     )
@@ -184,6 +186,7 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
             markers: &scene().markers,
             groups: &scene().groups,
             sides: &bad,
+            head: &[],
         },
         &c,
     )
@@ -207,6 +210,7 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         markers: &s.markers,
         groups: &s.groups,
         sides,
+        head: &[],
     };
     let mut c = euclidean();
     c.bake.form = RigForm::Weights;

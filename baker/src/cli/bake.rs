@@ -46,9 +46,15 @@ pub struct BakeArgs {
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
     /// half with a global multiquadric RBF; weights form). Geodesic, hybrid and pbw default to
-    /// the exponential kernel with width factor 1 (pbw: the multiquadric's width).
-    #[arg(long, value_enum, default_value_t = Method::Euclidean)]
+    /// the exponential kernel with width factor 1.5 (pbw: the multiquadric's width).
+    /// Default: geodesic, in the weights form with static anchoring.
+    #[arg(long, value_enum, default_value_t = Method::Geodesic)]
     pub method: Method,
+    /// Leave out static anchoring (weights form): by default the skin beyond the markers' hull
+    /// above the mouth (cranium, back of the head, ears) follows the head markers instead of
+    /// being dragged by the face's motion.
+    #[arg(long)]
+    pub no_anchoring: bool,
     /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
     /// side of an opening may not move the other side. Masks need the weights form, the
     /// default with --masks.
@@ -193,6 +199,11 @@ impl BakeArgs {
             method: self.method,
             masks: self.masks,
             bake: self.config(),
+            anchoring_margin_factor: if self.no_anchoring {
+                None
+            } else {
+                SurfaceConfig::default().anchoring_margin_factor
+            },
             ..SurfaceConfig::default()
         }
     }
@@ -262,6 +273,7 @@ pub fn bake_layout(
                 markers: &markers,
                 groups: &groups,
                 sides: rule,
+                head: &[],
             };
             let allowance = planar_allowance(&input, &SurfaceConfig::default())
                 .map_err(|e| CliError::input(&layout.source, format!("planar masks: {e}")))?;
@@ -357,6 +369,7 @@ fn run_surface(
             markers: &markers,
             groups: &groups,
             sides: &sides,
+            head: &[],
         },
         &config,
     )

@@ -75,6 +75,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
             markers: &markers,
             groups: &groups,
             sides: &SideRule::Auto,
+            head: &[],
         },
         &SurfaceConfig::default(),
     )

@@ -18,6 +18,7 @@
 //! zero plus a margin ([`RIDGE_MARGIN`]). With the affine term the system then stays solvable;
 //! the ridge relaxes interpolation of the markers by about the same relative amount.
 
+pub mod anchoring;
 pub mod distances;
 pub mod evaluate;
 pub mod geometry;
@@ -98,22 +99,26 @@ pub struct SurfaceConfig {
     /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
     /// the kernel block positive semi-definite, plus [`RIDGE_MARGIN`] when it is not.
     pub ridge: Option<f64>,
+    /// Static anchoring (weights form): the skin beyond the markers' hull follows the head
+    /// markers over this distance, × mean marker spacing ([`anchoring`]); `None`: off.
+    pub anchoring_margin_factor: Option<f64>,
 }
 
 impl Default for SurfaceConfig {
-    /// Geodesic distances (heat method) with the exponential kernel `exp(−r/c)` (the thesis'
-    /// eq 2.3a; its geodesic kernel matrix stays positive definite on FaceCap where the
-    /// Gaussian's does not), c = the mean marker spacing, affine term, K = 8, in coefficient
-    /// form; no masks (they need the weights form). Hybrid region and decay: 0.5 × spacing;
-    /// masks at full strength within 0.5 × spacing of the opening, fading over 1 × spacing.
+    /// The bake's default: geodesic distances (heat method) with the exponential kernel
+    /// `exp(−r/c)` (the thesis' eq 2.3a; its geodesic kernel matrix stays positive definite on
+    /// FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing, affine term,
+    /// K = 8, in the weights form with static anchoring over 0.8 × spacing ([`anchoring`]); no
+    /// masks. Hybrid region and decay: 0.5 × spacing; masks at full strength within 0.5 ×
+    /// spacing of the opening, fading over 1 × spacing.
     fn default() -> Self {
         Self {
             method: Method::Geodesic,
             geodesic: GeodesicMethod::Heat,
             bake: BakeConfig {
-                form: RigForm::Coefficients,
+                form: RigForm::Weights,
                 kernel: KernelKind::Exponential,
-                width_factor: 1.0,
+                width_factor: 1.5,
                 ..BakeConfig::default()
             },
             masks: false,
@@ -123,6 +128,7 @@ impl Default for SurfaceConfig {
             mask_decay_factor: 1.0,
             pbw_alpha: 0.5,
             ridge: None,
+            anchoring_margin_factor: Some(0.8),
         }
     }
 }
@@ -165,6 +171,8 @@ pub struct SurfaceInput<'a> {
     pub groups: &'a [MarkerGroups],
     /// How vertex sides are found.
     pub sides: &'a SideRule,
+    /// Head markers that anchored skin follows (empty: the three highest markers).
+    pub head: &'a [usize],
 }
 
 /// A surface-aware bake failed.
@@ -210,6 +218,9 @@ pub struct SurfaceReport {
     pub unreachable_vertices: usize,
     /// Vertices a mask touched.
     pub masked_vertices: usize,
+    /// Static anchoring: the head markers followed (names), vertices anchored at all and fully.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub anchoring: Option<AnchoringReport>,
     /// Fractional weight bits.
     pub weight_frac_bits: u8,
     /// Mean share of dense weight / kernel mass dropped by keeping K.
@@ -218,6 +229,17 @@ pub struct SurfaceReport {
     pub sizes: BlobSizes,
     /// Warnings worth a user's attention.
     pub warnings: Vec<String>,
+}
+
+/// What static anchoring did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AnchoringReport {
+    /// The head markers anchored skin follows.
+    pub head_markers: Vec<String>,
+    /// glTF vertices with some anchoring.
+    pub anchored_vertices: usize,
+    /// glTF vertices that follow the head markers alone.
+    pub still_vertices: usize,
 }
 
 /// A finished surface-aware bake.
@@ -306,6 +328,34 @@ fn sides_of(
         config.mask_plateau_factor * spacing,
         config.mask_decay_factor * spacing,
     )?)
+}
+
+/// Vertices that not every marker reaches along the surface (mouth-interior pieces) take the
+/// weights of the nearest vertex every marker reaches, so they ride the skin beside them instead
+/// of being pulled by markers across the face through Euclidean distances.
+fn follow_nearest_reachable(
+    mut dense: Vec<Vec<f64>>,
+    unreachable: &[u32],
+    positions: &[[f64; 3]],
+) -> Vec<Vec<f64>> {
+    if unreachable.is_empty() {
+        return dense;
+    }
+    let mut cut = vec![false; positions.len()];
+    for &v in unreachable {
+        cut[v as usize] = true;
+    }
+    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
+    for &v in unreachable {
+        let p = &positions[v as usize];
+        if let Some(&near) = reachable.iter().min_by(|&&a, &&b| {
+            crate::mesh::distance(p, &positions[a])
+                .total_cmp(&crate::mesh::distance(p, &positions[b]))
+        }) {
+            dense[v as usize] = dense[near].clone();
+        }
+    }
+    dense
 }
 
 /// Mean nearest-marker distance.
@@ -508,6 +558,37 @@ pub fn bake_surface(
         }
         None => dense,
     };
+    let mut dense = follow_nearest_reachable(dense, &d.fallback, &mesh.positions);
+    let anchoring = match (config.anchoring_margin_factor, config.bake.form) {
+        (Some(factor), RigForm::Weights) => {
+            let head = if input.head.is_empty() {
+                anchoring::highest_markers(&rest, 3)
+            } else {
+                input.head.to_vec()
+            };
+            let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
+            let floor = geometry
+                .openings
+                .iter()
+                .map(|o| o.centre[1])
+                .fold(None, |low: Option<f64>, y| Some(low.map_or(y, |l| l.min(y))))
+                .filter(|&y| y < mean_height);
+            let a = anchoring::static_anchoring(
+                &mesh.positions,
+                &rest,
+                &head,
+                floor,
+                factor * spacing,
+            );
+            a.apply(&mut dense);
+            Some(AnchoringReport {
+                head_markers: head.iter().map(|&h| names[h].clone()).collect(),
+                anchored_vertices: a.anchored_vertices(),
+                still_vertices: a.still_vertices(),
+            })
+        }
+        _ => None,
+    };
     let form = match config.bake.form {
         RigForm::Weights => {
             // The prior's covariance under the method's own distances, so re-fitting a dropped
@@ -555,6 +636,7 @@ pub fn bake_surface(
         openings: geometry.openings.len(),
         unreachable_vertices: d.fallback.len(),
         masked_vertices,
+        anchoring,
         weight_frac_bits: form.frac_bits,
         mean_dropped_mass: form.dropped.iter().sum::<f64>() / form.dropped.len().max(1) as f64,
         sizes,
