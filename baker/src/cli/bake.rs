@@ -438,6 +438,15 @@ fn run_surface(
             bytes_text(blob.len()),
             summary.output.display()
         );
+        if let Some(a) = &r.anchoring {
+            outln!(
+                out,
+                "static anchoring: {} vertices follow the skull markers {} ({} of them alone)",
+                a.anchored_vertices,
+                a.head_markers.join(", "),
+                a.still_vertices
+            );
+        }
         if let Some(st) = &summary.stages {
             outln!(
                 out,

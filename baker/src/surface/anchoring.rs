@@ -59,15 +59,51 @@ impl Anchoring {
     }
 }
 
-/// The default head markers of a bake without a capture: the three highest markers (glTF +Y),
-/// which on a face layout are the forehead's. A layout's `head = [..]` overrides them.
-pub fn highest_markers(markers: &[[f64; 3]], count: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..markers.len()).collect();
-    order.sort_by(|&a, &b| markers[b][1].total_cmp(&markers[a][1]).then(a.cmp(&b)));
-    order.truncate(count);
-    order.sort_unstable();
-    order
+/// Markers that ride the skull, found from the face's openings: those above the openings'
+/// highest centre whose distance from every point of every opening's rim (mouth, eyes) is at
+/// least [`SKULL_CLEARANCE`] × `spacing` and [`SKULL_SHARE`] × the largest such distance, so
+/// never a lip, jaw, cheek, eyelid or brow marker. With fewer than three such markers, the three
+/// above the openings that are farthest from them; on a mesh without openings, the three
+/// highest. Ascending indices.
+pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64) -> Vec<usize> {
+    if rims.iter().all(|r| r.is_empty()) {
+        let mut order: Vec<usize> = (0..markers.len()).collect();
+        order.sort_by(|&a, &b| markers[b][1].total_cmp(&markers[a][1]).then(a.cmp(&b)));
+        order.truncate(3);
+        order.sort_unstable();
+        return order;
+    }
+    let top = rims
+        .iter()
+        .filter(|r| !r.is_empty())
+        .map(|r| r.iter().map(|p| p[1]).sum::<f64>() / r.len() as f64)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let clearance = |m: &[f64; 3]| {
+        rims.iter()
+            .flatten()
+            .map(|p| distance(m, p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut above: Vec<(usize, f64)> = markers
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m[1] > top)
+        .map(|(i, m)| (i, clearance(m)))
+        .collect();
+    above.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    let farthest = above.first().map_or(0.0, |p| p.1);
+    let needed = (SKULL_CLEARANCE * spacing).max(SKULL_SHARE * farthest);
+    let clear = above.iter().filter(|(_, c)| *c >= needed).count();
+    let mut chosen: Vec<usize> = above.iter().take(clear.max(3)).map(|p| p.0).collect();
+    chosen.sort_unstable();
+    chosen
 }
+
+/// How far from every opening a skull marker sits, at least: × the mean marker spacing.
+pub const SKULL_CLEARANCE: f64 = 2.0;
+/// How far from every opening a skull marker sits, at least: × the clearance of the marker
+/// farthest from them (brows are about half as far from the eyes as the forehead's markers).
+pub const SKULL_SHARE: f64 = 0.75;
 
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers`, with the
 /// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
@@ -198,7 +234,7 @@ mod tests {
             let a = j as f64 / 24.0 * std::f64::consts::TAU;
             positions.push([a.sin(), 0.2, a.cos()]);
         }
-        let head = highest_markers(&markers, 3);
+        let head = skull_markers(&markers, &[], 1.0);
         assert!(head.iter().all(|&h| markers[h][1] == 0.5));
         let anchoring = static_anchoring(&positions, &markers, &head, Some(-0.5), 0.2);
         // The front vertex (angle 0) is among the markers, the back one (angle π) far beyond.
@@ -213,6 +249,22 @@ mod tests {
             .iter()
             .enumerate()
             .all(|(i, &w)| if head.contains(&i) { (w - 1.0 / 3.0).abs() < 1e-12 } else { w == 0.0 }));
+    }
+
+    #[test]
+    fn skull_markers_keep_clear_of_the_openings() {
+        // An "eye" rim at height 0; markers beside it, above it, far above it.
+        let rim = vec![vec![[-0.1, 0.0, 0.0], [0.1, 0.0, 0.0]]];
+        let markers = [
+            [0.0, 1.5, 0.0], // a brow: above, clear of the rim by 1.5, but half the forehead's
+            [0.0, 3.0, 0.0],
+            [1.0, 3.0, 0.0],
+            [-1.0, 3.0, 0.0],
+            [0.0, -3.0, 0.0], // far, but below the opening (a chin)
+        ];
+        assert_eq!(skull_markers(&markers, &rim, 1.0), vec![1, 2, 3]);
+        // Too few clear markers: the three above that are farthest from the rim.
+        assert_eq!(skull_markers(&markers[..3], &rim, 1.0), vec![0, 1, 2]);
     }
 
     #[test]

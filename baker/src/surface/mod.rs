@@ -171,7 +171,7 @@ pub struct SurfaceInput<'a> {
     pub groups: &'a [MarkerGroups],
     /// How vertex sides are found.
     pub sides: &'a SideRule,
-    /// Head markers that anchored skin follows (empty: the three highest markers).
+    /// Head markers that anchored skin follows (empty: [`anchoring::skull_markers`]).
     pub head: &'a [usize],
 }
 
@@ -562,7 +562,17 @@ pub fn bake_surface(
     let anchoring = match (config.anchoring_margin_factor, config.bake.form) {
         (Some(factor), RigForm::Weights) => {
             let head = if input.head.is_empty() {
-                anchoring::highest_markers(&rest, 3)
+                let rims: Vec<Vec<[f64; 3]>> = geometry
+                    .openings
+                    .iter()
+                    .map(|o| {
+                        o.vertices
+                            .iter()
+                            .map(|&v| mesh.welded_positions[v as usize])
+                            .collect()
+                    })
+                    .collect();
+                anchoring::skull_markers(&rest, &rims, spacing)
             } else {
                 input.head.to_vec()
             };
