@@ -190,9 +190,11 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
             crate::geodesic::dijkstra::distances(&graph, &seeds)
         };
         let (d_up, d_low) = (from(&upper), from(&lower));
-        let (lo, hi) = rim.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(p[v as usize][0]), hi.max(p[v as usize][0]))
-        });
+        let (lo, hi) = rim
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(p[v as usize][0]), hi.max(p[v as usize][0]))
+            });
         let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let offset = FEATURE_OFFSET * 2.0 * half;
         for &(name, feature, is_upper, along) in &FEATURE_MARKERS {

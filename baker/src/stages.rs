@@ -149,6 +149,11 @@ pub struct StagesConfig {
     /// position on the character every frame, whatever the capture says of them, so the regions
     /// around them do not move.
     pub anchor_markers: Vec<String>,
+    /// Distances between the rig's markers along the character's skin (asset units, rig
+    /// marker order), to choose fill neighbours on the marker's own side of the mouth and the
+    /// eyes: lip markers across a closed mouth are millimetres apart in space. `None`: the
+    /// actor's neutral straight-line distances.
+    pub marker_distances: Option<Vec<Vec<f64>>>,
 }
 
 impl Default for StagesConfig {
@@ -160,6 +165,7 @@ impl Default for StagesConfig {
             retarget: RetargetKind::Rbf,
             virtual_markers: Vec::new(),
             anchor_markers: Vec::new(),
+            marker_distances: None,
         }
     }
 }
@@ -613,7 +619,13 @@ pub fn bake_stages(
                 .iter()
                 .copied()
                 .filter(|&k| k != j)
-                .map(|k| (k, distance(&neutral[j], &neutral[k])))
+                .map(|k| {
+                    let d = match &config.marker_distances {
+                        Some(between) => 0.5 * (between[j][k] + between[k][j]),
+                        None => distance(&neutral[j], &neutral[k]),
+                    };
+                    (k, d)
+                })
                 .collect();
             others.sort_by(|a, b| a.1.total_cmp(&b.1));
             others.truncate(FILL_NEIGHBOURS);

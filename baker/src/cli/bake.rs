@@ -47,9 +47,10 @@ pub struct BakeArgs {
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
     /// half with a global multiquadric RBF; weights form). Geodesic, hybrid and pbw default to
     /// the exponential kernel with width factor 1.5 (pbw: the multiquadric's width).
-    /// Default: geodesic, in the weights form with static anchoring.
-    #[arg(long, value_enum, default_value_t = Method::Geodesic)]
-    pub method: Method,
+    /// Default: geodesic, in the weights form with static anchoring (euclidean for
+    /// `--form planar`).
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
     /// Leave out static anchoring (weights form): by default the skin beyond the markers' hull
     /// above the mouth (cranium, back of the head, ears) follows the head markers instead of
     /// being dragged by the face's motion.
@@ -163,19 +164,30 @@ pub struct BakeArgs {
 }
 
 impl BakeArgs {
+    /// The distance method: as given, else geodesic (euclidean for planar bones, which blend
+    /// control-triangle frames rather than distances).
+    pub fn method(&self) -> Method {
+        self.method
+            .unwrap_or(if self.form == Some(RigForm::Planar) {
+                Method::Euclidean
+            } else {
+                Method::Geodesic
+            })
+    }
+
     /// Whether the bake needs the surface-aware path.
     pub fn surface_aware(&self) -> bool {
-        self.method != Method::Euclidean || (self.masks && self.form != Some(RigForm::Planar))
+        self.method() != Method::Euclidean || (self.masks && self.form != Some(RigForm::Planar))
     }
 
     /// The bake configuration: the options given, the defaults of the method for the rest.
     pub fn config(&self) -> BakeConfig {
-        let d = if self.method == Method::Euclidean {
+        let d = if self.method() == Method::Euclidean {
             BakeConfig::default()
         } else {
             SurfaceConfig::default().bake
         };
-        let form = if self.masks || self.method == Method::Pbw {
+        let form = if self.masks || self.method() == Method::Pbw {
             RigForm::Weights
         } else {
             d.form
@@ -196,7 +208,7 @@ impl BakeArgs {
     /// The surface-aware configuration.
     pub fn surface_config(&self) -> SurfaceConfig {
         SurfaceConfig {
-            method: self.method,
+            method: self.method(),
             masks: self.masks,
             bake: self.config(),
             anchoring_margin_factor: if self.no_anchoring {
@@ -381,7 +393,12 @@ fn run_surface(
         };
         CliError::input(path, format!("surface-aware bake failed: {e}"))
     })?;
-    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
+    let (blob, stages) = attach_stages(
+        args,
+        &placed,
+        &baked.blob,
+        Some(baked.marker_distances.clone()),
+    )?;
     write_file(&args.output, &blob)?;
     let summary = SurfaceSummary {
         output: args.output.clone(),
@@ -558,6 +575,7 @@ fn attach_stages(
     args: &BakeArgs,
     placed: &[PlacedMarker],
     blob: &[u8],
+    marker_distances: Option<Vec<Vec<f64>>>,
 ) -> Result<(Vec<u8>, Option<StagesReport>), CliError> {
     let Some(path) = &args.capture else {
         return Ok((blob.to_vec(), None));
@@ -573,6 +591,7 @@ fn attach_stages(
         retarget: args.retarget,
         virtual_markers: args.virtual_markers.clone(),
         anchor_markers: args.anchor_markers.clone(),
+        marker_distances,
     };
     let stages = bake_stages(&capture, &names, &character, &space, &config)
         .map_err(|e| CliError::input(path, e.to_string()))?;
@@ -607,7 +626,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     };
     let masks = (args.masks && config.form == RigForm::Planar).then_some(&sides);
     let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap, masks)?;
-    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
+    let (blob, stages) = attach_stages(args, &placed, &baked.blob, None)?;
     write_file(&args.output, &blob)?;
     let mut report = baked.report;
     report.sizes.total = blob.len();

@@ -125,9 +125,8 @@ pub fn static_anchoring(
     let radius = radii.get(radii.len() / 2).copied().unwrap_or(1.0);
     let project = |p: &[f64; 3]| [(p[0] - axis[0]).atan2(p[2] - axis[1]) * radius, p[1]];
     let hull = convex_hull(markers.iter().map(project).collect());
-    let floor = floor.unwrap_or_else(|| {
-        markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64
-    });
+    let floor = floor
+        .unwrap_or_else(|| markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64);
     let strength = positions
         .iter()
         .map(|p| {
@@ -181,7 +180,8 @@ fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
             Box::new(points.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
             {
                 hull.pop();
             }
@@ -213,7 +213,13 @@ mod tests {
 
     #[test]
     fn hull_of_a_square_with_an_inner_point() {
-        let h = convex_hull(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]]);
+        let h = convex_hull(vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.5, 0.5],
+        ]);
         assert_eq!(h.len(), 4);
         assert!((outside_distance(&h, [2.0, 0.5]) - 1.0).abs() < 1e-12);
         assert!((outside_distance(&h, [0.5, 0.5]) + 0.5).abs() < 1e-12);
@@ -248,7 +254,11 @@ mod tests {
         assert!(dense[12]
             .iter()
             .enumerate()
-            .all(|(i, &w)| if head.contains(&i) { (w - 1.0 / 3.0).abs() < 1e-12 } else { w == 0.0 }));
+            .all(|(i, &w)| if head.contains(&i) {
+                (w - 1.0 / 3.0).abs() < 1e-12
+            } else {
+                w == 0.0
+            }));
     }
 
     #[test]
@@ -269,7 +279,12 @@ mod tests {
 
     #[test]
     fn skin_below_the_floor_is_left_to_the_face() {
-        let markers = vec![[0.0, 0.0, 1.0], [0.3, 0.0, 0.95], [0.0, 1.0, 1.0], [0.3, 1.0, 0.95]];
+        let markers = vec![
+            [0.0, 0.0, 1.0],
+            [0.3, 0.0, 0.95],
+            [0.0, 1.0, 1.0],
+            [0.3, 1.0, 0.95],
+        ];
         let positions = vec![[0.0, 3.0, 1.0], [0.0, -3.0, 1.0]];
         let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), 0.5);
         assert_eq!(a.strength, vec![1.0, 0.0]);

@@ -251,6 +251,9 @@ pub struct SurfaceBaked {
     /// Per glTF vertex, its dense f64 weights on the marker displacements (masks applied): the
     /// reference the sparse rig approximates.
     pub dense: Vec<Vec<f64>>,
+    /// Marker-to-marker distances under the method's distance (asset units): along the skin
+    /// for the geodesic methods.
+    pub marker_distances: Vec<Vec<f64>>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
@@ -581,15 +584,12 @@ pub fn bake_surface(
                 .openings
                 .iter()
                 .map(|o| o.centre[1])
-                .fold(None, |low: Option<f64>, y| Some(low.map_or(y, |l| l.min(y))))
+                .fold(None, |low: Option<f64>, y| {
+                    Some(low.map_or(y, |l| l.min(y)))
+                })
                 .filter(|&y| y < mean_height);
-            let a = anchoring::static_anchoring(
-                &mesh.positions,
-                &rest,
-                &head,
-                floor,
-                factor * spacing,
-            );
+            let a =
+                anchoring::static_anchoring(&mesh.positions, &rest, &head, floor, factor * spacing);
             a.apply(&mut dense);
             Some(AnchoringReport {
                 head_markers: head.iter().map(|&h| names[h].clone()).collect(),
@@ -652,9 +652,13 @@ pub fn bake_surface(
         sizes,
         warnings,
     };
+    let marker_distances = (0..n)
+        .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
+        .collect();
     Ok(SurfaceBaked {
         blob,
         report,
         dense,
+        marker_distances,
     })
 }
