@@ -154,6 +154,9 @@ pub struct StagesConfig {
     /// eyes: lip markers across a closed mouth are millimetres apart in space. `None`: the
     /// actor's neutral straight-line distances.
     pub marker_distances: Option<Vec<Vec<f64>>>,
+    /// With [`HeadMarkers::MostRigid`]: the markers it may pick from (the skull markers the
+    /// bake found clear of the mouth and eyes); `None`: every marker the capture has.
+    pub head_candidates: Option<Vec<String>>,
 }
 
 impl Default for StagesConfig {
@@ -166,6 +169,7 @@ impl Default for StagesConfig {
             virtual_markers: Vec::new(),
             anchor_markers: Vec::new(),
             marker_distances: None,
+            head_candidates: None,
         }
     }
 }
@@ -597,9 +601,27 @@ pub fn bake_stages(
             if !(3..=MAX_HEAD_MARKERS).contains(size) {
                 return Err(StagesError::HeadMarkerCount(*size));
             }
-            let (in_real, spread) =
-                most_rigid_subset(&complete_sample(capture, &real_columns), *size)?;
-            (in_real.iter().map(|&i| real[i]).collect(), true, spread)
+            // Only skull markers are candidates, when the bake found them: the most rigid
+            // markers of a take without brow raises may be brows, which a later take moves.
+            let candidates: Vec<usize> = (0..real.len())
+                .filter(|&i| {
+                    config
+                        .head_candidates
+                        .as_ref()
+                        .is_none_or(|c| c.contains(&marker_names[real[i]]))
+                })
+                .collect();
+            if candidates.len() < 3 {
+                return Err(StagesError::HeadMarkerCount(candidates.len()));
+            }
+            let columns_of: Vec<usize> = candidates.iter().map(|&i| real_columns[i]).collect();
+            let (in_candidates, spread) = most_rigid_subset(
+                &complete_sample(capture, &columns_of),
+                (*size).min(candidates.len()),
+            )?;
+            let mut head: Vec<usize> = in_candidates.iter().map(|&i| real[candidates[i]]).collect();
+            head.sort_unstable();
+            (head, true, spread)
         }
     };
     if !head.is_empty() {

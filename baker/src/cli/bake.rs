@@ -393,11 +393,17 @@ fn run_surface(
         };
         CliError::input(path, format!("surface-aware bake failed: {e}"))
     })?;
+    let skull = baked
+        .report
+        .anchoring
+        .as_ref()
+        .map(|a| a.head_markers.clone());
     let (blob, stages) = attach_stages(
         args,
         &placed,
         &baked.blob,
         Some(baked.marker_distances.clone()),
+        skull,
     )?;
     write_file(&args.output, &blob)?;
     let summary = SurfaceSummary {
@@ -576,6 +582,7 @@ fn attach_stages(
     placed: &[PlacedMarker],
     blob: &[u8],
     marker_distances: Option<Vec<Vec<f64>>>,
+    head_candidates: Option<Vec<String>>,
 ) -> Result<(Vec<u8>, Option<StagesReport>), CliError> {
     let Some(path) = &args.capture else {
         return Ok((blob.to_vec(), None));
@@ -592,6 +599,7 @@ fn attach_stages(
         virtual_markers: args.virtual_markers.clone(),
         anchor_markers: args.anchor_markers.clone(),
         marker_distances,
+        head_candidates,
     };
     let stages = bake_stages(&capture, &names, &character, &space, &config)
         .map_err(|e| CliError::input(path, e.to_string()))?;
@@ -626,7 +634,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     };
     let masks = (args.masks && config.form == RigForm::Planar).then_some(&sides);
     let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap, masks)?;
-    let (blob, stages) = attach_stages(args, &placed, &baked.blob, None)?;
+    let (blob, stages) = attach_stages(args, &placed, &baked.blob, None, None)?;
     write_file(&args.output, &blob)?;
     let mut report = baked.report;
     report.sizes.total = blob.len();
