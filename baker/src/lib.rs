@@ -12,6 +12,7 @@ pub mod placement;
 pub mod planar;
 pub mod rbf;
 pub mod reference;
+pub mod render;
 pub mod retarget;
 pub mod rigid;
 pub mod sparsify;
