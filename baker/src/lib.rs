@@ -7,6 +7,7 @@ pub mod geodesic;
 pub mod ground_truth;
 pub mod io;
 pub mod mesh;
+pub mod metrics;
 pub mod pivot;
 pub mod placement;
 pub mod planar;

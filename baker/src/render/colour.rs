@@ -56,25 +56,26 @@ pub fn mm_text(v: f64) -> String {
 pub const BAR_WIDTH: usize = 90;
 
 /// Draw a vertical colour bar at (`x`, `y`), `height` pixels tall: `max_mm` at the top, 0 at
-/// the bottom, five labelled ticks, `title` above it.
+/// the bottom, six labelled ticks (fifths of a [`nice_ceiling`] are round numbers), `title`
+/// above it.
 pub fn colour_bar(image: &mut Image, x: i64, y: i64, height: usize, max_mm: f64, title: &str) {
     const STRIP: usize = 22;
     const INK: Rgb = [20, 20, 20];
-    image.text(x, y - 2 * GLYPH_HEIGHT as i64 - 8, title, 1, INK);
-    image.text(x, y - GLYPH_HEIGHT as i64 - 4, "MM", 1, INK);
+    image.text(x, y - 3 * GLYPH_HEIGHT as i64 - 12, title, 1, INK);
+    image.text(x, y - 2 * GLYPH_HEIGHT as i64 - 6, "MM", 2, INK);
     for row in 0..height {
         let t = 1.0 - row as f64 / (height.max(2) - 1) as f64;
         image.fill_rect(x, y + row as i64, STRIP, 1, viridis(t));
     }
-    for tick in 0..=4 {
-        let t = f64::from(tick) / 4.0;
+    for tick in 0..=5 {
+        let t = f64::from(tick) / 5.0;
         let row = y + ((1.0 - t) * (height.max(2) - 1) as f64).round() as i64;
         image.fill_rect(x + STRIP as i64, row, 5, 1, INK);
         image.text(
             x + STRIP as i64 + 8,
-            row - GLYPH_HEIGHT as i64 / 2,
+            row - GLYPH_HEIGHT as i64,
             &mm_text(t * max_mm),
-            1,
+            2,
             INK,
         );
     }
@@ -116,7 +117,7 @@ mod tests {
         assert_eq!(image.get(10, 30), Some(viridis(1.0)));
         assert_eq!(image.get(10, 129), Some(viridis(0.0)));
         // A tick label beside the top: some dark ink right of the strip.
-        let inked = (30..50).any(|x| (26..34).any(|y| image.get(x, y) == Some([20, 20, 20])));
+        let inked = (30..80).any(|x| (20..40).any(|y| image.get(x, y) == Some([20, 20, 20])));
         assert!(inked);
     }
 }

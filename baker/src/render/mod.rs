@@ -38,6 +38,9 @@ const MARKER: Rgb = [225, 30, 40];
 const MARGIN: f64 = 0.05;
 /// Height of a text strip (label at scale 2 and padding), pixels.
 const STRIP: usize = 2 * GLYPH_HEIGHT + 10;
+/// Largest growth of a sheet's framed box beyond the rest box, per side, as a fraction of the
+/// rest box's largest extent.
+pub const GROWTH: f64 = 0.1;
 /// Default panel size, pixels.
 pub const PANEL: usize = 320;
 
@@ -126,6 +129,31 @@ impl Framing {
             scale,
             size,
         }
+    }
+
+    /// Frame the rest box grown to hold the `drawn` points, but by no more than
+    /// [`GROWTH`] of its largest extent on each side (so a chin pulled down stays in the panel
+    /// without one stray vertex shrinking the face).
+    pub fn around<'a>(
+        rest: &[[f64; 3]],
+        drawn: impl IntoIterator<Item = &'a [f64; 3]>,
+        size: usize,
+    ) -> Self {
+        let finite = |p: &&[f64; 3]| p.iter().all(|x| x.is_finite());
+        let (lo, hi) = crate::io::gltf_mesh::bounds(rest.iter().filter(finite).copied());
+        let grow = GROWTH * (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        let (dlo, dhi) = crate::io::gltf_mesh::bounds(drawn.into_iter().filter(finite).copied());
+        let corner = |d: [f64; 3], r: [f64; 3], sign: f64| {
+            [0, 1, 2].map(|c| {
+                let outward = (sign * (d[c] - r[c])).clamp(0.0, grow);
+                if outward.is_finite() {
+                    r[c] + sign * outward
+                } else {
+                    r[c]
+                }
+            })
+        };
+        Self::new(&[corner(dlo, lo, -1.0), corner(dhi, hi, 1.0)], size)
     }
 
     /// A world point in pixel space of `view`: x right, y down, depth larger nearer.
@@ -306,7 +334,11 @@ impl Sheet {
             columns.push((view, heat_name));
         }
         let panel = self.panel.max(64);
-        let framing = Framing::new(&self.rest, panel);
+        let drawn = self
+            .frames
+            .iter()
+            .flat_map(|f| f.positions.iter().chain(f.truth.iter().flatten()));
+        let framing = Framing::around(&self.rest, drawn, panel);
         let bar_space = BAR_WIDTH + 30;
         let width = columns.len() * panel + bar_space;
         let top = STRIP + STRIP;
@@ -480,6 +512,18 @@ mod tests {
         // From the side, the front (+z) is on the right and −x is nearer.
         assert!(f.to_pixel(View::Side, &[0.0, 0.0, 0.05])[0] > 50.0);
         assert!(f.to_pixel(View::Side, &[-0.05, 0.0, 0.0])[2] > 0.0);
+    }
+
+    #[test]
+    fn framing_grows_for_drawn_points_but_only_so_far() {
+        let (p, _) = quad();
+        let rest = Framing::new(&p, 100);
+        assert_eq!(Framing::around(&p, &p, 100), rest);
+        // 2 mm beyond the 10 cm box: all of it; 1 m beyond: only 1 cm (10 %).
+        let near = Framing::around(&p, &[[0.0, 0.052, 0.0]], 100);
+        assert!((near.scale - 90.0 / 0.102).abs() < 1e-9);
+        let far = Framing::around(&p, &[[0.0, 1.05, 0.0]], 100);
+        assert!((far.scale - 90.0 / 0.11).abs() < 1e-9);
     }
 
     #[test]
