@@ -6,9 +6,16 @@
 //!   vertices paired at rest; with a truth, the worst |aperture − true aperture|, else the
 //!   widest aperture;
 //! * **eyelid closure**: the same across each eye opening;
-//! * **edge stretch**: the largest deformed / rest length over all mesh edges, and how many
+//! * **edge stretch**: the largest ratio of an edge's deformed length to its rest length (with a
+//!   truth: to the larger of its rest and true lengths) over the skin's edges, and how many
 //!   edges are stretched beyond 2×;
-//! * **flipped triangles**: triangles whose normal turned against its rest normal.
+//! * **flipped triangles**: skin triangles whose normal turned against its rest normal (with a
+//!   truth: and whose true normal did not).
+//!
+//! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
+//! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. The skin is the largest
+//! connected piece; other pieces (FaceCap's mouth bag, teeth and tongue, hidden behind the
+//! lips) are not measured.
 //!
 //! The regions are found once per mesh ([`Regions`]) and reused for every frame.
 //!
@@ -93,10 +100,10 @@ pub struct Regions {
     pub lips: RimPairs,
     /// Pairs across each eye opening.
     pub eyes: Vec<RimPairs>,
-    /// Every edge once (seam duplicates welded), with its rest length.
-    pub edges: Vec<([u32; 2], f64)>,
-    /// The triangles with a rest area, and their rest normals (unit).
-    pub triangles: Vec<([u32; 3], [f64; 3])>,
+    /// Every skin edge once (seam duplicates welded).
+    pub edges: Vec<[u32; 2]>,
+    /// The skin triangles.
+    pub triangles: Vec<[u32; 3]>,
     /// Millimetres per mesh unit (1000 for metres).
     pub mm_per_unit: f64,
     rest: Vec<[f64; 3]>,
@@ -361,19 +368,17 @@ impl Regions {
             .iter()
             .map(|e| to_input(rim_pairs(&e.vertices, &welded)))
             .collect();
+        let on_skin = |w: u32| topology.components.vertex_component[w as usize] == 0;
         let edges = topology
             .edges
             .iter()
-            .filter(|e| e.length > 0.0)
-            .map(|e| ([original[e.a as usize], original[e.b as usize]], e.length))
+            .filter(|e| on_skin(e.a))
+            .map(|e| [original[e.a as usize], original[e.b as usize]])
             .collect();
         let triangles = triangles
             .iter()
-            .filter_map(|t| {
-                let n = normal(rest, t);
-                let len = norm(&n);
-                (len > 0.0).then(|| (*t, n.map(|x| x / len)))
-            })
+            .filter(|t| on_skin(weld[t[0] as usize]))
+            .copied()
             .collect();
         Ok(Self {
             vertex_count: count,
@@ -426,7 +431,8 @@ impl Regions {
         &self.rest
     }
 
-    /// Metrics of one frame: `positions` (one per vertex), `truth` if known. With
+    /// Metrics of one frame: `positions` (one per vertex), `truth` if known (stretch and flips
+    /// the truth has too then do not count; see the module docs). With
     /// `remove_rigid`, each of them is first brought back by its best rigid motion over the
     /// static region (for takes with head motion). Positions of the wrong length measure as
     /// if missing vertices stayed at rest.
@@ -486,15 +492,21 @@ impl Regions {
             })
         };
         let (mut max_stretch, mut edges_over_limit) = (0.0f64, 0);
-        for ([a, b], rest) in &self.edges {
-            let ratio = distance(&got[*a as usize], &got[*b as usize]) / rest;
-            max_stretch = max_stretch.max(ratio);
-            edges_over_limit += usize::from(ratio > STRETCH_LIMIT);
+        for &[a, b] in &self.edges {
+            let length = |p: &[[f64; 3]]| distance(&p[a as usize], &p[b as usize]);
+            let allowed = truth.as_deref().map_or(0.0, length).max(length(&self.rest));
+            if allowed > 0.0 {
+                let ratio = length(&got) / allowed;
+                max_stretch = max_stretch.max(ratio);
+                edges_over_limit += usize::from(ratio > STRETCH_LIMIT);
+            }
         }
+        let turned =
+            |p: &[[f64; 3]], t: &[u32; 3]| dot(&normal(p, t), &normal(&self.rest, t)) < 0.0;
         let flipped = self
             .triangles
             .iter()
-            .filter(|(t, n)| dot(&normal(&got, t), n) < 0.0)
+            .filter(|t| turned(&got, t) && !truth.as_deref().is_some_and(|p| turned(p, t)))
             .count();
         FrameMetrics {
             static_drift_mm,
@@ -669,6 +681,29 @@ mod tests {
     }
 
     #[test]
+    fn what_the_truth_does_too_is_not_a_fault() {
+        let r = regions();
+        let mut p = r.rest().to_vec();
+        p[0][0] -= 0.02;
+        // The truth stretches edge 0–1 3× as well: nothing is stretched beyond it.
+        let m = r.measure(&p, Some(&p), false);
+        assert!((m.max_stretch - 1.0).abs() < 1e-12);
+        assert_eq!(m.edges_over_limit, 0);
+        // Half the true stretch is no stretch; twice the rest length where the truth stays
+        // at rest is.
+        let mut half = r.rest().to_vec();
+        half[0][0] -= 0.01;
+        assert!((r.measure(&half, Some(&p), false).max_stretch - 1.0).abs() < 1e-12);
+        assert!((r.measure(&p, Some(r.rest()), false).max_stretch - 3.0).abs() < 1e-9);
+        // A flip the truth has too does not count; one it lacks does.
+        let mut q = r.rest().to_vec();
+        q.swap(0, 1);
+        assert_eq!(r.measure(&q, Some(&q), false).flipped, 0);
+        assert!(r.measure(&q, Some(r.rest()), false).flipped > 0);
+        assert_eq!(r.measure(r.rest(), Some(&q), false).flipped, 0);
+    }
+
+    #[test]
     fn a_vertex_pushed_through_flips_its_triangles() {
         let r = regions();
         let mut p = r.rest().to_vec();
@@ -702,6 +737,21 @@ mod tests {
         let take = TakeMetrics::of(&[r.measure(&rest, Some(&rest), false), m]);
         assert_eq!(take.lips_mm.map(|l| l.1), Some(1));
         assert_eq!(take.eyelids_mm, None);
+    }
+
+    #[test]
+    fn pieces_other_than_the_skin_are_not_measured() {
+        let (mut p, mut t) = slit();
+        let n = p.len() as u32;
+        p.extend([[0.1, 0.0, 0.0], [0.11, 0.0, 0.0], [0.1, 0.01, 0.0]]);
+        t.push([n, n + 1, n + 2]);
+        let r = Regions::new(&p, &t, vec![], StaticRule::Given).unwrap();
+        let mut q = p.clone();
+        // The loose triangle stretched 5× and turned over: not the skin, not counted.
+        q[n as usize + 1][0] = 0.05;
+        let m = r.measure(&q, None, false);
+        assert!((m.max_stretch - 1.0).abs() < 1e-12);
+        assert_eq!((m.edges_over_limit, m.flipped), (0, 0));
     }
 
     #[test]

@@ -335,8 +335,8 @@ fn file_name(path: &Path) -> String {
     )
 }
 
-/// The demo's ground-truth pictures and metrics: the contact sheet of `rows` (truth, result,
-/// error) and the marker sheet, written into `dir`. Returns the metrics and (file, what) pairs.
+/// The demo's ground-truth pictures and metrics: the true frames (`.npy`), the contact sheet of
+/// `rows` (truth, result, error) and the marker sheet, written into `dir`. Returns the metrics and (file, what) pairs.
 pub fn demo_ground_truth(
     dir: &Path,
     truth: &crate::ground_truth::GroundTruth,
@@ -355,6 +355,16 @@ pub fn demo_ground_truth(
         })
         .collect();
     let mesh = &truth.mesh;
+    let truth_path = dir.join("facecap_truth.npy");
+    let flat: Vec<f32> = truths
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|&x| x as f32)
+        .collect();
+    let shape = [truths.len(), mesh.positions.len(), 3];
+    crate::io::npy::write_npy_f32(&truth_path, &shape, &flat)
+        .map_err(|e| CliError::io(&truth_path, e))?;
     let sheet_path = dir.join("facecap_sheet.png");
     let title = "FACECAP GROUND TRUTH, DEFAULT BAKE: TRUTH / RESULT / ERROR".to_string();
     let image = sheet(
@@ -383,6 +393,7 @@ pub fn demo_ground_truth(
     Ok((
         s,
         vec![
+            (truth_path, "the true frames, for `render --truth`".into()),
             (sheet_path, "ground truth: truth, result, error".into()),
             (
                 marker_path,

@@ -85,6 +85,18 @@ impl View {
         }
     }
 
+    /// Direction to the light in view coordinates: above and in front, from the side the face
+    /// is on (upper left from the front, upper right from the side), unit length.
+    pub fn light(self) -> [f64; 3] {
+        let x = match self {
+            Self::Front => -0.40,
+            Self::Side => 0.40,
+        };
+        let l = [x, 0.50, 0.77];
+        let n = crate::mesh::norm(&l);
+        l.map(|c| c / n)
+    }
+
     /// Its name on the sheets.
     pub fn name(self) -> &'static str {
         match self {
@@ -183,9 +195,6 @@ pub enum Paint<'a> {
     },
 }
 
-/// Direction to the light in view coordinates (upper left, in front).
-const LIGHT: [f64; 3] = [-0.40, 0.50, 0.77];
-
 /// Draw `triangles` over `positions` seen from `view` into a fresh panel. Triangles naming
 /// missing vertices, and non-finite positions, are skipped.
 pub fn draw_mesh(
@@ -197,8 +206,7 @@ pub fn draw_mesh(
 ) -> (Image, DepthBuffer) {
     let mut image = Image::new(framing.size, framing.size, PAPER);
     let mut depth = DepthBuffer::for_image(&image);
-    let light = crate::mesh::norm(&LIGHT);
-    let light = LIGHT.map(|x| x / light);
+    let light = view.light();
     for t in triangles {
         let Some(corners) = t
             .iter()
