@@ -149,6 +149,9 @@ pub struct FrameMetrics {
 pub struct TakeMetrics {
     /// Frames measured.
     pub frames: usize,
+    /// Whether the frames were measured against a truth (the lip and eyelid figures are then
+    /// errors, else apertures).
+    pub against_truth: bool,
     /// Worst static drift, mm, and its frame.
     pub static_drift_mm: (f64, usize),
     /// Worst lip figure (error with a truth, else widest aperture), mm, and its frame.
@@ -180,6 +183,7 @@ impl TakeMetrics {
         };
         for (f, m) in frames.iter().enumerate() {
             worse(&mut t.static_drift_mm, m.static_drift_mm, f);
+            t.against_truth |= m.lips.or(m.eyelids).is_some_and(|a| a.error_mm.is_some());
             for (slot, a) in [(&mut t.lips_mm, m.lips), (&mut t.eyelids_mm, m.eyelids)] {
                 if let Some(a) = a {
                     worse(slot.get_or_insert((0.0, f)), a.figure_mm(), f);
@@ -226,8 +230,15 @@ impl std::fmt::Display for FrameMetrics {
 
 impl std::fmt::Display for TakeMetrics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let how = if self.against_truth {
+            "off by up to"
+        } else {
+            "open at most"
+        };
         let opening = |v: Option<(f64, usize)>| {
-            v.map_or("-".to_string(), |(x, fr)| format!("{x:.1} mm (frame {fr})"))
+            v.map_or("-".to_string(), |(x, fr)| {
+                format!("{how} {x:.1} mm (frame {fr})")
+            })
         };
         write!(
             f,
