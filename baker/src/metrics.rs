@@ -733,8 +733,8 @@ mod tests {
         let r = regions();
         let rest = r.rest().to_vec();
         let mut open = rest.clone();
-        for v in 14..21 {
-            open[v][1] += 0.004;
+        for p in &mut open[14..21] {
+            p[1] += 0.004;
         }
         // Against a truth at rest: off by the 4 mm the lips parted.
         let m = r.measure(&open, Some(&rest), false);

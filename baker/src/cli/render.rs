@@ -15,6 +15,9 @@ use crate::io::npy::read_npy_f32;
 use crate::metrics::{FrameMetrics, Regions, TakeMetrics};
 use crate::render::{write_png, MarkerSheet, Sheet, SheetFrame, PANEL};
 
+/// One frame's positions (vertices or markers).
+pub type Positions = Vec<[f64; 3]>;
+
 /// Rows of a sheet when `--frames` is not given: this many, evenly spaced.
 pub const DEFAULT_ROWS: usize = 6;
 
@@ -409,7 +412,7 @@ pub fn demo_ground_truth(
 pub fn demo_capture(
     dir: &Path,
     mesh: &FaceMesh,
-    (played, markers): (&[Vec<[f64; 3]>], &[Vec<[f64; 3]>]),
+    (played, markers): (&[Positions], &[Positions]),
     rows: &[(String, usize)],
     names: &[String],
     rest: &[[f64; 3]],
