@@ -13,7 +13,7 @@ use crate::mesh::{farthest_point_sampling, MeshError};
 
 /// A vertex counts as moving if some morph target moves it further than this (asset units
 /// relative to the bounding-box diagonal).
-const MOVING_FRACTION_OF_DIAGONAL: f64 = 2e-4;
+pub const MOVING_FRACTION_OF_DIAGONAL: f64 = 2e-4;
 
 /// Named expressions of the FaceCap sequence: (name, [(target, weight)]).
 const EXPRESSIONS: &[(&str, &[(&str, f64)])] = &[

@@ -111,6 +111,11 @@ fn demo_writes_its_files() {
         "facecap_frames.npy",
         "facecap_capture.csv",
         "facecap_demo.glb",
+        "facecap_truth.npy",
+        "facecap_sheet.png",
+        "facecap_markers.png",
+        "jawmocap_sheet.png",
+        "jawmocap_markers.png",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
     }
@@ -130,7 +135,86 @@ fn demo_writes_its_files() {
     // The rig loads and the text output names every file.
     let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
-    assert_eq!(summary["files"].as_array().unwrap().len(), 5);
+    assert_eq!(summary["files"].as_array().unwrap().len(), 8);
+    // The structure metrics of the ground truth: the default bake keeps the lips sealed.
+    let take = &summary["structure"]["take"];
+    assert_eq!(take["frames"], frames);
+    assert!(take["lips_mm"][0].as_f64().unwrap() > 10.0, "{take}");
+}
+
+/// Width and height of a PNG file.
+fn png_size(path: &Path) -> (u32, u32) {
+    let file = std::fs::File::open(path).expect("the PNG opens");
+    let reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let info = reader.info();
+    (info.width, info.height)
+}
+
+#[test]
+fn render_draws_the_demo_frames_and_measures_them() {
+    let (demo_dir, _) = demo();
+    let dir = temp_dir("render");
+    let (sheet, markers) = (dir.join("sheet.png"), dir.join("markers.png"));
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("facecap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--truth",
+        s(&demo_dir.join("facecap_truth.npy")),
+        "--rig",
+        s(&demo_dir.join("facecap.fbk")),
+        "--frames",
+        "0,2",
+        "--panel",
+        "128",
+        "-o",
+        s(&sheet),
+        "--marker-sheet",
+        s(&markers),
+        "--json",
+    ]);
+    let summary = json_ok(&out);
+    // Truth, result and error, front and side: six panels and the colour bar; two rows.
+    let (w, h) = png_size(&sheet);
+    assert_eq!(w, 6 * 128 + 120);
+    assert!(h > 2 * 128 && h < 2 * 128 + 120, "{h}");
+    assert!(png_size(&markers).0 > 2 * 256);
+    assert_eq!(summary["frames"], serde_json::json!([0, 2]));
+    let take = &summary["structure"]["take"];
+    assert_eq!(take["against_truth"], true);
+    let drift = take["static_drift_mm"][0].as_f64().unwrap();
+    assert!((drift - 12.63).abs() < 0.01, "{take}");
+    // Without a truth: result and displacement only.
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("jawmocap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--frames",
+        "388",
+        "--panel",
+        "128",
+        "-o",
+        s(&sheet),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(png_size(&sheet).0, 4 * 128 + 120);
+    // A frame the file does not have is bad input, named.
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("facecap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--frames",
+        "99",
+        "-o",
+        s(&sheet),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("frame 99"), "{}", stderr(&out));
 }
 
 #[test]
@@ -342,7 +426,7 @@ fn help_documents_the_exit_codes() {
     assert_eq!(out.status.code(), Some(0));
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("Exit codes:") && help.contains("verification failed"));
-    for command in ["bake", "play", "inspect", "verify", "demo"] {
+    for command in ["bake", "play", "inspect", "verify", "demo", "render"] {
         assert!(help.contains(command), "{command} missing from --help");
     }
 }

@@ -139,6 +139,8 @@ pub struct DemoSummary {
     pub speed: Speed,
     /// Files written.
     pub files: Vec<Written>,
+    /// Structure metrics of the ground-truth sequence.
+    pub structure: super::render::Structure,
     /// The capture played through compensation, retargeting and deformation.
     pub mocap: super::mocap::MocapSummary,
 }
@@ -282,6 +284,9 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         &format!("{} runtime frames as morph targets", morphs.len()),
     );
 
+    let (structure, pictures) =
+        super::render::demo_ground_truth(dir, &truth, &played, &GLB_FRAMES)?;
+    pictures.iter().for_each(|(p, w)| wrote(p, w));
     let mocap = super::mocap::run(&fixtures, args.mocap.as_deref(), dir, args.json)?;
     let summary = DemoSummary {
         mesh: mesh_path,
@@ -306,6 +311,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         dense_vs_truth: stats(&mut e_dense, 1.0),
         speed,
         files,
+        structure,
         mocap,
     };
     if args.json {
@@ -362,6 +368,7 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
     );
     outln!(out, "    sparse runtime   {}", s.runtime_vs_truth);
     outln!(out, "    dense f64 RBF    {}", s.dense_vs_truth);
+    out.push_str(&super::render::structure_text(&s.structure, false));
     let sp = &s.speed;
     outln!(
         out,

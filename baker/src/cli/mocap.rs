@@ -52,6 +52,8 @@ pub struct MocapSummary {
     pub glb_frames: Vec<(String, usize)>,
     /// Files written: (path, what).
     pub files: Vec<(PathBuf, String)>,
+    /// Structure metrics of the played capture.
+    pub structure: super::render::Structure,
 }
 
 /// Bake the FaceCap head for the capture at `mocap` (default JawMoCap), play every frame through
@@ -119,6 +121,7 @@ pub fn run(
     let sparse = SparseF64::from_rig(&rig);
     let mut ref_state = StateF64::default();
     let mut compensated = Vec::with_capacity(frames.len());
+    let mut retargeted = Vec::with_capacity(frames.len());
     let mut played: Vec<Vec<[f64; 3]>> = Vec::with_capacity(frames.len());
     let mut worst = 0.0f64;
     let bar = super::progress(frames.len(), "playing the capture", quiet);
@@ -132,6 +135,7 @@ pub fn run(
             })
             .collect();
         worst = worst.max(max_distance(positions, &sparse.frame(&markers)));
+        retargeted.push(markers);
         compensated.push(actor);
         played.push(positions.to_vec());
         bar.inc(1);
@@ -202,6 +206,19 @@ pub fn run(
         chosen.push((format!("frame {f}"), f));
     }
 
+    let head: Vec<usize> = (stages.report.head_markers.iter())
+        .filter_map(|h| names.iter().position(|n| n == h))
+        .collect();
+    let (structure, pictures) = super::render::demo_capture(
+        dir,
+        &mesh,
+        (&played, &retargeted),
+        &chosen,
+        &names,
+        &character,
+        &head,
+    )?;
+    files.extend(pictures);
     let npy_path = dir.join("jawmocap_frames.npy");
     let flat: Vec<f32> = played
         .iter()
@@ -241,6 +258,7 @@ pub fn run(
         stages_frames_per_s: stages_fps,
         glb_frames: chosen,
         files,
+        structure,
     })
 }
 
@@ -293,5 +311,6 @@ pub fn text(s: &MocapSummary) -> String {
     for (path, what) in &s.files {
         outln!(out, "  {:40} {}", path.display().to_string(), what);
     }
+    out.push_str(&super::render::structure_text(&s.structure, false));
     out
 }

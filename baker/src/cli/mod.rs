@@ -19,6 +19,7 @@ pub mod inspect;
 pub mod mask_images;
 pub mod mocap;
 pub mod play;
+pub mod render;
 pub mod verify;
 
 use std::io::IsTerminal;
@@ -87,6 +88,8 @@ pub enum Command {
     /// projection, to inspect or paint over for `bake --mask-image`.
     #[command(after_help = EXIT_CODES)]
     MaskImages(mask_images::MaskImagesArgs),
+    /// Draw played frames (and a rig's markers) as PNG contact sheets; report structure metrics.
+    Render(render::RenderArgs),
 }
 
 /// Why a command failed. Every variant's message names the file it is about.
@@ -196,6 +199,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Demo(a) => demo::run(&a),
         Command::Compensate(a) => compensate::run(&a),
         Command::MaskImages(a) => mask_images::run(&a),
+        Command::Render(a) => render::run(&a),
     }
 }
 

@@ -74,6 +74,8 @@ pub struct VerifySummary {
     pub passed: bool,
     /// Runtime vs ground truth over skin vertices (meshes with morph targets only).
     pub ground_truth: Option<ErrorStats>,
+    /// Structure metrics of the runtime's frames (against the truth when there is one).
+    pub structure: super::render::Structure,
 }
 
 /// A sequence to play: per frame, marker positions and (if known) the true vertex positions.
@@ -138,12 +140,14 @@ pub fn run(args: &VerifyArgs) -> Result<ExitCode, CliError> {
     let rig = load_rig(&args.rig, &bytes)?;
     let mesh = load_matching_mesh(&args.mesh, args.mesh_name.as_deref(), rig.vertex_count())?;
     let diagonal = mesh.diagonal();
+    let regions = super::render::rig_regions(&rig, &mesh)?;
     let seq = sequence(&rig, mesh)?;
     let reference = SparseF64::from_rig(&rig);
     let space = rig.space();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
     let mut max_error = 0.0f64;
     let mut truth_errors = Vec::new();
+    let (mut played, mut truths) = (Vec::new(), Vec::new());
     let bar = progress(seq.markers.len(), "verifying", args.json);
     for (f, markers) in seq.markers.iter().enumerate() {
         let q = markers_to_rig(&rig, markers, f, &args.mesh)?;
@@ -152,8 +156,10 @@ pub fn run(args: &VerifyArgs) -> Result<ExitCode, CliError> {
         let exact_markers: Vec<[f64; 3]> = q.iter().map(|p| space.to_asset_f64(*p)).collect();
         max_error = max_error.max(max_distance(&got, &reference.frame(&exact_markers)));
         if let Some((truth, frames)) = &seq.truth {
-            truth.skin_errors(&got, &truth.positions(frames[f]), &mut truth_errors);
+            truths.push(truth.positions(frames[f]));
+            truth.skin_errors(&got, &truths[f], &mut truth_errors);
         }
+        played.push(got);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -171,6 +177,7 @@ pub fn run(args: &VerifyArgs) -> Result<ExitCode, CliError> {
         tolerance_fraction: TOLERANCE_FRACTION,
         passed: fraction <= TOLERANCE_FRACTION,
         ground_truth: seq.truth.as_ref().map(|_| stats(&mut truth_errors, metres)),
+        structure: super::render::verify_structure(&regions, &played, &truths, &seq.truth),
     };
     if args.json {
         print_json(&summary);
@@ -192,6 +199,7 @@ pub fn run(args: &VerifyArgs) -> Result<ExitCode, CliError> {
         if let Some(gt) = &summary.ground_truth {
             outln!(out, "  vs ground truth {gt} (skin vertices)");
         }
+        out.push_str(&super::render::structure_text(&summary.structure, true));
         if summary.passed {
             outln!(out, "PASS: the runtime matches the f64 evaluation");
         }

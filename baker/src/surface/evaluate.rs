@@ -143,10 +143,19 @@ impl Scene {
     /// # Panics
     /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
     pub fn score(&self, blob: &[u8]) -> Scores {
+        self.score_positions(&self.play(blob))
+    }
+
+    /// Run a rig through the runtime on every frame of the sequence: vertex positions per
+    /// frame.
+    ///
+    /// # Panics
+    /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
+    pub fn play(&self, blob: &[u8]) -> Vec<Vec<[f64; 3]>> {
         let rig = facebake_runtime::Rig::from_bytes(blob).expect("a rig this crate baked");
         let space = rig.space();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
-        let frames: Vec<Vec<[f64; 3]>> = (0..self.truth.frames.len())
+        (0..self.truth.frames.len())
             .map(|f| {
                 let t = self.truth.positions(f);
                 let q: Vec<[i32; 3]> = self
@@ -161,8 +170,7 @@ impl Scene {
                 rig.deform(&q, &mut out).expect("one position per marker");
                 out.iter().map(|p| space.to_asset_f64(*p)).collect()
             })
-            .collect();
-        self.score_positions(&frames)
+            .collect()
     }
 
     /// Score predicted positions, one `Vec` per frame of the sequence.
