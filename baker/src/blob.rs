@@ -100,6 +100,8 @@ pub struct BlobContents<'a> {
     pub marker_rest: &'a [[f64; 3]],
     /// The deformer.
     pub deformer: &'a DeformerBytes,
+    /// The capture stages, if any.
+    pub stages: Option<&'a StagesBytes>,
 }
 
 /// Sizes of a written blob.
@@ -236,13 +238,9 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
         deformer,
-        stages: None,
+        stages: c.stages.map(stages_section),
     };
-    let payload = postcard::to_allocvec(&data)?;
-    let header =
-        format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
-    let mut blob = header.to_vec();
-    blob.extend_from_slice(&payload);
+    let blob = seal(&data, c.stages.is_some())?;
     let sizes = BlobSizes {
         total: blob.len(),
         influence_bytes: words.len(),
@@ -252,14 +250,9 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
     Ok((blob, sizes))
 }
 
-/// A sealed blob with the capture stages `stages` added (or replaced): the rig is decoded through
-/// the runtime's own loader, so `blob` must be a valid rig.
-pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
-    let payload =
-        format::open(blob).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
-    let mut data =
-        format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
-    data.stages = Some(Stages {
+/// The stages' section over `stages`' bytes.
+fn stages_section(stages: &StagesBytes) -> Stages<'_> {
+    Stages {
         actor_space: stages.actor_space,
         actor_neutral: Bytes(&stages.actor_neutral),
         head_markers: Bytes(&stages.head_markers),
@@ -281,14 +274,32 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
                 offset: stages.offset,
             }),
         },
-    });
-    let payload = postcard::to_allocvec(&data)?;
+    }
+}
+
+/// A sealed blob with its capture stages replaced by `stages`: the rig is decoded through the
+/// runtime's own loader, so `blob` must be a valid rig. [`crate::bake()`] writes its blob once
+/// with the stages in it; this is for tools and tests that put other stages on a baked rig.
+pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
+    let payload =
+        format::open(blob).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    let mut data =
+        format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    data.stages = Some(stages_section(stages));
+    seal(&data, true)
+}
+
+/// Encode `data` behind its header; with `check_stages`, load the result through the runtime so
+/// the stages pass its own checks too.
+fn seal(data: &RigData<'_>, check_stages: bool) -> Result<Vec<u8>, BlobError> {
+    let payload = postcard::to_allocvec(data)?;
     let header =
         format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
-    let mut out = header.to_vec();
-    out.extend_from_slice(&payload);
-    // The stages must pass the runtime's own checks too.
-    facebake_runtime::Rig::from_bytes(&out)
-        .map_err(|e| BlobError::Limits(format!("the capture stages do not load: {e}")))?;
-    Ok(out)
+    let mut blob = header.to_vec();
+    blob.extend_from_slice(&payload);
+    if check_stages {
+        facebake_runtime::Rig::from_bytes(&blob)
+            .map_err(|e| BlobError::Limits(format!("the capture stages do not load: {e}")))?;
+    }
+    Ok(blob)
 }

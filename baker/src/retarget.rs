@@ -9,7 +9,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::rbf::{Kernel, KernelKind, RbfSystem, SolveError};
+use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 
 /// An RBF map from actor space to character space.
 pub struct RetargetMap {
@@ -21,7 +21,7 @@ pub struct RetargetMap {
 impl RetargetMap {
     /// The map carrying `actor_neutral[i]` to `character[i]` for every marker.
     pub fn new(actor_neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, SolveError> {
-        let kernel = KernelKind::InverseMultiquadric.resolve(actor_neutral, None, 1.0);
+        let kernel = RadialFunction::InverseMultiquadric.resolve(actor_neutral, None, 1.0);
         let system = RbfSystem::new(actor_neutral, kernel, true, &vec![1.0; actor_neutral.len()])?;
         // Interpolate the target positions themselves (not displacements): f(U_i) = V_i.
         let coefficients = system.solve(character);

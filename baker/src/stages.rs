@@ -39,7 +39,7 @@ pub enum HeadMarkers {
 }
 
 /// How compensated actor markers become the character's.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum RetargetKind {
     /// The RBF map of paper 000 §5.1: inverse multiquadric with per-centre radii plus affine.
     #[default]
@@ -129,7 +129,7 @@ impl Proportional {
 }
 
 /// How to bake the capture stages.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct StagesConfig {
     /// Frames averaged into the actor's neutral pose (frame 0 by default).
     pub neutral: Range<usize>,
@@ -302,6 +302,8 @@ pub struct StagesF64 {
     pub max_displacement: f64,
     /// Per marker, (neighbour, weight) pairs.
     pub fill: Vec<Vec<(usize, f64)>>,
+    /// Static anchors: marker indices whose samples are ignored, so they stay at rest.
+    pub anchors: Vec<usize>,
     /// Actor units → character rig units.
     pub map: RetargetMap,
     /// Proportional retargeting, used instead of `map` when present.
@@ -366,6 +368,9 @@ impl StagesF64 {
         let limit = 64.0;
         let mut actor: Vec<Option<[f64; 3]>> = (0..n)
             .map(|j| {
+                if self.anchors.contains(&j) {
+                    return None;
+                }
                 let p = frame.get(j).copied().flatten()?;
                 let a = to_rig_units(&self.actor_space, &p);
                 if a.iter().all(|c| c.is_finite() && c.abs() <= limit) {
@@ -663,6 +668,7 @@ pub fn bake_stages(
         head: head.clone(),
         max_displacement: config.max_displacement,
         fill,
+        anchors: bytes.anchors.iter().map(|&a| usize::from(a)).collect(),
         map,
         proportional,
     };
@@ -697,7 +703,7 @@ pub fn bake_stages(
 
 /// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in
 /// rig marker order.
-pub(crate) fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
+pub fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
     let complete: Vec<Vec<[f64; 3]>> = capture
         .frames
         .iter()

@@ -12,7 +12,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use facebake::bake::{BakeConfig, Baked};
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, planar_config, weights_config};
 
@@ -58,14 +58,14 @@ impl<'a> Case<'a> {
 fn bakes() -> (Vec<(&'static str, Baked)>, Vec<[f64; 3]>) {
     let truth = facecap_truth();
     let markers = truth.markers_of(&truth.positions(facebake_tests::jaw_open_frame(&truth)));
-    let configs: [(&str, BakeConfig); 3] = [
+    let configs: [(&str, BakeOptions); 3] = [
         ("planar_k8", planar_config(8)),
         ("weights_k8", weights_config()),
         (
             "coefficients_k8",
-            BakeConfig {
+            BakeOptions {
                 k: 8,
-                ..BakeConfig::default()
+                ..BakeOptions::default()
             },
         ),
     ];

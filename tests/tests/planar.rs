@@ -48,8 +48,9 @@ fn runtime_matches_the_f64_equations_on_every_ground_truth_frame() {
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     assert!(matches!(rig.deformer(), Deformer::PlanarBones(_)));
     let exact = baked
-        .planar
-        .as_ref()
+        .reference
+        .deformer
+        .planar()
         .expect("the planar bake has its reference");
     let summary = baked
         .report
@@ -234,7 +235,7 @@ fn translation_is_exact_and_the_rest_pose_is_the_mesh() {
 fn degenerate_triangles_keep_their_rest_orientation_and_are_reported() {
     let baked = planar();
     let rig = Rig::from_bytes(&baked.blob).unwrap();
-    let exact = baked.planar.as_ref().unwrap();
+    let exact = baked.reference.deformer.planar().unwrap();
     let space = rig.space();
     let truth = truth();
     let Deformer::PlanarBones(p) = rig.deformer() else {
@@ -324,13 +325,14 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         &facebake_tests::planar_config(8),
         &StagesConfig::default(),
     );
-    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     assert!(matches!(rig.deformer(), Deformer::PlanarBones(_)));
     let own = PlanarReference::from_rig(&rig).expect("a planar rig");
     let exact = j
         .baked
-        .planar
-        .as_ref()
+        .reference
+        .deformer
+        .planar()
         .expect("the planar bake has its reference");
     let stages = rig.stages().expect("stages");
     let space = rig.space();
@@ -354,7 +356,7 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         let runtime_markers: Vec<[f64; 3]> =
             markers.iter().map(|q| space.to_asset_f64(*q)).collect();
         let (want_own, _) = own.frame(&runtime_markers);
-        let (chain_markers, _) = j.stages.reference.solve(&mut ref_state, frame);
+        let (chain_markers, _) = j.stages().solve(&mut ref_state, frame);
         let chain_markers: Vec<[f64; 3]> = chain_markers.iter().map(to_asset).collect();
         let (want_chain, _) = exact.frame(&chain_markers);
         for ((g, o), c) in got.iter().zip(&want_own).zip(&want_chain) {

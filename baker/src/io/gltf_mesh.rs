@@ -489,6 +489,28 @@ pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>
 }
 
 impl FaceMesh {
+    /// A mesh made in code (no file, no morph targets, normals or attributes): `positions` and
+    /// `triangles` as given, the weld computed as [`load_mesh`] does.
+    pub fn from_triangles(name: &str, positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Self {
+        let (weld, welded_positions) = weld_positions(&positions);
+        let welded_triangles = triangles
+            .iter()
+            .map(|t| t.map(|v| weld[v as usize]))
+            .collect();
+        FaceMesh {
+            source: PathBuf::new(),
+            mesh_name: name.to_string(),
+            positions,
+            normals: None,
+            triangles,
+            weld,
+            welded_positions,
+            welded_triangles,
+            morph_targets: Vec::new(),
+            attributes: std::collections::BTreeMap::new(),
+        }
+    }
+
     /// Positions with morph targets applied: rest + Σ weight · delta, in glTF vertex order.
     ///
     /// `weights` pairs a morph target index with its weight.

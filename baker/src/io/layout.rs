@@ -456,6 +456,10 @@ pub fn write_layout(path: &Path, layout: &MarkerLayout) -> Result<(), LayoutErro
     })
 }
 
+/// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
+/// bounding-box diagonal.
+pub const DEFAULT_MAX_SNAP_FRACTION: f64 = 0.01;
+
 /// Places a layout's markers on `mesh`.
 ///
 /// `vertex` anchors sit exactly on their vertex; `point` anchors snap to the closest point

@@ -19,7 +19,7 @@ use super::{SurfaceError, SurfaceMarker};
 pub const BAND: f64 = 0.008;
 
 /// A ground truth with layout markers, anchors and the lip / eyelid bands.
-pub struct Scene {
+pub struct Benchmark {
     /// The morph-target truth (mesh, frames, skin); its own markers are not used, except the
     /// static ones as anchors.
     pub truth: GroundTruth,
@@ -34,9 +34,9 @@ pub struct Scene {
     pub bands: Vec<Vec<Option<Side>>>,
 }
 
-/// A scene could not be set up.
+/// A benchmark could not be set up.
 #[derive(Debug, thiserror::Error)]
-pub enum SceneError {
+pub enum BenchmarkError {
     /// The ground truth.
     #[error(transparent)]
     Truth(#[from] GroundTruthError),
@@ -66,7 +66,7 @@ fn crossing_frame(truth: &GroundTruth, mask: &str) -> Option<usize> {
     truth.frames.iter().position(|f| f.name == want)
 }
 
-impl Scene {
+impl Benchmark {
     /// `truth` with `placed` layout markers (and their `groups`), plus the truth's
     /// `anchors` static markers.
     pub fn new(
@@ -74,7 +74,7 @@ impl Scene {
         placed: &[PlacedMarker],
         groups: Vec<MarkerGroups>,
         anchors: usize,
-    ) -> Result<Self, SceneError> {
+    ) -> Result<Self, BenchmarkError> {
         let mesh = &truth.mesh;
         let mut markers: Vec<SurfaceMarker> =
             placed.iter().map(SurfaceMarker::from_placed).collect();

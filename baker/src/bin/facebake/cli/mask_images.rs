@@ -8,14 +8,15 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::bake::DEFAULT_MAX_SNAP_FRACTION;
 use super::{emit, print_json, CliError};
-use crate::io::gltf_mesh::load_mesh;
-use crate::io::layout::{place_markers, read_layout};
-use crate::io::marker_groups::read_groups;
-use crate::io::mask_image::write_sides;
-use crate::surface::masks::{Side, SideRule};
-use crate::surface::{mask_sides, SurfaceConfig, SurfaceInput, SurfaceMarker};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::DEFAULT_MAX_SNAP_FRACTION;
+use facebake::io::layout::{place_markers, read_layout};
+use facebake::io::marker_groups::read_groups;
+use facebake::io::mask_image::write_sides;
+use facebake::surface::masks::{Side, SideRule};
+use facebake::surface::{mask_sides, SurfaceInput, SurfaceMarker};
+use facebake::SurfaceOptions;
 
 /// Arguments of `facebake mask-images`.
 #[derive(Debug, Args)]
@@ -76,7 +77,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
             groups: &groups,
             sides: &SideRule::Auto,
         },
-        &SurfaceConfig::default(),
+        &SurfaceOptions::default(),
     )
     .map_err(|e| CliError::input(&args.layout, format!("mask sides: {e}")))?;
     std::fs::create_dir_all(&args.output).map_err(|e| CliError::io(&args.output, e))?;

@@ -1,31 +1,24 @@
 //! `facebake bake`: mesh + marker layout → rig blob, with a report of what the bake measured.
 
+use std::ops::Range;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
 use serde::Serialize;
 
-use std::ops::Range;
-
+use super::values::{DeformerArg, MethodArg, RadialArg, RefitArg, RetargetArg};
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
-use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
-use crate::io::capture::{read_capture_with_units, Units};
-use crate::io::control_triangles::{check_shapes, read_triangles};
-use crate::io::gltf_mesh::{load_mesh, FaceMesh};
-use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
-use crate::io::marker_groups::{read_groups, read_vertex_sides};
-use crate::rbf::KernelKind;
-use crate::sparsify::Refit;
-use crate::stages::{bake_stages, HeadMarkers, RetargetKind, StagesConfig, StagesReport};
-use crate::surface::{
-    bake_surface, planar_allowance, Method, SideRule, SurfaceConfig, SurfaceInput, SurfaceMarker,
-    SurfaceReport,
+use facebake::io::capture::{read_capture_with_units, Units};
+use facebake::io::control_triangles::{check_shapes, read_triangles};
+use facebake::io::gltf_mesh::{load_mesh, FaceMesh};
+use facebake::io::layout::{place_markers, read_layout, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::io::marker_groups::{read_groups, read_vertex_sides, MarkerGroups, VertexSets};
+use facebake::surface::SideRule;
+use facebake::{
+    BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
+    StagesConfig,
 };
-
-/// Default largest snap of a `point` marker onto the surface, as a fraction of the mesh's
-/// bounding-box diagonal.
-pub const DEFAULT_MAX_SNAP_FRACTION: f64 = 0.01;
 
 /// Arguments of `facebake bake`.
 #[derive(Debug, Args)]
@@ -45,13 +38,13 @@ pub struct BakeArgs {
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
-    /// half with a global multiquadric RBF; weights form). Geodesic, hybrid and pbw default to
-    /// the exponential kernel with width factor 1 (pbw: the multiquadric's width).
-    #[arg(long, value_enum, default_value_t = Method::Euclidean)]
-    pub method: Method,
+    /// half with a global multiquadric RBF; linear deformer). Geodesic, hybrid and pbw default to
+    /// the exponential radial function with width factor 1 (pbw: the multiquadric's width).
+    #[arg(long, value_enum, default_value_t = MethodArg::Euclidean)]
+    pub method: MethodArg,
     /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
-    /// side of an opening may not move the other side. Masks need the weights form, the
-    /// default with --masks.
+    /// side of an opening may not move the other side. Masks need the linear or planar deformer
+    /// (linear is the default with --masks).
     #[arg(long)]
     pub masks: bool,
     /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
@@ -73,16 +66,17 @@ pub struct BakeArgs {
     /// -0.5 lower, between unmasked), as `NAME=ATTRIBUTE`, once per mask.
     #[arg(long, value_name = "NAME=ATTRIBUTE", requires = "masks", conflicts_with_all = ["mask_sides", "mask_image"])]
     pub mask_attribute: Vec<String>,
-    /// Runtime form: per-frame RBF coefficients with K kernel terms per vertex, K weights per
-    /// vertex on marker displacements, or planar bones (K control triangles per vertex; the
-    /// layout's `triangles = [["A", "B", "C"], ..]` when given, else built automatically)
-    /// (default: coefficients; weights with --masks or pbw).
+    /// The runtime's deformer: rbf (per-frame RBF coefficients with K radial terms per vertex),
+    /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
+    /// triangles per vertex; the layout's `triangles = [["A", "B", "C"], ..]` when given, else
+    /// built automatically) (default: rbf; linear with --masks or pbw).
     #[arg(long, value_enum)]
-    pub form: Option<RigForm>,
-    /// Radial kernel (default: gaussian for euclidean, exponential for geodesic and hybrid).
+    pub deformer: Option<DeformerArg>,
+    /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
+    /// hybrid).
     #[arg(long, value_enum)]
-    pub kernel: Option<KernelKind>,
-    /// Kernel width in mesh units (default: --width-factor × the mean nearest-marker distance;
+    pub radial: Option<RadialArg>,
+    /// Radial width in mesh units (default: --width-factor × the mean nearest-marker distance;
     /// the inverse multiquadric uses per-marker radii and ignores it).
     #[arg(long, value_name = "W")]
     pub width: Option<f64>,
@@ -94,11 +88,11 @@ pub struct BakeArgs {
     #[arg(long)]
     pub no_affine: bool,
     /// Influences per vertex, 1 to 64.
-    #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeConfig::default().k)]
+    #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeOptions::default().k)]
     pub k: usize,
-    /// How the kept weights are re-fitted after sparsifying (weights form).
-    #[arg(long, value_enum, default_value_t = BakeConfig::default().refit)]
-    pub refit: Refit,
+    /// How the kept weights are re-fitted after sparsifying (linear deformer).
+    #[arg(long, value_enum, default_value_t = RefitArg::Prior)]
+    pub refit: RefitArg,
     /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
     /// (default: 1% of the mesh's bounding-box diagonal).
     #[arg(long, value_name = "D")]
@@ -124,10 +118,10 @@ pub struct BakeArgs {
     pub max_displacement: f64,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
-    #[arg(long, value_enum, default_value_t = RetargetKind::Rbf, requires = "capture")]
-    pub retarget: RetargetKind,
-    /// Planar form: bone radius as a multiple of the closest connected-marker distance.
-    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius)]
+    #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
+    pub retarget: RetargetArg,
+    /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
+    #[arg(long, value_name = "F", default_value_t = BakeOptions::default().planar_radius)]
     pub planar_radius: f64,
     /// Layout markers the capture never has (e.g. inner lips), comma-separated: rebuilt from
     /// their nearest captured markers every frame (paper 000 §5.2). Any other layout marker
@@ -157,43 +151,27 @@ pub struct BakeArgs {
 }
 
 impl BakeArgs {
-    /// Whether the bake needs the surface-aware path.
-    pub fn surface_aware(&self) -> bool {
-        self.method != Method::Euclidean || (self.masks && self.form != Some(RigForm::Planar))
-    }
-
-    /// The bake configuration: the options given, the defaults of the method for the rest.
-    pub fn config(&self) -> BakeConfig {
-        let d = if self.method == Method::Euclidean {
-            BakeConfig::default()
-        } else {
-            SurfaceConfig::default().bake
-        };
-        let form = if self.masks || self.method == Method::Pbw {
-            RigForm::Weights
-        } else {
-            d.form
-        };
-        BakeConfig {
-            form: self.form.unwrap_or(form),
-            kernel: self.kernel.unwrap_or(d.kernel),
+    /// The bake options: the options given, the defaults of the method for the rest.
+    pub fn options(&self) -> BakeOptions {
+        let d = BakeOptions::for_method(self.method.into(), self.masks);
+        BakeOptions {
+            deformer: self.deformer.map_or(d.deformer, Into::into),
+            radial: self.radial.map_or(d.radial, Into::into),
             width: self.width.or(d.width),
             width_factor: self.width_factor.unwrap_or(d.width_factor),
             affine: d.affine && !self.no_affine,
             k: self.k,
-            refit: self.refit,
+            refit: self.refit.into(),
             planar_radius: self.planar_radius,
+            stages: StagesConfig {
+                neutral: self.neutral.clone(),
+                head: self.head_markers.clone(),
+                max_displacement: self.max_displacement,
+                retarget: self.retarget.into(),
+                virtual_markers: self.virtual_markers.clone(),
+                anchor_markers: self.anchor_markers.clone(),
+            },
             ..d
-        }
-    }
-
-    /// The surface-aware configuration.
-    pub fn surface_config(&self) -> SurfaceConfig {
-        SurfaceConfig {
-            method: self.method,
-            masks: self.masks,
-            bake: self.config(),
-            ..SurfaceConfig::default()
         }
     }
 }
@@ -221,224 +199,37 @@ pub struct BakeSummary {
     pub weight_format: String,
     /// Bytes per stored influence.
     pub bytes_per_influence: f64,
-    /// The bake's own report.
+    /// The bake's own report (the capture stages' included).
     pub report: BakeReport,
-    /// The capture stages, if a capture was given.
-    pub stages: Option<StagesReport>,
 }
 
-/// Place `layout` on `mesh` (snapping `point` markers at most `max_snap`, default 1% of the
-/// diagonal) and bake it with `config`; with `planar_masks` (planar form), apply the layout's
-/// `[groups]` masks with that side rule. Errors name the layout file.
-pub fn bake_layout(
-    mesh: &FaceMesh,
-    layout: &MarkerLayout,
-    config: &BakeConfig,
-    max_snap: Option<f64>,
-    planar_masks: Option<&SideRule>,
-) -> Result<(Baked, Vec<PlacedMarker>), CliError> {
-    let max_snap = max_snap.unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
-    let placed = place_markers(layout, mesh, max_snap)?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let rest: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
-    let stiffness: Vec<f64> = placed.iter().map(|m| m.stiffness).collect();
-    if let Some(t) = &config.control_triangles {
-        check_shapes(&layout.source, t, &names, &rest)?;
-    }
-    let allowance = match planar_masks {
-        Some(rule) => {
-            let groups = read_groups(&layout.source, &names)
-                .map_err(|e| CliError::input(&layout.source, e.to_string()))?;
-            if groups.is_empty() {
-                return Err(CliError::input(
-                    &layout.source,
-                    "--masks needs a [groups] table naming the upper and lower markers of each opening",
-                ));
-            }
-            let markers: Vec<SurfaceMarker> =
-                placed.iter().map(SurfaceMarker::from_placed).collect();
-            let input = SurfaceInput {
-                mesh,
-                markers: &markers,
-                groups: &groups,
-                sides: rule,
-            };
-            let allowance = planar_allowance(&input, &SurfaceConfig::default())
-                .map_err(|e| CliError::input(&layout.source, format!("planar masks: {e}")))?;
-            Some(allowance)
-        }
-        None => None,
-    };
-    let baked = bake(
-        &BakeInput {
-            vertices: &mesh.positions,
-            marker_names: &names,
-            marker_rest: &rest,
-            stiffness: &stiffness,
-            triangles: &mesh.triangles,
-            planar_masks: allowance.as_ref(),
-        },
-        config,
-    )
-    .map_err(|source| CliError::Bake {
-        path: layout.source.clone(),
-        source,
-    })?;
-    Ok((baked, placed))
-}
-
-/// What a surface-aware `bake` reports.
-#[derive(Debug, Serialize)]
-pub struct SurfaceSummary {
-    /// The rig written.
-    pub output: PathBuf,
-    /// The mesh file.
-    pub mesh: PathBuf,
-    /// The layout file.
-    pub layout: PathBuf,
-    /// Vertices of the rig.
-    pub vertices: usize,
-    /// Markers of the rig.
-    pub markers: usize,
-    /// Masks applied (group names).
-    pub masks: Vec<String>,
-    /// Weight format, `Q(23−F).F`.
-    pub weight_format: String,
-    /// The bake's own report.
-    pub report: SurfaceReport,
-    /// The capture stages, if a capture was given.
-    pub stages: Option<StagesReport>,
-}
-
-/// `facebake bake --method geodesic|hybrid` or `--masks`.
-fn run_surface(
+/// The masks' vertex sides: from `--mask-sides`, `--mask-image` or `--mask-attribute`, else
+/// found from the openings.
+fn side_rule(
     args: &BakeArgs,
     mesh: &FaceMesh,
-    layout: &MarkerLayout,
-) -> Result<ExitCode, CliError> {
-    let max_snap = args
-        .max_snap
-        .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
-    let placed = place_markers(layout, mesh, max_snap)?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let groups = read_groups(&args.layout, &names)
-        .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
-    if args.masks && groups.is_empty() {
-        return Err(CliError::input(
-            &args.layout,
-            "--masks needs a [groups] table naming the upper and lower markers of each opening",
-        ));
-    }
-    let markers: Vec<SurfaceMarker> = placed.iter().map(SurfaceMarker::from_placed).collect();
-    let sides = match &args.mask_sides {
+    groups: &[MarkerGroups],
+) -> Result<SideRule, CliError> {
+    Ok(match &args.mask_sides {
         Some(path) => SideRule::VertexSets(
-            read_vertex_sides(path, &groups).map_err(|e| CliError::input(path, e.to_string()))?,
+            read_vertex_sides(path, groups).map_err(|e| CliError::input(path, e.to_string()))?,
         ),
         None if !args.mask_image.is_empty() => SideRule::VertexSets(named_sides(
             "--mask-image",
             &args.mask_image,
-            &groups,
+            groups,
             &args.layout,
             |file| image_sides(file, mesh),
         )?),
         None if !args.mask_attribute.is_empty() => SideRule::VertexSets(named_sides(
             "--mask-attribute",
             &args.mask_attribute,
-            &groups,
+            groups,
             &args.layout,
             |attr| attribute_sides(attr, mesh),
         )?),
         None => SideRule::Auto,
-    };
-    let config = args.surface_config();
-    let baked = bake_surface(
-        &SurfaceInput {
-            mesh,
-            markers: &markers,
-            groups: &groups,
-            sides: &sides,
-        },
-        &config,
-    )
-    .map_err(|e| {
-        // Mask problems with given vertex sets are about the sides file.
-        let path = match (&e, &args.mask_sides) {
-            (crate::surface::SurfaceError::Mask(_), Some(sides)) => sides,
-            _ => &args.layout,
-        };
-        CliError::input(path, format!("surface-aware bake failed: {e}"))
-    })?;
-    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
-    write_file(&args.output, &blob)?;
-    let summary = SurfaceSummary {
-        output: args.output.clone(),
-        mesh: args.mesh.clone(),
-        layout: args.layout.clone(),
-        vertices: mesh.positions.len(),
-        markers: markers.len(),
-        masks: if config.masks {
-            groups.iter().map(|g| g.name.clone()).collect()
-        } else {
-            Vec::new()
-        },
-        weight_format: weight_format(baked.report.weight_frac_bits),
-        report: baked.report,
-        stages,
-    };
-    if args.json {
-        print_json(&summary);
-    } else {
-        let r = &summary.report;
-        let mut out = String::new();
-        outln!(
-            out,
-            "baked {} vertices with {} markers: {} RBF, {} kernel, {}",
-            summary.vertices,
-            summary.markers,
-            r.method.name(),
-            r.kernel,
-            form_text(r.form)
-        );
-        outln!(
-            out,
-            "masks: {}; openings found: {}; vertices masked: {}",
-            if summary.masks.is_empty() {
-                "none".to_string()
-            } else {
-                summary.masks.join(", ")
-            },
-            r.openings,
-            r.masked_vertices
-        );
-        outln!(
-            out,
-            "kernel matrix smallest eigenvalue {:.3e} × mean |φ|, ridge {:.3e}, condition {:.2e}, geodesic asymmetry {:.1} %",
-            r.min_eigenvalue,
-            r.ridge,
-            r.condition,
-            100.0 * r.geodesic_asymmetry
-        );
-        outln!(
-            out,
-            "weights {}, {} → {}",
-            summary.weight_format,
-            bytes_text(blob.len()),
-            summary.output.display()
-        );
-        if let Some(st) = &summary.stages {
-            outln!(
-                out,
-                "capture stages: head markers {}, retargeting {:?}",
-                st.head_markers.join(", "),
-                st.retarget
-            );
-        }
-        for w in &r.warnings {
-            outln!(out, "warning: {w}");
-        }
-        emit(&out);
-    }
-    Ok(ExitCode::SUCCESS)
+    })
 }
 
 /// The vertex sides of every mask from `--mask-image NAME=FILE` or `--mask-attribute
@@ -447,10 +238,10 @@ fn run_surface(
 fn named_sides(
     flag: &str,
     args: &[String],
-    groups: &[crate::io::marker_groups::MarkerGroups],
+    groups: &[MarkerGroups],
     layout: &std::path::Path,
-    read: impl Fn(&str) -> Result<crate::io::marker_groups::VertexSets, CliError>,
-) -> Result<Vec<crate::io::marker_groups::VertexSets>, CliError> {
+    read: impl Fn(&str) -> Result<VertexSets, CliError>,
+) -> Result<Vec<VertexSets>, CliError> {
     let mut given = std::collections::BTreeMap::new();
     for a in args {
         let (name, value) = a
@@ -475,13 +266,10 @@ fn named_sides(
         .collect()
 }
 
-/// A mask's sides from a mask image (see [`crate::io::mask_image`]).
-fn image_sides(
-    file: &str,
-    mesh: &FaceMesh,
-) -> Result<crate::io::marker_groups::VertexSets, CliError> {
+/// A mask's sides from a mask image (see [`facebake::io::mask_image`]).
+fn image_sides(file: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
     let path = PathBuf::from(file);
-    crate::io::mask_image::read_sides(&path, &mesh.positions, &mesh.triangles).map_err(|e| {
+    facebake::io::mask_image::read_sides(&path, &mesh.positions, &mesh.triangles).map_err(|e| {
         let text = e.to_string();
         let prefix = format!("{}: ", path.display());
         CliError::input(&path, text.strip_prefix(&prefix).unwrap_or(&text))
@@ -490,10 +278,7 @@ fn image_sides(
 
 /// A mask's sides from a per-vertex float attribute of the mesh: above ½ the upper side, below
 /// −½ the lower side, between unmasked.
-fn attribute_sides(
-    name: &str,
-    mesh: &FaceMesh,
-) -> Result<crate::io::marker_groups::VertexSets, CliError> {
+fn attribute_sides(name: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
     let values = mesh.attributes.get(name).ok_or_else(|| {
         let known: Vec<&str> = mesh.attributes.keys().map(String::as_str).collect();
         CliError::input(
@@ -531,66 +316,37 @@ fn attribute_sides(
     Ok((upper, lower))
 }
 
-/// With `--capture`, bake the capture stages for the `placed` markers and add them to `blob`.
-fn attach_stages(
-    args: &BakeArgs,
-    placed: &[PlacedMarker],
-    blob: &[u8],
-) -> Result<(Vec<u8>, Option<StagesReport>), CliError> {
-    let Some(path) = &args.capture else {
-        return Ok((blob.to_vec(), None));
-    };
-    let capture = read_capture_with_units(path, args.capture_units)?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
-    let space = super::load_rig(&args.output, blob)?.space();
-    let config = StagesConfig {
-        neutral: args.neutral.clone(),
-        head: args.head_markers.clone(),
-        max_displacement: args.max_displacement,
-        retarget: args.retarget,
-        virtual_markers: args.virtual_markers.clone(),
-        anchor_markers: args.anchor_markers.clone(),
-    };
-    let stages = bake_stages(&capture, &names, &character, &space, &config)
-        .map_err(|e| CliError::input(path, e.to_string()))?;
-    let blob = crate::blob::with_stages(blob, &stages.bytes)
-        .map_err(|e| CliError::input(path, e.to_string()))?;
-    Ok((blob, Some(stages.report)))
-}
-
 /// Run `facebake bake`.
 pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
     let layout = read_layout(&args.layout)?;
-    if args.surface_aware() {
-        return run_surface(args, &mesh, &layout);
-    }
-    let mut config = args.config();
-    if config.form == RigForm::Planar {
-        let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
-        config.control_triangles = read_triangles(&args.layout, &names)?;
-    }
-    let sides = match &args.mask_sides {
-        Some(path) => {
-            let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
-            let groups = read_groups(&args.layout, &names)
-                .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
-            SideRule::VertexSets(
-                read_vertex_sides(path, &groups)
-                    .map_err(|e| CliError::input(path, e.to_string()))?,
-            )
+    let max_snap = args
+        .max_snap
+        .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
+    let placed = place_markers(&layout, &mesh, max_snap)?;
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let options = args.options();
+    let mut scene = Scene::placed(&mesh, &placed);
+    if options.deformer == DeformerKind::Planar {
+        scene.control_triangles = read_triangles(&args.layout, &names)?;
+        if let Some(t) = &scene.control_triangles {
+            let rest = scene.marker_rest();
+            check_shapes(&args.layout, t, &names, &rest)?;
         }
-        None => SideRule::Auto,
+    }
+    if options.masks {
+        scene.groups = read_groups(&args.layout, &names)
+            .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+        scene.sides = side_rule(args, &mesh, &scene.groups)?;
+    }
+    let capture = match &args.capture {
+        Some(path) => Some(read_capture_with_units(path, args.capture_units)?),
+        None => None,
     };
-    let masks = (args.masks && config.form == RigForm::Planar).then_some(&sides);
-    let (baked, placed) = bake_layout(&mesh, &layout, &config, args.max_snap, masks)?;
-    let (blob, stages) = attach_stages(args, &placed, &baked.blob)?;
-    write_file(&args.output, &blob)?;
-    let mut report = baked.report;
-    report.sizes.total = blob.len();
-    report.sizes.other_bytes_per_vertex =
-        (blob.len() - report.sizes.influence_bytes) as f64 / mesh.positions.len().max(1) as f64;
+    scene.capture = capture.as_ref();
+    let baked = facebake::bake(&scene, &options).map_err(|e| bake_error(args, e))?;
+    write_file(&args.output, &baked.blob)?;
+    let report = baked.report;
     let summary = BakeSummary {
         output: args.output.clone(),
         mesh: args.mesh.clone(),
@@ -602,12 +358,11 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
             .iter()
             .map(|m| m.surface.distance)
             .fold(0.0, f64::max),
-        affine: config.affine,
+        affine: options.affine,
         weight_format: weight_format(report.weight_frac_bits),
         bytes_per_influence: report.sizes.influence_bytes as f64
             / report.sizes.influences.max(1) as f64,
         report,
-        stages,
     };
     if args.json {
         print_json(&summary);
@@ -617,19 +372,33 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// A failed bake as a command-line error naming the file it is about: the capture for the
+/// stages, the sides file for masks with given sides, else the layout.
+fn bake_error(args: &BakeArgs, e: BakeError) -> CliError {
+    match (&e, &args.capture, &args.mask_sides) {
+        (BakeError::Stages(_), Some(capture), _) => CliError::input(capture, e.to_string()),
+        (BakeError::Surface(facebake::surface::SurfaceError::Mask(_)), _, Some(sides)) => {
+            CliError::input(sides, e.to_string())
+        }
+        (BakeError::Surface(_), _, _) => CliError::input(&args.layout, e.to_string()),
+        _ => CliError::Bake {
+            path: args.layout.clone(),
+            source: e,
+        },
+    }
+}
+
 /// Bytes as "N bytes (x.y KiB)".
 pub fn bytes_text(n: usize) -> String {
     format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
 }
 
-/// What a rig form stores per influence, for reports.
-pub fn form_text(form: RigForm) -> &'static str {
-    match form {
-        RigForm::Coefficients => {
-            "coefficients: per-frame RBF coefficients, K kernel terms per vertex"
-        }
-        RigForm::Weights => "weights: K weights per vertex on marker displacements",
-        RigForm::Planar => "planar: K control-triangle region transforms per vertex",
+/// What a deformer stores per influence, for reports.
+pub fn deformer_text(deformer: DeformerKind) -> &'static str {
+    match deformer {
+        DeformerKind::Rbf => "rbf: per-frame RBF coefficients, K radial terms per vertex",
+        DeformerKind::Linear => "linear: K weights per vertex on marker displacements",
+        DeformerKind::Planar => "planar: K control-triangle region transforms per vertex",
     }
 }
 
@@ -645,19 +414,41 @@ fn print_text(s: &BakeSummary) {
         s.markers,
         s.layout.display()
     );
-    outln!(out, "  form          {}", form_text(r.form));
-    if r.form != RigForm::Planar {
+    outln!(out, "  deformer      {}", deformer_text(r.deformer));
+    if let Some(radial) = r.radial {
         outln!(
             out,
-            "  kernel        {}, {}",
-            r.kernel,
+            "  radial        {radial} on {} distances, {}",
+            r.method.name(),
             if s.affine {
                 "with affine term"
             } else {
                 "no affine term"
             }
         );
-        outln!(out, "  condition     {:.3e} (1-norm estimate)", r.condition);
+    }
+    if let Some(c) = r.condition {
+        outln!(out, "  condition     {c:.3e} (1-norm estimate)");
+    }
+    if let Some(f) = &r.surface {
+        outln!(
+            out,
+            "  surface       openings found: {}; kernel matrix smallest eigenvalue {:.3e} × mean |φ|, ridge {:.3e}, geodesic asymmetry {:.1} %",
+            f.openings,
+            f.min_eigenvalue,
+            f.ridge,
+            100.0 * f.geodesic_asymmetry
+        );
+        outln!(
+            out,
+            "  masks         {}; vertices masked: {}",
+            if f.masks.is_empty() {
+                "none".to_string()
+            } else {
+                f.masks.join(", ")
+            },
+            f.masked_vertices
+        );
     }
     outln!(
         out,
@@ -670,12 +461,12 @@ fn print_text(s: &BakeSummary) {
         r.k,
         r.sizes.influences
     );
-    let stored = match r.form {
-        RigForm::Coefficients => "kernel values",
-        RigForm::Weights => "weights",
-        RigForm::Planar => "weights",
+    let stored = match r.deformer {
+        DeformerKind::Rbf => "radial values",
+        DeformerKind::Linear => "weights",
+        DeformerKind::Planar => "weights",
     };
-    if r.form == RigForm::Planar {
+    if r.deformer == DeformerKind::Planar {
         outln!(
             out,
             "  weights       Q1.15 (unsigned 16-bit, each vertex's sum exactly 2^15), largest rounding {:.2e}",
@@ -690,7 +481,7 @@ fn print_text(s: &BakeSummary) {
             r.max_weight_rounding
         );
     }
-    if r.form == RigForm::Coefficients {
+    if r.deformer == DeformerKind::Rbf {
         outln!(
             out,
             "  coefficients  largest rounding of the coefficient map {:.2e} (relative to its row)",
@@ -702,10 +493,10 @@ fn print_text(s: &BakeSummary) {
         "  dropped mass  mean {:.4}, max {:.4} (share of each vertex's {} dropped by keeping K)",
         r.mean_dropped_mass,
         r.max_dropped_mass,
-        match r.form {
-            RigForm::Coefficients => "kernel mass",
-            RigForm::Weights => "dense weight",
-            RigForm::Planar => "eq-12 weight",
+        match r.deformer {
+            DeformerKind::Rbf => "radial mass",
+            DeformerKind::Linear => "dense weight",
+            DeformerKind::Planar => "eq-12 weight",
         }
     );
     if let Some(p) = &r.planar {
@@ -724,7 +515,7 @@ fn print_text(s: &BakeSummary) {
         s.bytes_per_influence,
         r.sizes.other_bytes_per_vertex
     );
-    if let Some(st) = &s.stages {
+    if let Some(st) = &r.stages {
         outln!(
             out,
             "  capture       neutral frames {:?}, actor half extent {:.1} mm (capture in {})",
