@@ -2,7 +2,7 @@
 //! the JawMoCap capture with its layout on the same head. `facebake demo`, the tests and the
 //! benches use these names, so they bake the same rigs.
 
-use crate::io::capture::Capture;
+use crate::model::Capture;
 use crate::stages::HeadMarkers;
 
 /// The demo's mesh file, in the fixtures folder.

@@ -5,9 +5,10 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use facebake::ground_truth::GroundTruth;
-use facebake::io::capture::{write_csv, Capture, Units};
+use facebake::io::capture::write_csv;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::npy::read_npy_f32;
+use facebake::model::{Capture, Units};
 use facebake_runtime::Rig;
 use serde_json::Value;
 
@@ -616,7 +617,10 @@ fn mask_images_render_and_bake_back() {
     ];
     let summary = json_ok(&bake(&mesh_path(), &layout, &rig, &extra));
     assert!(
-        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        summary["report"]["surface"]["masked_vertices"]
+            .as_u64()
+            .unwrap()
+            > 0,
         "{summary}"
     );
     // A mask the layout does not have, and a file that is not a PNG, are bad input.
@@ -701,7 +705,10 @@ fn masks_from_gltf_vertex_attributes() {
     ];
     let summary = json_ok(&bake(&glb, &layout, &rig, &args));
     assert!(
-        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        summary["report"]["surface"]["masked_vertices"]
+            .as_u64()
+            .unwrap()
+            > 0,
         "{summary}"
     );
     let missing = [

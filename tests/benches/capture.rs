@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 
 use criterion::Criterion;
 use facebake::ground_truth::GroundTruth;
-use facebake::io::capture::{Capture, Units};
 use facebake::io::gltf_mesh::load_mesh;
+use facebake::model::{Capture, Units};
 use facebake::{bake, BakeOptions, HeadMarkers, Scene, StagesConfig};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{fixture, jawmocap_rig, truth_markers};

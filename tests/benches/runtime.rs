@@ -20,7 +20,7 @@
 //!   SSE like the fixed-point kernel (one `[x, y, z, 0]` vector per marker, `mulps` + `addps` per
 //!   influence), so the two are equally optimised;
 //! * `dense_f64` (FaceCap): the papers' per-frame RBF of the same configuration
-//!   ([`facebake::reference::DenseRbf::frame`]: solve, then evaluate every vertex against every
+//!   ([`facebake::deformer::rbf::DenseRbf::frame`]: solve, then evaluate every vertex against every
 //!   marker).
 //!
 //! Every benchmark's throughput is the sparse rig's influence count (Σ per-vertex counts), so
@@ -39,8 +39,8 @@ use std::time::{Duration, Instant};
 use criterion::{Criterion, Throughput};
 use facebake::geodesic::Source;
 use facebake::ground_truth::SplitMix64;
-use facebake::io::gltf_mesh::FaceMesh;
 use facebake::mesh::farthest_point_sampling;
+use facebake::model::FaceMesh;
 use facebake::surface::SurfaceMarker;
 use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};

@@ -106,11 +106,11 @@ pub fn reseal(blob: &mut [u8]) {
 /// The JawMoCap capture on the FaceCap head: everything the capture tests and benches need.
 pub struct JawMoCapRig {
     /// The FaceCap head.
-    pub mesh: facebake::io::gltf_mesh::FaceMesh,
+    pub mesh: facebake::model::FaceMesh,
     /// The layout's 41 markers placed on it.
-    pub placed: Vec<facebake::io::layout::PlacedMarker>,
+    pub placed: Vec<facebake::model::PlacedMarker>,
     /// The capture (JawMoCap.trc, centimetres).
-    pub capture: facebake::io::capture::Capture,
+    pub capture: facebake::model::Capture,
     /// The capture's frames in rig marker order, metres.
     pub frames: Vec<Vec<Option<[f64; 3]>>>,
     /// The bake with the capture stages (`baked.blob` holds both).
@@ -119,7 +119,7 @@ pub struct JawMoCapRig {
 
 impl JawMoCapRig {
     /// The capture stages' f64 reference.
-    pub fn stages(&self) -> &facebake::stages::StagesF64 {
+    pub fn stages(&self) -> &facebake::stages::reference::StagesF64 {
         self.baked
             .reference
             .stages
@@ -159,10 +159,10 @@ pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig)
         .expect("layout reads");
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let placed = facebake::io::layout::place_markers(
+    let placed = facebake::model::place_markers(
         &layout,
         &mesh,
-        facebake::io::layout::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
     )
     .expect("layout places");
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
@@ -239,7 +239,7 @@ pub fn facecap_scene_with(lip_offset: f64) -> Benchmark {
     let path = fixture("facecap_jawmocap_layout.toml");
     let mut layout = facebake::io::layout::read_layout(&path).expect("layout reads");
     if lip_offset > 0.0 {
-        use facebake::io::layout::MarkerAnchor;
+        use facebake::model::MarkerAnchor;
         for m in &mut layout.markers {
             let sign = match m.name.as_str() {
                 "Mouth_Up" | "Mouth_UpL1" | "Mouth_UpR1" => 1.0,
@@ -251,11 +251,10 @@ pub fn facecap_scene_with(lip_offset: f64) -> Benchmark {
             }
         }
     }
-    let placed = facebake::io::layout::place_markers(&layout, &truth.mesh, 0.02)
+    let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02)
         .expect("layout places on the FaceCap head");
-    let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
-    let groups = facebake::io::marker_groups::read_groups(&path, &names).expect("groups read");
-    Benchmark::new(truth, &placed, groups, FACECAP_STATIC_MARKERS).expect("scene builds")
+    let groups = layout.groups.clone();
+    Benchmark::new(truth, &placed, groups, FACECAP_STATIC_MARKERS).expect("benchmark builds")
 }
 
 /// The benchmark's markers and groups on its mesh, ready to bake.

@@ -4,8 +4,8 @@
 //! * sparse K = 8 vs the dense per-frame RBF of the papers (same kernel);
 //! * the default configuration against the truth, pinned so a regression fails.
 
+use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
-use facebake::reference::SparseF64;
 use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_blobs, facecap_default, facecap_weights};

@@ -2,8 +2,9 @@
 //! head) driving FaceCap through the runtime's compensation, fill and retargeting, compared with
 //! the baker's f64 reference.
 
-use facebake::reference::SparseF64;
-use facebake::stages::{StagesConfig, StateF64};
+use facebake::deformer::SparseF64;
+use facebake::stages::reference::StateF64;
+use facebake::StagesConfig;
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, JawMoCapRig};
 
@@ -260,7 +261,7 @@ fn knocked_out_markers_are_rebuilt() {
 /// motion by 1.5: the runtime's character markers are the (scaled) compensated actor markers.
 #[test]
 fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
-    use facebake::rigid::kabsch;
+    use facebake::stages::rigid::kabsch;
     use facebake::stages::{bake_stages, HeadMarkers, RetargetKind};
     let j = rig();
     let rig = Rig::from_bytes(&j.baked.blob).expect("loads");

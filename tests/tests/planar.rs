@@ -9,9 +9,9 @@
 //! * the ground-truth figures beside the linear methods (printed with `--nocapture`, pinned).
 
 use facebake::bake::Baked;
+use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::mesh::distance;
-use facebake::reference::SparseF64;
 use facebake_runtime::format::Deformer;
 use facebake_runtime::Rig;
 use facebake_tests::{facecap_default, facecap_planar, facecap_weights, lip_vertices};
@@ -318,8 +318,9 @@ fn the_automatic_control_surface_leaves_out_the_openings() {
 /// the bake's exact positions) within the same bar.
 #[test]
 fn runtime_matches_the_f64_equations_on_jawmocap() {
-    use facebake::planar::reference::PlanarReference;
-    use facebake::stages::{StagesConfig, StateF64};
+    use facebake::deformer::planar::reference::PlanarReference;
+    use facebake::stages::reference::StateF64;
+    use facebake::StagesConfig;
     use facebake_runtime::PlayState;
     let j = facebake_tests::jawmocap_rig_with(
         &facebake_tests::planar_config(8),

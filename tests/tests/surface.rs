@@ -168,8 +168,8 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
                     .collect()
             };
             (
-                pick(facebake::surface::Side::Upper),
-                pick(facebake::surface::Side::Lower),
+                pick(facebake::model::Side::Upper),
+                pick(facebake::model::Side::Lower),
             )
         })
         .collect();
@@ -198,7 +198,8 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
 #[test]
 fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
     use facebake::io::mask_image::{read_sides, write_sides};
-    use facebake::surface::{mask_sides, Side, SurfaceInput};
+    use facebake::model::Side;
+    use facebake::surface::{mask_sides, SurfaceInput};
     let s = scene();
     let mesh = &s.truth.mesh;
     let input = |sides| SurfaceInput {

@@ -4,11 +4,10 @@
 use facebake_runtime::Space;
 
 use super::BakeError;
-use crate::blob;
+use crate::deformer::rbf::DenseRbf;
 use crate::deformer::{self, DeformerKind, DeformerOutput};
 use crate::options::BakeOptions;
 use crate::rbf::RbfSystem;
-use crate::reference::DenseRbf;
 use crate::sparsify;
 
 /// What the Euclidean strategy hands back.
@@ -67,7 +66,10 @@ fn rbf_deformer(
     space: &Space,
 ) -> Result<DeformerOutput, BakeError> {
     let h = f64::from(space.half_extent);
-    let centres: Vec<[f64; 3]> = rest.iter().map(|p| blob::to_rig_units(space, p)).collect();
+    let centres: Vec<[f64; 3]> = rest
+        .iter()
+        .map(|p| crate::space::to_rig_units(space, p))
+        .collect();
     let radial =
         options
             .radial
@@ -75,7 +77,7 @@ fn rbf_deformer(
     let system = RbfSystem::new(&centres, radial, options.affine, stiffness)?;
     let n = centres.len();
     let phi_rows = vertices.iter().map(|p| {
-        let v = blob::to_rig_units(space, p);
+        let v = crate::space::to_rig_units(space, p);
         (0..n)
             .map(|i| {
                 system

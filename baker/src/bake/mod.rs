@@ -12,19 +12,20 @@ use facebake_runtime::Space;
 use serde::Serialize;
 
 use crate::blob::{self, BlobContents, BlobError, BlobSizes};
+use crate::deformer::planar::reference::PlanarReference;
 use crate::deformer::planar::PlanarSummary;
+use crate::deformer::rbf::DenseRbf;
 use crate::deformer::{self, DeformerKind, DeformerOutput};
-use crate::io::capture::Capture;
-use crate::io::gltf_mesh::FaceMesh;
-use crate::io::layout::PlacedMarker;
-use crate::io::marker_groups::MarkerGroups;
+use crate::model::Capture;
+use crate::model::FaceMesh;
+use crate::model::MarkerGroups;
+use crate::model::PlacedMarker;
 use crate::options::{BakeOptions, Method};
-use crate::planar::reference::PlanarReference;
 use crate::planar::PlanarOptions;
 use crate::rbf::SolveError;
-use crate::reference::DenseRbf;
 use crate::sparsify::SparsifyError;
-use crate::stages::{bake_stages, StagesError, StagesF64, StagesReport};
+use crate::stages::reference::StagesF64;
+use crate::stages::{bake_stages, StagesError, StagesReport};
 use crate::surface::{SideRule, SurfaceError, SurfaceFigures, SurfaceInput, SurfaceMarker};
 
 /// What a rig is baked from: the mesh, the markers placed on it, their groups either side of the
@@ -248,7 +249,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     check(scene, options)?;
     let names = scene.marker_names();
     let rest = scene.marker_rest();
-    let space = blob::space_for(&scene.mesh.positions);
+    let space = crate::space::space_for(&scene.mesh.positions);
     let d = bake_deformer(scene, options, &rest, &space)?;
     let stages = match scene.capture {
         Some(capture) => Some(bake_stages(

@@ -1,6 +1,9 @@
-//! The linear deformer: K weights per vertex on marker displacements.
+//! The linear deformer: K weights per vertex on marker displacements; its f64 reference,
+//! [`LinearF64`], is the rig's own quantised weights in exact arithmetic.
 
-use super::DeformerOutput;
+use facebake_runtime::format::LinearInfluences;
+
+use super::{dequantise_rows, DeformerOutput};
 use crate::blob::DeformerBytes;
 use crate::sparsify::{self, Refit, SparsifyError};
 
@@ -31,4 +34,38 @@ pub(crate) fn bake(
         rounding: q.max_rounding,
         matrix_rounding: 0.0,
     })
+}
+
+/// A loaded linear rig's section in f64: per vertex, its (marker, weight) pairs.
+pub(crate) struct LinearF64 {
+    rows: Vec<Vec<(usize, f64)>>,
+}
+
+impl LinearF64 {
+    /// The section `l`, weights scaled by `scale`.
+    pub(crate) fn new(l: &LinearInfluences<'_>, scale: f64) -> Self {
+        Self {
+            rows: dequantise_rows(
+                l.influences.0,
+                l.influence_counts.0.iter().map(|&c| usize::from(c)),
+                scale,
+            ),
+        }
+    }
+
+    /// Each vertex's displacement for marker displacements `d` (rig units): Σ w · d.
+    pub(crate) fn displacements(&self, d: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        self.rows
+            .iter()
+            .map(|row| {
+                let mut out = [0.0; 3];
+                for &(i, w) in row {
+                    for a in 0..3 {
+                        out[a] += w * d[i][a];
+                    }
+                }
+                out
+            })
+            .collect()
+    }
 }

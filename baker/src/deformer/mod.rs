@@ -9,11 +9,16 @@
 //! * [`planar`]: planar bones (paper 000 §4.1–4.2), K control-triangle transforms per vertex.
 //!
 //! Each module turns f64 rows into the blob's section ([`DeformerBytes`]) and, beside it, holds
-//! the f64 reference the runtime is tested against.
+//! the f64 references the runtime is tested against; [`SparseF64`] evaluates any loaded rig's
+//! own numbers in f64 through them.
 
 pub mod linear;
 pub mod planar;
 pub mod rbf;
+
+use facebake_runtime::fixed::POS_FRAC_BITS;
+use facebake_runtime::format::{read_influence, Deformer, INFLUENCE_BYTES};
+use facebake_runtime::{Rig, Space};
 
 use crate::blob::DeformerBytes;
 
@@ -49,4 +54,103 @@ pub(crate) struct DeformerOutput {
     pub(crate) dropped: Vec<f64>,
     pub(crate) rounding: f64,
     pub(crate) matrix_rounding: f64,
+}
+
+/// A loaded rig's own numbers, evaluated in f64 in rig units: the same formula as the runtime
+/// on the same quantised data, with exact arithmetic instead of fixed point.
+pub struct SparseF64 {
+    space: Space,
+    rest: Vec<[f64; 3]>,
+    marker_rest: Vec<[f64; 3]>,
+    deformer: SparseDeformer,
+}
+
+/// The deformer part of [`SparseF64`].
+enum SparseDeformer {
+    Rbf(rbf::RbfF64),
+    Linear(linear::LinearF64),
+    /// Eqs 1–12 on the rig's own rest positions and influences (`None`: a section the
+    /// reference cannot read, which the runtime refuses too).
+    Planar(Option<planar::reference::PlanarReference>),
+}
+
+/// Per vertex, `counts` packed influences of `words` as (marker, value / `scale`).
+pub(crate) fn dequantise_rows(
+    words: &[u8],
+    counts: impl Iterator<Item = usize>,
+    scale: f64,
+) -> Vec<Vec<(usize, f64)>> {
+    let mut words = words.chunks_exact(INFLUENCE_BYTES);
+    counts
+        .map(|count| {
+            words
+                .by_ref()
+                .take(count)
+                .map(|w| {
+                    let (m, q) = read_influence(w);
+                    (usize::from(m), f64::from(q) / scale)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+impl SparseF64 {
+    /// Dequantise a rig: rest positions, marker rest positions and the deformer's numbers
+    /// exactly as stored.
+    pub fn from_rig(rig: &Rig<'_>) -> Self {
+        let scale = f64::from(1u32 << rig.weight_frac_bits());
+        let one = f64::from(1u32 << POS_FRAC_BITS);
+        let to_f64 = |q: [i32; 3]| q.map(|x| f64::from(x) / one);
+        let rest = (0..rig.vertex_count())
+            .filter_map(|i| rig.vertex_rest(i))
+            .map(to_f64)
+            .collect();
+        let marker_rest = (0..rig.marker_count())
+            .filter_map(|i| rig.marker_rest(i))
+            .map(to_f64)
+            .collect();
+        let deformer = match rig.deformer() {
+            Deformer::Linear(l) => SparseDeformer::Linear(linear::LinearF64::new(l, scale)),
+            Deformer::RbfCoefficients(r) => SparseDeformer::Rbf(rbf::RbfF64::new(
+                r,
+                rig.vertex_count(),
+                rig.marker_count(),
+                scale,
+            )),
+            Deformer::PlanarBones(_) => {
+                SparseDeformer::Planar(planar::reference::PlanarReference::from_rig(rig))
+            }
+        };
+        Self {
+            space: rig.space(),
+            rest,
+            marker_rest,
+            deformer,
+        }
+    }
+
+    /// Deformed positions for marker positions `markers` (asset units).
+    pub fn frame(&self, markers: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let d: Vec<[f64; 3]> = markers
+            .iter()
+            .zip(&self.marker_rest)
+            .map(|(m, r)| {
+                let m = crate::space::to_rig_units(&self.space, m);
+                [m[0] - r[0], m[1] - r[1], m[2] - r[2]]
+            })
+            .collect();
+        let displacements = match &self.deformer {
+            SparseDeformer::Planar(Some(planar)) => return planar.frame(markers).0,
+            SparseDeformer::Planar(None) => vec![[0.0; 3]; self.rest.len()],
+            SparseDeformer::Linear(l) => l.displacements(&d),
+            SparseDeformer::Rbf(r) => r.displacements(&self.rest, &d),
+        };
+        let h = f64::from(self.space.half_extent);
+        self.rest
+            .iter()
+            .zip(&displacements)
+            .map(|(v, dv)| [0, 1, 2].map(|a| f64::from(self.space.centre[a]) + (v[a] + dv[a]) * h))
+            .collect()
+    }
 }

@@ -7,12 +7,11 @@
 
 use crate::geodesic::{GeodesicMethod, Source};
 use crate::ground_truth::{stats, ErrorStats, GroundTruth, GroundTruthError};
-use crate::io::layout::PlacedMarker;
-use crate::io::marker_groups::MarkerGroups;
 use crate::mesh::{distance, SurfacePoint};
+use crate::model::{MarkerGroups, PlacedMarker, Side};
 
 use super::geometry::SurfaceGeometry;
-use super::masks::{vertex_sides, MaskError, Side, SideRule};
+use super::masks::{vertex_sides, MaskError, SideRule};
 use super::{SurfaceError, SurfaceMarker};
 
 /// Width of the lip and eyelid bands: skin within this edge distance of the opening, metres.

@@ -29,15 +29,15 @@ use nalgebra::DMatrix;
 
 use crate::deformer::{self, DeformerKind, DeformerOutput};
 use crate::geodesic::{GeodesicError, Source};
-use crate::io::gltf_mesh::FaceMesh;
-use crate::io::marker_groups::MarkerGroups;
+use crate::model::FaceMesh;
+use crate::model::MarkerGroups;
 use crate::options::{BakeOptions, Method, SurfaceOptions};
 use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 use crate::sparsify::SparsifyError;
 
 pub use distances::DistanceKind;
 pub use geometry::SurfaceGeometry;
-pub use masks::{MaskError, Side, SideRule};
+pub use masks::{MaskError, SideRule};
 
 /// Ridge margin (fraction of the mean |φ|) added beyond the most negative eigenvalue.
 pub const RIDGE_MARGIN: f64 = 1e-3;
@@ -57,7 +57,7 @@ pub struct SurfaceMarker {
 
 impl SurfaceMarker {
     /// A layout marker placed on the mesh.
-    pub fn from_placed(p: &crate::io::layout::PlacedMarker) -> Self {
+    pub fn from_placed(p: &crate::model::PlacedMarker) -> Self {
         Self {
             name: p.name.clone(),
             rest: p.position,
@@ -283,12 +283,12 @@ pub(crate) fn bake(
     let h = f64::from(space.half_extent);
     let centres: Vec<[f64; 3]> = rest
         .iter()
-        .map(|p| crate::blob::to_rig_units(space, p))
+        .map(|p| crate::space::to_rig_units(space, p))
         .collect();
     let points: Vec<[f64; 3]> = mesh
         .positions
         .iter()
-        .map(|p| crate::blob::to_rig_units(space, p))
+        .map(|p| crate::space::to_rig_units(space, p))
         .collect();
     let between = &d.between / h;
     let rows: Vec<Vec<f64>> = d

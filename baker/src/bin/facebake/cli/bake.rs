@@ -9,11 +9,13 @@ use serde::Serialize;
 
 use super::values::{DeformerArg, MethodArg, RadialArg, RefitArg, RetargetArg};
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
-use facebake::io::capture::{read_capture_with_units, Units};
-use facebake::io::control_triangles::{check_shapes, read_triangles};
-use facebake::io::gltf_mesh::{load_mesh, FaceMesh};
-use facebake::io::layout::{place_markers, read_layout, DEFAULT_MAX_SNAP_FRACTION};
-use facebake::io::marker_groups::{read_groups, read_vertex_sides, MarkerGroups, VertexSets};
+use facebake::io::capture::read_capture_with_units;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::read_layout;
+use facebake::io::mask_sides::read_vertex_sides;
+use facebake::model::{
+    place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
+};
 use facebake::surface::SideRule;
 use facebake::{
     BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
@@ -324,19 +326,13 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         .max_snap
         .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
     let placed = place_markers(&layout, &mesh, max_snap)?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let options = args.options();
     let mut scene = Scene::placed(&mesh, &placed);
     if options.deformer == DeformerKind::Planar {
-        scene.control_triangles = read_triangles(&args.layout, &names)?;
-        if let Some(t) = &scene.control_triangles {
-            let rest = scene.marker_rest();
-            check_shapes(&args.layout, t, &names, &rest)?;
-        }
+        scene.control_triangles = layout.triangles.clone();
     }
     if options.masks {
-        scene.groups = read_groups(&args.layout, &names)
-            .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+        scene.groups = layout.groups.clone();
         scene.sides = side_rule(args, &mesh, &scene.groups)?;
     }
     let capture = match &args.capture {

@@ -10,9 +10,10 @@ use serde::Serialize;
 
 use super::bake::{parse_frames, parse_head};
 use super::{emit, parse_units, print_json, CliError};
-use facebake::io::capture::{read_capture_with_units, write_csv, Capture, Units};
+use facebake::io::capture::{read_capture_with_units, write_csv};
+use facebake::model::{Capture, Units};
 use facebake::pivot::{estimate_pivot, PivotEstimate};
-use facebake::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
+use facebake::stages::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
 use facebake::stages::HeadMarkers;
 
 /// Arguments of `facebake compensate`.
@@ -140,7 +141,9 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             Fit::ThreePoint if present.len() >= 3 && present[..3] == head[..3] => {
                 three_point(&[from[0], from[1], from[2]], &[to[0], to[1], to[2]])
             }
-            Fit::ThreePoint => Err(facebake::rigid::RigidError::TooFewPoints(present.len())),
+            Fit::ThreePoint => Err(facebake::stages::rigid::RigidError::TooFewPoints(
+                present.len(),
+            )),
         };
         match fitted {
             Ok(fit) => {

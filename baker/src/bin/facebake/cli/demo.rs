@@ -17,14 +17,15 @@ use super::{
     deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress, to_f32,
     weight_format, write_file, CliError,
 };
+use facebake::deformer::SparseF64;
 use facebake::demo::{CAPTURE_RATE_HZ, GLB_FRAMES, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
-use facebake::io::capture::{write_csv, Capture, Units};
+use facebake::io::capture::write_csv;
 use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
-use facebake::io::layout::{place_markers, read_layout, write_layout, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::io::layout::{read_layout, write_layout};
 use facebake::io::npy::write_npy_f32;
-use facebake::reference::SparseF64;
+use facebake::model::{place_markers, Capture, Units, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::{BakeOptions, Scene};
 
 /// Arguments of `facebake demo`.

@@ -10,11 +10,11 @@ use serde::Serialize;
 
 use super::{emit, print_json, CliError};
 use facebake::io::gltf_mesh::load_mesh;
-use facebake::io::layout::DEFAULT_MAX_SNAP_FRACTION;
-use facebake::io::layout::{place_markers, read_layout};
-use facebake::io::marker_groups::read_groups;
+use facebake::io::layout::read_layout;
 use facebake::io::mask_image::write_sides;
-use facebake::surface::masks::{Side, SideRule};
+use facebake::model::DEFAULT_MAX_SNAP_FRACTION;
+use facebake::model::{place_markers, Side};
+use facebake::surface::SideRule;
 use facebake::surface::{mask_sides, SurfaceInput, SurfaceMarker};
 use facebake::SurfaceOptions;
 
@@ -60,9 +60,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
     let layout = read_layout(&args.layout)?;
     let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let groups = read_groups(&args.layout, &names)
-        .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+    let groups = &layout.groups;
     if groups.is_empty() {
         return Err(CliError::input(
             &args.layout,
@@ -74,7 +72,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
         &SurfaceInput {
             mesh: &mesh,
             markers: &markers,
-            groups: &groups,
+            groups,
             sides: &SideRule::Auto,
         },
         &SurfaceOptions::default(),

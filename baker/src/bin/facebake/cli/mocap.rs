@@ -10,14 +10,15 @@ use serde::Serialize;
 
 use super::play::{play_stages, StagesSummary};
 use super::{load_rig, max_distance, to_f32, write_file, CliError};
+use facebake::deformer::SparseF64;
 use facebake::demo::{jawmocap_head_markers, JAWMOCAP_FILE, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
 use facebake::io::capture::read_capture;
 use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
-use facebake::io::layout::{place_markers, read_layout, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::io::layout::read_layout;
 use facebake::io::npy::write_npy_f32;
-use facebake::reference::SparseF64;
-use facebake::stages::StateF64;
+use facebake::model::{place_markers, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::stages::reference::StateF64;
 use facebake::{BakeError, BakeOptions, Scene, StagesConfig};
 
 /// Frames of the capture put in the `.glb` besides the chosen expressions.

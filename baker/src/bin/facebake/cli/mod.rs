@@ -31,10 +31,11 @@ use facebake_runtime::{LoadError, Rig};
 
 use facebake::bake::BakeError;
 use facebake::ground_truth::GroundTruthError;
-use facebake::io::capture::{CaptureError, Units};
+use facebake::io::capture::CaptureError;
 use facebake::io::glb::GlbError;
 use facebake::io::gltf_mesh::MeshLoadError;
-use facebake::io::layout::LayoutError;
+use facebake::model::LayoutError;
+use facebake::model::Units;
 
 /// The exit codes, as documented in `--help`.
 pub const EXIT_CODES: &str = "\
@@ -99,9 +100,6 @@ pub enum CliError {
     /// A layout could not be read, written or placed.
     #[error(transparent)]
     Layout(#[from] LayoutError),
-    /// A layout's control triangles are wrong.
-    #[error(transparent)]
-    Triangles(Box<facebake::io::control_triangles::TrianglesError>),
     /// A capture could not be read or written.
     #[error(transparent)]
     Capture(#[from] CaptureError),
@@ -165,12 +163,6 @@ impl CliError {
             path: path.to_path_buf(),
             source,
         }
-    }
-}
-
-impl From<facebake::io::control_triangles::TrianglesError> for CliError {
-    fn from(e: facebake::io::control_triangles::TrianglesError) -> Self {
-        Self::Triangles(Box::new(e))
     }
 }
 
@@ -331,7 +323,7 @@ pub fn weight_format(frac_bits: u8) -> String {
 /// index on ties) within `1e-6 ×` the mesh's diagonal, else an error naming the marker.
 pub fn marker_vertices(
     rig: &Rig<'_>,
-    mesh: &facebake::io::gltf_mesh::FaceMesh,
+    mesh: &facebake::model::FaceMesh,
 ) -> Result<Vec<u32>, CliError> {
     let space = rig.space();
     let tolerance = 1e-6 * mesh.diagonal();

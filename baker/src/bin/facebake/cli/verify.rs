@@ -13,10 +13,10 @@ use super::{
     deform_to_asset, emit, load_rig, marker_vertices, markers_to_rig, max_distance, parse_units,
     print_json, progress, read_file, CliError, EXIT_VERIFY_FAILED,
 };
+use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth, SplitMix64};
-use facebake::io::capture::Units;
-use facebake::io::gltf_mesh::FaceMesh;
-use facebake::reference::SparseF64;
+use facebake::model::FaceMesh;
+use facebake::model::Units;
 
 /// The runtime may differ from the f64 evaluation by at most this fraction of the mesh's
 /// bounding-box diagonal.

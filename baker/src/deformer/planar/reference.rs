@@ -20,9 +20,9 @@ use facebake_runtime::format::{
 };
 use facebake_runtime::Rig;
 
-use super::region::{add, cross, scale, Frame, Region, V3};
-use super::Influence;
 use crate::mesh::{dot, norm, sub};
+use crate::planar::region::{add, cross, scale, Frame, Region, V3};
+use crate::planar::Influence;
 
 type M3 = [V3; 3];
 

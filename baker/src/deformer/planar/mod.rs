@@ -3,10 +3,12 @@
 
 use facebake_runtime::Space;
 
+pub mod reference;
+
 use super::DeformerOutput;
-use crate::blob::{self, DeformerBytes};
-use crate::planar::reference::PlanarReference;
+use crate::blob::DeformerBytes;
 use crate::planar::{PlanarError, PlanarOptions};
+use reference::PlanarReference;
 
 /// What the planar bake built.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -28,7 +30,7 @@ pub(crate) fn bake(
     space: &Space,
 ) -> Result<(DeformerOutput, PlanarSummary, PlanarReference), PlanarError> {
     let p = crate::planar::bake(vertices, faces, rest, options, |x| {
-        blob::to_rig_units(space, x)
+        crate::space::to_rig_units(space, x)
     })?;
     let triangles = p.triangles.iter().map(|t| t.map(|m| m as u8)).collect();
     let summary = PlanarSummary {
