@@ -46,6 +46,10 @@ impl DeformerKind {
     }
 }
 
+/// The runtime may differ from the f64 evaluation of the same rig ([`SparseF64`]) by at most
+/// this fraction of the mesh's bounding-box diagonal: what `facebake verify` checks.
+pub const TOLERANCE_FRACTION: f64 = 2e-5;
+
 /// What a deformer's bake hands back for the blob and the report.
 pub(crate) struct DeformerOutput {
     pub(crate) bytes: DeformerBytes,

@@ -5,6 +5,32 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use crate::mesh::Topology;
+use crate::model::VertexSets;
+
+/// A mask's sides could not be read from a vertex attribute.
+#[derive(Debug, thiserror::Error)]
+pub enum AttributeSidesError {
+    /// The mesh has no such attribute.
+    #[error("mesh \"{mesh}\" has no float vertex attribute {name:?} (it has: {known})")]
+    Missing {
+        /// The mesh's name.
+        mesh: String,
+        /// The attribute asked for.
+        name: String,
+        /// The attributes it has, comma-separated, or `none`.
+        known: String,
+    },
+    /// The attribute leaves a side empty.
+    #[error("vertex attribute {name:?} puts {upper} vertices on the upper side (> 0.5) and {lower} on the lower (< -0.5): a mask needs both")]
+    OneSided {
+        /// The attribute.
+        name: String,
+        /// Vertices on the upper side.
+        upper: usize,
+        /// Vertices on the lower side.
+        lower: usize,
+    },
+}
 
 /// One morph target (blend shape) of a [`FaceMesh`].
 #[derive(Debug, Clone, PartialEq)]
@@ -142,6 +168,41 @@ impl FaceMesh {
             out[w as usize] = orig as u32;
         }
         out
+    }
+
+    /// A mask's sides from the float vertex attribute `name` (such as `_MASK_MOUTH`): above ½
+    /// the upper side, below −½ the lower side, between unmasked. Both sides must have
+    /// vertices.
+    pub fn attribute_sides(&self, name: &str) -> Result<VertexSets, AttributeSidesError> {
+        let values = self.attributes.get(name).ok_or_else(|| {
+            let known: Vec<&str> = self.attributes.keys().map(String::as_str).collect();
+            AttributeSidesError::Missing {
+                mesh: self.mesh_name.clone(),
+                name: name.to_string(),
+                known: if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                },
+            }
+        })?;
+        let pick = |keep: &dyn Fn(f32) -> bool| {
+            values
+                .iter()
+                .enumerate()
+                .filter(|(_, &x)| keep(x))
+                .map(|(v, _)| v as u32)
+                .collect::<Vec<u32>>()
+        };
+        let (upper, lower) = (pick(&|x| x > 0.5), pick(&|x| x < -0.5));
+        if upper.is_empty() || lower.is_empty() {
+            return Err(AttributeSidesError::OneSided {
+                name: name.to_string(),
+                upper: upper.len(),
+                lower: lower.len(),
+            });
+        }
+        Ok((upper, lower))
     }
 
     /// Topology (adjacency, edges, components, boundary loops) of the welded mesh.

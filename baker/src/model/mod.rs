@@ -11,4 +11,4 @@ pub use layout::{
     PlacedMarker, Side, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
 pub(crate) use mesh::weld_positions;
-pub use mesh::{bounds, FaceMesh, MorphTarget};
+pub use mesh::{bounds, AttributeSidesError, FaceMesh, MorphTarget};

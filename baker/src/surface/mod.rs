@@ -35,7 +35,7 @@ use crate::options::{BakeOptions, Method, SurfaceOptions};
 use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 use crate::sparsify::SparsifyError;
 
-pub use distances::DistanceKind;
+pub use distances::Distance;
 pub use geometry::SurfaceGeometry;
 pub use masks::{MaskError, SideRule};
 
@@ -242,9 +242,9 @@ pub(crate) fn bake(
     let spacing = mean_spacing(&rest);
     let geometry = SurfaceGeometry::new(mesh, &sources, config.surface.geodesic)?;
     let kind = match config.method {
-        Method::Euclidean => DistanceKind::Euclidean,
-        Method::Geodesic | Method::Pbw => DistanceKind::Geodesic,
-        Method::Hybrid => DistanceKind::Hybrid {
+        Method::Euclidean => Distance::Euclidean,
+        Method::Geodesic | Method::Pbw => Distance::Geodesic,
+        Method::Hybrid => Distance::Hybrid {
             region: config.surface.region_factor * spacing,
             decay: config.surface.decay_factor * spacing,
         },

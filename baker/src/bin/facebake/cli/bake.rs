@@ -278,44 +278,11 @@ fn image_sides(file: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
     })
 }
 
-/// A mask's sides from a per-vertex float attribute of the mesh: above ½ the upper side, below
-/// −½ the lower side, between unmasked.
+/// A mask's sides from a per-vertex float attribute of the mesh (see
+/// [`FaceMesh::attribute_sides`]), errors naming the mesh file.
 fn attribute_sides(name: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
-    let values = mesh.attributes.get(name).ok_or_else(|| {
-        let known: Vec<&str> = mesh.attributes.keys().map(String::as_str).collect();
-        CliError::input(
-            &mesh.source,
-            format!(
-                "mesh \"{}\" has no float vertex attribute {name:?} (it has: {})",
-                mesh.mesh_name,
-                if known.is_empty() {
-                    "none".to_string()
-                } else {
-                    known.join(", ")
-                }
-            ),
-        )
-    })?;
-    let pick = |keep: &dyn Fn(f32) -> bool| {
-        values
-            .iter()
-            .enumerate()
-            .filter(|(_, &x)| keep(x))
-            .map(|(v, _)| v as u32)
-            .collect::<Vec<u32>>()
-    };
-    let (upper, lower) = (pick(&|x| x > 0.5), pick(&|x| x < -0.5));
-    if upper.is_empty() || lower.is_empty() {
-        return Err(CliError::input(
-            &mesh.source,
-            format!(
-                "vertex attribute {name:?} puts {} vertices on the upper side (> 0.5) and {} on the lower (< -0.5): a mask needs both",
-                upper.len(),
-                lower.len()
-            ),
-        ));
-    }
-    Ok((upper, lower))
+    mesh.attribute_sides(name)
+        .map_err(|e| CliError::input(&mesh.source, e.to_string()))
 }
 
 /// Run `facebake bake`.

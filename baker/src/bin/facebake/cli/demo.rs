@@ -12,12 +12,11 @@ use serde::Serialize;
 
 use super::bake::bytes_text;
 use super::inspect::CostSummary;
-use super::verify::TOLERANCE_FRACTION;
 use super::{
     deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress, to_f32,
     weight_format, write_file, CliError,
 };
-use facebake::deformer::SparseF64;
+use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
 use facebake::demo::{CAPTURE_RATE_HZ, GLB_FRAMES, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::io::capture::write_csv;
