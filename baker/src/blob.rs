@@ -1,11 +1,9 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
-use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, PlanarBones, PlanarInfluence, RbfCoefficients,
-    RigData, Space, MAX_MARKERS,
-};
+use facebake_runtime::format::{self, Bytes, RigData, Space, MAX_MARKERS};
 use facebake_runtime::pipeline::{PerMarker, Retarget, RetargetForm, Stages};
 
+use crate::deformer::DeformerBytes;
 use crate::stages::StagesBytes;
 
 /// The blob could not be written.
@@ -35,39 +33,6 @@ pub enum BlobError {
     Encode(#[from] postcard::Error),
 }
 
-/// The deformer's sections, already encoded as bytes.
-pub enum DeformerBytes {
-    /// Linear weights: per-vertex counts and packed influences.
-    Linear {
-        /// Fractional weight bits.
-        weight_frac_bits: u8,
-        /// Per vertex, its packed influences.
-        rows: Vec<Vec<u32>>,
-    },
-    /// RBF coefficients.
-    Rbf {
-        /// Fractional bits of φ.
-        weight_frac_bits: u8,
-        /// Influences per vertex.
-        k: u8,
-        /// Affine rows present.
-        affine: bool,
-        /// Per coefficient row: shift.
-        row_shifts: Vec<u8>,
-        /// Rows × markers entries.
-        matrix: Vec<i16>,
-        /// Per vertex, exactly `k` packed influences.
-        rows: Vec<Vec<u32>>,
-    },
-    /// Planar bones.
-    Planar {
-        /// Control triangles (marker indices).
-        triangles: Vec<[u8; 3]>,
-        /// Per vertex, its influence records (1 to 64).
-        rows: Vec<Vec<PlanarInfluence>>,
-    },
-}
-
 /// Everything the blob holds, in asset units.
 pub struct BlobContents<'a> {
     /// Rig space.
@@ -95,13 +60,6 @@ pub struct BlobSizes {
     pub influences: usize,
     /// Bytes per vertex of everything but the influences.
     pub other_bytes_per_vertex: f64,
-}
-
-fn le_words(rows: &[Vec<u32>]) -> Vec<u8> {
-    rows.iter()
-        .flatten()
-        .flat_map(|w| w.to_le_bytes())
-        .collect()
 }
 
 /// Encode and seal a rig.
@@ -138,77 +96,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         q.iter()
             .for_each(|x| vertex_rest.extend_from_slice(&x.to_le_bytes()));
     }
-    let too_many = |n: usize| BlobError::Limits(format!("a vertex has {n} influences; at most 64"));
-    let (counts, words, shifts, matrix, tris);
-    let mut record_bytes = 4;
-    let deformer = match c.deformer {
-        DeformerBytes::Linear {
-            weight_frac_bits,
-            rows,
-        } => {
-            counts = rows
-                .iter()
-                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
-                .collect::<Result<Vec<u8>, _>>()?;
-            words = le_words(rows);
-            Deformer::Linear(LinearInfluences {
-                weight_frac_bits: *weight_frac_bits,
-                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
-                influence_counts: Bytes(&counts),
-                influences: Bytes(&words),
-            })
-        }
-        DeformerBytes::Rbf {
-            weight_frac_bits,
-            k,
-            affine,
-            row_shifts,
-            matrix: m,
-            rows,
-        } => {
-            if let Some(r) = rows.iter().find(|r| r.len() != usize::from(*k)) {
-                return Err(BlobError::Limits(format!(
-                    "a vertex has {} kernel terms, the rig has K = {k}",
-                    r.len()
-                )));
-            }
-            words = le_words(rows);
-            shifts = row_shifts.clone();
-            matrix = m.iter().flat_map(|q| q.to_le_bytes()).collect::<Vec<u8>>();
-            Deformer::RbfCoefficients(RbfCoefficients {
-                influences_per_vertex: *k,
-                weight_frac_bits: *weight_frac_bits,
-                affine: *affine,
-                row_shifts: Bytes(&shifts),
-                matrix: Bytes(&matrix),
-                influences: Bytes(&words),
-            })
-        }
-        DeformerBytes::Planar { triangles, rows } => {
-            counts = rows
-                .iter()
-                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
-                .collect::<Result<Vec<u8>, _>>()?;
-            let mut w = Vec::new();
-            for r in rows.iter().flatten() {
-                let b = format::write_planar_influence(r).ok_or_else(|| {
-                    BlobError::Limits(format!("control triangle {} out of range", r.triangle))
-                })?;
-                w.extend_from_slice(&b);
-            }
-            words = w;
-            record_bytes = format::PLANAR_INFLUENCE_BYTES;
-            tris = triangles.iter().flatten().copied().collect::<Vec<u8>>();
-            Deformer::PlanarBones(PlanarBones {
-                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
-                triangle_count: u16::try_from(triangles.len())
-                    .map_err(|_| BlobError::Limits("too many control triangles".into()))?,
-                triangles: Bytes(&tris),
-                influence_counts: Bytes(&counts),
-                influences: Bytes(&words),
-            })
-        }
-    };
+    let section = c.deformer.section();
     let data = RigData {
         space: c.space,
         marker_count: c.marker_names.len() as u16,
@@ -217,15 +105,16 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         marker_names: Bytes(&names),
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
-        deformer,
+        deformer: section.deformer,
         stages: c.stages.map(stages_section),
     };
     let blob = seal(&data, c.stages.is_some())?;
     let sizes = BlobSizes {
         total: blob.len(),
-        influence_bytes: words.len(),
-        influences: words.len() / record_bytes,
-        other_bytes_per_vertex: (blob.len() - words.len()) as f64 / c.vertices.len().max(1) as f64,
+        influence_bytes: section.influence_bytes,
+        influences: section.influences,
+        other_bytes_per_vertex: (blob.len() - section.influence_bytes) as f64
+            / c.vertices.len().max(1) as f64,
     };
     Ok((blob, sizes))
 }

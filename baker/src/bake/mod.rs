@@ -102,9 +102,9 @@ pub enum BakeError {
     /// Inconsistent input or options.
     #[error("{0}")]
     Input(String),
-    /// Planar bones.
-    #[error("planar bones: {0}")]
-    Planar(#[from] crate::planar::PlanarError),
+    /// The deformer.
+    #[error(transparent)]
+    Deformer(#[from] crate::deformer::DeformerError),
     /// A surface-aware method (geodesics, masks).
     #[error("surface-aware bake failed: {0}")]
     Surface(#[from] SurfaceError),

@@ -1,11 +1,45 @@
 //! The linear deformer: K weights per vertex on marker displacements; its f64 reference,
 //! [`LinearF64`], is the rig's own quantised weights in exact arithmetic.
 
-use facebake_runtime::format::LinearInfluences;
+use facebake_runtime::format::{Bytes, Deformer, LinearInfluences, INFLUENCE_BYTES};
 
-use super::{dequantise_rows, DeformerOutput};
-use crate::blob::DeformerBytes;
-use crate::sparsify::{self, Refit, SparsifyError};
+use super::{
+    dequantise_rows, influence_counts, le_words, DeformerBytes, DeformerOutput, Section,
+    SectionError,
+};
+use crate::sparsify::{self, Refit};
+
+/// The linear section, encoded: per vertex its influence count, and the packed influences.
+pub struct LinearBytes {
+    weight_frac_bits: u8,
+    counts: Vec<u8>,
+    words: Vec<u8>,
+}
+
+impl LinearBytes {
+    /// Per vertex, its packed influences (at most 64).
+    fn new(weight_frac_bits: u8, rows: &[Vec<u32>]) -> Result<Self, SectionError> {
+        Ok(Self {
+            weight_frac_bits,
+            counts: influence_counts(rows.iter().map(Vec::len))?,
+            words: le_words(rows),
+        })
+    }
+
+    /// The runtime's section over these bytes.
+    pub(super) fn section(&self) -> Section<'_> {
+        Section {
+            deformer: Deformer::Linear(LinearInfluences {
+                weight_frac_bits: self.weight_frac_bits,
+                max_influences: self.counts.iter().copied().max().unwrap_or(0).max(1),
+                influence_counts: Bytes(&self.counts),
+                influences: Bytes(&self.words),
+            }),
+            influence_bytes: self.words.len(),
+            influences: self.words.len() / INFLUENCE_BYTES,
+        }
+    }
+}
 
 /// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise.
 pub(crate) fn bake(
@@ -13,7 +47,7 @@ pub(crate) fn bake(
     k: usize,
     refit: Refit,
     covariance: &nalgebra::DMatrix<f64>,
-) -> Result<DeformerOutput, SparsifyError> {
+) -> Result<DeformerOutput, super::DeformerError> {
     let mut dropped = Vec::new();
     let rows: Vec<_> = dense_rows
         .map(|dense| {
@@ -25,10 +59,7 @@ pub(crate) fn bake(
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
     Ok(DeformerOutput {
-        bytes: DeformerBytes::Linear {
-            weight_frac_bits: q.frac_bits,
-            rows: q.words,
-        },
+        bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words)?),
         frac_bits: q.frac_bits,
         dropped,
         rounding: q.max_rounding,

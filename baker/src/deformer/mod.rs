@@ -20,8 +20,6 @@ use facebake_runtime::fixed::POS_FRAC_BITS;
 use facebake_runtime::format::{read_influence, Deformer, INFLUENCE_BYTES};
 use facebake_runtime::{Rig, Space};
 
-use crate::blob::DeformerBytes;
-
 /// Which deformer the runtime runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -36,6 +34,9 @@ pub enum DeformerKind {
 }
 
 impl DeformerKind {
+    /// Every deformer, in the format's order.
+    pub const ALL: [DeformerKind; 3] = [Self::Rbf, Self::Linear, Self::Planar];
+
     /// Name on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
@@ -44,11 +45,109 @@ impl DeformerKind {
             Self::Planar => "planar",
         }
     }
+
+    /// The deformer called `name` ([`Self::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.name() == name)
+    }
+
+    /// What it stores per vertex, for help and reports.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Rbf => "per-frame RBF coefficients, K radial terms per vertex",
+            Self::Linear => "K weights per vertex on marker displacements",
+            Self::Planar => "K control-triangle region transforms per vertex (planar bones)",
+        }
+    }
+
+    /// What its influences hold, for reports.
+    pub fn stored(self) -> &'static str {
+        match self {
+            Self::Rbf => "radial values",
+            Self::Linear | Self::Planar => "weights",
+        }
+    }
+
+    /// What keeping K of each vertex's influences drops a share of, for reports.
+    pub fn dropped(self) -> &'static str {
+        match self {
+            Self::Rbf => "radial mass",
+            Self::Linear => "dense weight",
+            Self::Planar => "eq-12 weight",
+        }
+    }
 }
 
 /// The runtime may differ from the f64 evaluation of the same rig ([`SparseF64`]) by at most
 /// this fraction of the mesh's bounding-box diagonal: what `facebake verify` checks.
 pub const TOLERANCE_FRACTION: f64 = 2e-5;
+
+/// A deformer could not be baked.
+#[derive(Debug, thiserror::Error)]
+pub enum DeformerError {
+    /// Sparsification / quantisation.
+    #[error("sparsifying the weights: {0}")]
+    Sparsify(#[from] crate::sparsify::SparsifyError),
+    /// The section does not fit the format.
+    #[error("writing the rig: {0}")]
+    Section(#[from] SectionError),
+    /// Planar bones.
+    #[error("planar bones: {0}")]
+    Planar(#[from] crate::planar::PlanarError),
+}
+
+/// A deformer's section could not be encoded.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct SectionError(pub String);
+
+/// A baked deformer's section, encoded as the blob stores it.
+pub enum DeformerBytes {
+    /// See [`rbf`].
+    Rbf(rbf::RbfBytes),
+    /// See [`linear`].
+    Linear(linear::LinearBytes),
+    /// See [`planar`].
+    Planar(planar::PlanarBytes),
+}
+
+/// The runtime's section over a deformer's bytes, and its influence sizes.
+pub struct Section<'a> {
+    /// The section.
+    pub deformer: Deformer<'a>,
+    /// Bytes in the influence records.
+    pub influence_bytes: usize,
+    /// Stored influences.
+    pub influences: usize,
+}
+
+impl DeformerBytes {
+    /// The runtime's section over these bytes.
+    pub fn section(&self) -> Section<'_> {
+        match self {
+            Self::Rbf(b) => b.section(),
+            Self::Linear(b) => b.section(),
+            Self::Planar(b) => b.section(),
+        }
+    }
+}
+
+/// Per vertex, its influence count as a byte (at most 64 influences, the runtime's limit).
+pub(crate) fn influence_counts(lens: impl Iterator<Item = usize>) -> Result<Vec<u8>, SectionError> {
+    lens.map(|n| {
+        u8::try_from(n)
+            .map_err(|_| SectionError(format!("a vertex has {n} influences; at most 64")))
+    })
+    .collect()
+}
+
+/// Packed influences, little-endian, vertex after vertex.
+pub(crate) fn le_words(rows: &[Vec<u32>]) -> Vec<u8> {
+    rows.iter()
+        .flatten()
+        .flat_map(|w| w.to_le_bytes())
+        .collect()
+}
 
 /// What a deformer's bake hands back for the blob and the report.
 pub(crate) struct DeformerOutput {

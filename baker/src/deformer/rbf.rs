@@ -4,12 +4,65 @@
 //! system for the marker displacements, paper 000 eq 14, thesis eq 2.5, and evaluate it at every
 //! vertex, eq 2.6); and [`RbfF64`], the rig's own quantised numbers in exact arithmetic.
 
-use facebake_runtime::format::RbfCoefficients;
+use facebake_runtime::format::{Bytes, Deformer, RbfCoefficients, INFLUENCE_BYTES};
 
-use super::{dequantise_rows, DeformerOutput};
-use crate::blob::DeformerBytes;
+use super::{dequantise_rows, le_words, DeformerBytes, DeformerOutput, Section, SectionError};
 use crate::rbf::RbfSystem;
-use crate::sparsify::{self, SparsifyError};
+use crate::sparsify;
+
+/// The RBF section, encoded: the coefficient map's row shifts and entries, and exactly K packed
+/// radial terms per vertex.
+pub struct RbfBytes {
+    weight_frac_bits: u8,
+    k: u8,
+    affine: bool,
+    row_shifts: Vec<u8>,
+    matrix: Vec<u8>,
+    words: Vec<u8>,
+}
+
+impl RbfBytes {
+    /// The section from its parts; every row must hold exactly `k` terms.
+    fn new(
+        weight_frac_bits: u8,
+        k: u8,
+        affine: bool,
+        row_shifts: Vec<u8>,
+        matrix: &[i16],
+        rows: &[Vec<u32>],
+    ) -> Result<Self, SectionError> {
+        if let Some(r) = rows.iter().find(|r| r.len() != usize::from(k)) {
+            return Err(SectionError(format!(
+                "a vertex has {} radial terms, the rig has K = {k}",
+                r.len()
+            )));
+        }
+        Ok(Self {
+            weight_frac_bits,
+            k,
+            affine,
+            row_shifts,
+            matrix: matrix.iter().flat_map(|q| q.to_le_bytes()).collect(),
+            words: le_words(rows),
+        })
+    }
+
+    /// The runtime's section over these bytes.
+    pub(super) fn section(&self) -> Section<'_> {
+        Section {
+            deformer: Deformer::RbfCoefficients(RbfCoefficients {
+                influences_per_vertex: self.k,
+                weight_frac_bits: self.weight_frac_bits,
+                affine: self.affine,
+                row_shifts: Bytes(&self.row_shifts),
+                matrix: Bytes(&self.matrix),
+                influences: Bytes(&self.words),
+            }),
+            influence_bytes: self.words.len(),
+            influences: self.words.len() / INFLUENCE_BYTES,
+        }
+    }
+}
 
 /// The RBF deformer from each vertex's radial values (in rig units) and the system solved in rig
 /// units: keep the K largest terms, quantise them and the coefficient map.
@@ -17,7 +70,7 @@ pub(crate) fn bake(
     phi_rows: impl Iterator<Item = Vec<f64>>,
     k: usize,
     system: &RbfSystem,
-) -> Result<DeformerOutput, SparsifyError> {
+) -> Result<DeformerOutput, super::DeformerError> {
     let n = system.len();
     let mut dropped = Vec::new();
     let rows: Vec<_> = phi_rows
@@ -37,14 +90,14 @@ pub(crate) fn bake(
     let affine = system.affine();
     let m = sparsify::quantise_matrix(&system.coefficient_map(), affine.then_some(n));
     Ok(DeformerOutput {
-        bytes: DeformerBytes::Rbf {
-            weight_frac_bits: q.frac_bits,
-            k: k as u8,
+        bytes: DeformerBytes::Rbf(RbfBytes::new(
+            q.frac_bits,
+            k as u8,
             affine,
-            row_shifts: m.shifts,
-            matrix: m.entries,
-            rows: q.words,
-        },
+            m.shifts,
+            &m.entries,
+            &q.words,
+        )?),
         frac_bits: q.frac_bits,
         dropped,
         rounding: q.max_rounding,

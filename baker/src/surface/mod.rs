@@ -33,7 +33,6 @@ use crate::model::FaceMesh;
 use crate::model::MarkerGroups;
 use crate::options::{BakeOptions, Method, SurfaceOptions};
 use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
-use crate::sparsify::SparsifyError;
 
 pub use distances::Distance;
 pub use geometry::SurfaceGeometry;
@@ -94,9 +93,9 @@ pub enum SurfaceError {
     /// The RBF system.
     #[error("solving the RBF system: {0}")]
     Solve(#[from] SolveError),
-    /// Sparsification / quantisation.
-    #[error("sparsifying the weights: {0}")]
-    Sparsify(#[from] SparsifyError),
+    /// The deformer.
+    #[error(transparent)]
+    Deformer(#[from] crate::deformer::DeformerError),
     /// Planar bones blend control-triangle frames, not RBF distances: no surface-aware method
     /// applies to them (masks do, through [`planar_allowance`]).
     #[error(

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::values::{DeformerArg, MethodArg, RadialArg, RefitArg, RetargetArg};
+use super::values::{deformer_parser, MethodArg, RadialArg, RefitArg, RetargetArg};
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_mesh::load_mesh;
@@ -72,8 +72,8 @@ pub struct BakeArgs {
     /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
     /// triangles per vertex; the layout's `triangles = [["A", "B", "C"], ..]` when given, else
     /// built automatically) (default: rbf; linear with --masks or pbw).
-    #[arg(long, value_enum)]
-    pub deformer: Option<DeformerArg>,
+    #[arg(long, value_parser = deformer_parser())]
+    pub deformer: Option<DeformerKind>,
     /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
     /// hybrid).
     #[arg(long, value_enum)]
@@ -157,7 +157,7 @@ impl BakeArgs {
     pub fn options(&self) -> BakeOptions {
         let d = BakeOptions::for_method(self.method.into(), self.masks);
         BakeOptions {
-            deformer: self.deformer.map_or(d.deformer, Into::into),
+            deformer: self.deformer.unwrap_or(d.deformer),
             radial: self.radial.map_or(d.radial, Into::into),
             width: self.width.or(d.width),
             width_factor: self.width_factor.unwrap_or(d.width_factor),
@@ -356,15 +356,6 @@ pub fn bytes_text(n: usize) -> String {
     format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
 }
 
-/// What a deformer stores per influence, for reports.
-pub fn deformer_text(deformer: DeformerKind) -> &'static str {
-    match deformer {
-        DeformerKind::Rbf => "rbf: per-frame RBF coefficients, K radial terms per vertex",
-        DeformerKind::Linear => "linear: K weights per vertex on marker displacements",
-        DeformerKind::Planar => "planar: K control-triangle region transforms per vertex",
-    }
-}
-
 fn print_text(s: &BakeSummary) {
     let mut out = String::new();
     let r = &s.report;
@@ -377,7 +368,12 @@ fn print_text(s: &BakeSummary) {
         s.markers,
         s.layout.display()
     );
-    outln!(out, "  deformer      {}", deformer_text(r.deformer));
+    outln!(
+        out,
+        "  deformer      {}: {}",
+        r.deformer.name(),
+        r.deformer.description()
+    );
     if let Some(radial) = r.radial {
         outln!(
             out,
@@ -424,11 +420,7 @@ fn print_text(s: &BakeSummary) {
         r.k,
         r.sizes.influences
     );
-    let stored = match r.deformer {
-        DeformerKind::Rbf => "radial values",
-        DeformerKind::Linear => "weights",
-        DeformerKind::Planar => "weights",
-    };
+    let stored = r.deformer.stored();
     if r.deformer == DeformerKind::Planar {
         outln!(
             out,
@@ -456,11 +448,7 @@ fn print_text(s: &BakeSummary) {
         "  dropped mass  mean {:.4}, max {:.4} (share of each vertex's {} dropped by keeping K)",
         r.mean_dropped_mass,
         r.max_dropped_mass,
-        match r.deformer {
-            DeformerKind::Rbf => "radial mass",
-            DeformerKind::Linear => "dense weight",
-            DeformerKind::Planar => "eq-12 weight",
-        }
+        r.deformer.dropped()
     );
     if let Some(p) = &r.planar {
         outln!(

@@ -3,25 +3,16 @@
 
 use clap::ValueEnum;
 
-/// `--deformer`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DeformerArg {
-    /// Per-frame RBF coefficients, K radial terms per vertex (needs a decaying radial function).
-    Rbf,
-    /// K weights per vertex on marker displacements.
-    Linear,
-    /// Planar bones (paper 000 §4.1–4.2): K control-triangle transforms per vertex.
-    Planar,
-}
-
-impl From<DeformerArg> for facebake::DeformerKind {
-    fn from(a: DeformerArg) -> Self {
-        match a {
-            DeformerArg::Rbf => Self::Rbf,
-            DeformerArg::Linear => Self::Linear,
-            DeformerArg::Planar => Self::Planar,
-        }
-    }
+/// `--deformer`: the library's deformers by name, each with its description as help.
+pub fn deformer_parser() -> impl clap::builder::TypedValueParser<Value = facebake::DeformerKind> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    use facebake::DeformerKind;
+    PossibleValuesParser::new(
+        DeformerKind::ALL.map(|d| PossibleValue::new(d.name()).help(d.description())),
+    )
+    .try_map(|name: String| {
+        DeformerKind::from_name(&name).ok_or_else(|| format!("no deformer named {name:?}"))
+    })
 }
 
 /// `--method`.
