@@ -373,24 +373,37 @@ fn bake_deformer(
             reference: DeformerReference::Planar(reference),
         });
     }
+    let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
     if options.method == Method::Euclidean && !options.masks {
-        let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
-        let e = euclidean::bake(&mesh.positions, rest, &stiffness, options, space)?;
+        let system = euclidean::dense_system(rest, &stiffness, options)?;
+        let condition = system.condition();
+        let output = match options.deformer {
+            DeformerKind::Linear => {
+                euclidean::linear(&mesh.positions, rest, &system, options, space)?
+            }
+            DeformerKind::Rbf => euclidean::rbf(&mesh.positions, rest, &stiffness, options, space)?,
+            DeformerKind::Planar => return Err(SurfaceError::Planar.into()),
+        };
         return Ok(DeformerBake {
-            output: e.output,
+            output,
             radial: Some(options.radial.name()),
-            condition: Some(e.condition),
-            warnings: condition_warning(e.condition).into_iter().collect(),
+            condition: Some(condition),
+            warnings: condition_warning(condition).into_iter().collect(),
             planar: None,
             surface: None,
-            reference: DeformerReference::Rbf(e.reference),
+            reference: DeformerReference::Rbf(euclidean::reference(system, &mesh.positions, rest)),
         });
     }
-    let s = crate::surface::bake(&scene.surface_input(), options, space)?;
+    let s = crate::surface::dense_weights(&scene.surface_input(), options, space)?;
+    let output = match options.deformer {
+        DeformerKind::Linear => s.linear(options)?,
+        DeformerKind::Rbf => s.rbf(options)?,
+        DeformerKind::Planar => return Err(SurfaceError::Planar.into()),
+    };
     let mut warnings = s.warnings;
     warnings.extend(condition_warning(s.condition));
     Ok(DeformerBake {
-        output: s.output,
+        output,
         radial: Some(s.radial.name()),
         condition: Some(s.condition),
         warnings,

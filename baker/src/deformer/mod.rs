@@ -94,6 +94,9 @@ pub enum DeformerError {
     /// Planar bones.
     #[error("planar bones: {0}")]
     Planar(#[from] crate::planar::PlanarError),
+    /// The RBF system of the RBF deformer.
+    #[error("solving the RBF system: {0}")]
+    Solve(#[from] crate::rbf::SolveError),
 }
 
 /// A deformer's section could not be encoded.

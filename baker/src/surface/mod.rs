@@ -27,7 +27,7 @@ pub mod pbw;
 
 use nalgebra::DMatrix;
 
-use crate::deformer::{self, DeformerKind, DeformerOutput};
+use crate::deformer::{self, DeformerError, DeformerOutput};
 use crate::geodesic::{GeodesicError, Source};
 use crate::model::FaceMesh;
 use crate::model::MarkerGroups;
@@ -123,9 +123,15 @@ pub struct SurfaceFigures {
     pub masks: Vec<String>,
 }
 
-/// What the surface-aware strategies hand back to [`crate::bake()`].
+/// What the surface-aware strategies hand back to [`crate::bake()`]: the dense weights and the
+/// RBF system, in rig units, for the linear or the RBF deformer.
 pub(crate) struct SurfaceBake {
-    pub(crate) output: DeformerOutput,
+    /// Marker-to-marker distances.
+    between: DMatrix<f64>,
+    /// Per vertex, its distances to the markers.
+    rows: Vec<Vec<f64>>,
+    kernel: Kernel,
+    system: RbfSystem,
     pub(crate) figures: SurfaceFigures,
     /// 1-norm condition estimate of the full system.
     pub(crate) condition: f64,
@@ -220,20 +226,16 @@ fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
     r.iter().sum::<f64>() / r.len().max(1) as f64
 }
 
-/// The dense weights of a surface-aware method (with masks when `options.masks`), baked into
-/// the RBF or linear deformer in rig `space`. [`crate::bake()`] has checked the options.
-pub(crate) fn bake(
+/// The dense weights of a surface-aware method (with masks when `options.masks`) and its RBF
+/// system, in rig `space`. [`crate::bake()`] has checked the options.
+pub(crate) fn dense_weights(
     input: &SurfaceInput<'_>,
     options: &BakeOptions,
     space: &facebake_runtime::Space,
 ) -> Result<SurfaceBake, SurfaceError> {
     let config = options;
-    if config.deformer == DeformerKind::Planar {
-        return Err(SurfaceError::Planar);
-    }
     let mesh = input.mesh;
     let n = input.markers.len();
-    let k = config.k;
     let masked = config.masks && !input.groups.is_empty();
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
     let stiffness: Vec<f64> = input.markers.iter().map(|m| m.stiffness).collect();
@@ -388,30 +390,6 @@ pub(crate) fn bake(
         }
         None => dense,
     };
-    let output = match config.deformer {
-        DeformerKind::Linear => {
-            // The prior's covariance under the method's own distances, so re-fitting a dropped
-            // lower-lip marker does not lean on the upper lip.
-            let length = config.prior_length * 2.0 * 3f64.sqrt();
-            let sym = (&between + between.transpose()) * 0.5;
-            let mut cov = sym.map(|r| (-(r * r) / (2.0 * length * length)).exp());
-            let lift = (-cov.clone().symmetric_eigenvalues().min()).max(0.0);
-            for i in 0..n {
-                cov[(i, i)] += 1e-9 + lift;
-            }
-            deformer::linear::bake(dense.iter().cloned(), k, config.refit, &cov)?
-        }
-        DeformerKind::Planar => return Err(SurfaceError::Planar),
-        DeformerKind::Rbf => {
-            let phi_rows = rows.iter().map(|r| {
-                r.iter()
-                    .enumerate()
-                    .map(|(i, &x)| kernel.phi(i, x))
-                    .collect()
-            });
-            deformer::rbf::bake(phi_rows, k.min(n), &system)?
-        }
-    };
     let figures = SurfaceFigures {
         min_eigenvalue,
         ridge,
@@ -426,7 +404,10 @@ pub(crate) fn bake(
         },
     };
     Ok(SurfaceBake {
-        output,
+        between,
+        rows,
+        kernel,
+        system,
         figures,
         condition,
         radial: if config.method == Method::Pbw {
@@ -437,4 +418,33 @@ pub(crate) fn bake(
         dense,
         warnings,
     })
+}
+
+impl SurfaceBake {
+    /// The linear deformer of the dense weights, re-fitted under a prior whose covariance uses
+    /// the method's own distances, so re-fitting a dropped lower-lip marker does not lean on the
+    /// upper lip.
+    pub(crate) fn linear(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
+        let n = self.between.nrows();
+        let length = options.prior_length * 2.0 * 3f64.sqrt();
+        let sym = (&self.between + self.between.transpose()) * 0.5;
+        let mut cov = sym.map(|r| (-(r * r) / (2.0 * length * length)).exp());
+        let lift = (-cov.clone().symmetric_eigenvalues().min()).max(0.0);
+        for i in 0..n {
+            cov[(i, i)] += 1e-9 + lift;
+        }
+        deformer::linear::bake(self.dense.iter().cloned(), options.k, options.refit, &cov)
+    }
+
+    /// The RBF deformer: each vertex's radial values under the method's distances.
+    pub(crate) fn rbf(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
+        let n = self.between.nrows();
+        let phi_rows = self.rows.iter().map(|r| {
+            r.iter()
+                .enumerate()
+                .map(|(i, &x)| self.kernel.phi(i, x))
+                .collect()
+        });
+        deformer::rbf::bake(phi_rows, options.k.min(n), &self.system)
+    }
 }

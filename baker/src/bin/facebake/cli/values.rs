@@ -75,7 +75,7 @@ pub enum RefitArg {
     Prior,
 }
 
-impl From<RefitArg> for facebake::sparsify::Refit {
+impl From<RefitArg> for facebake::Refit {
     fn from(a: RefitArg) -> Self {
         match a {
             RefitArg::Uniform => Self::Uniform,
