@@ -1,7 +1,11 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
-use facebake_runtime::format::{self, Bytes, RigData, Space, MAX_MARKERS};
-use facebake_runtime::pipeline::{PerMarker, Retarget, RetargetForm, Stages};
+use facebake_runtime::format::header::header_for;
+use facebake_runtime::format::records::{Bytes, MAX_MARKERS};
+use facebake_runtime::format::{self, RigData};
+use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Retarget};
+use facebake_runtime::stages::Stages;
+use facebake_runtime::Space;
 
 use crate::deformer::DeformerBytes;
 use crate::stages::StagesBytes;
@@ -129,12 +133,12 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
         fill: Bytes(&stages.fill),
         anchors: Bytes(&stages.anchors),
         retarget: match &stages.proportional {
-            Some((shift, matrices, rest)) => RetargetForm::PerMarker(PerMarker {
+            Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,
                 matrices: Bytes(matrices),
                 rest: Bytes(rest),
             }),
-            None => RetargetForm::Rbf(Retarget {
+            None => Retarget::Rbf(RbfRetarget {
                 radii: Bytes(&stages.radii),
                 alpha_shift: stages.alpha_shift,
                 alpha: Bytes(&stages.alpha),
@@ -150,8 +154,8 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
 /// runtime's own loader, so `blob` must be a valid rig. [`crate::bake()`] writes its blob once
 /// with the stages in it; this is for tools and tests that put other stages on a baked rig.
 pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
-    let payload =
-        format::open(blob).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    let payload = format::header::open(blob)
+        .map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
     let mut data =
         format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
     data.stages = Some(stages_section(stages));
@@ -163,7 +167,7 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
 fn seal(data: &RigData<'_>, check_stages: bool) -> Result<Vec<u8>, BlobError> {
     let payload = postcard::to_allocvec(data)?;
     let header =
-        format::header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
+        header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
     let mut blob = header.to_vec();
     blob.extend_from_slice(&payload);
     if check_stages {

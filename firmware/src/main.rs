@@ -23,7 +23,7 @@ use core::panic::PanicInfo;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use facebake_runtime::checksum::Fnv1a64;
-use facebake_runtime::format::MAX_MARKERS;
+use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::{PlayState, Rig};
 
 /// The golden rigs, by the names `hashes.txt` uses.

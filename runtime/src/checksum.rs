@@ -38,12 +38,14 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     !c
 }
 
+#[cfg(feature = "format")]
 /// FNV-1a, 64-bit: a tiny, table-free hash, identical on every platform because it is defined on
 /// bytes. Positions are hashed as `i32` little-endian, x y z per vertex, whatever the host's byte
 /// order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Fnv1a64(u64);
 
+#[cfg(feature = "format")]
 impl Fnv1a64 {
     const OFFSET_BASIS: u64 = 0xCBF2_9CE4_8422_2325;
     const PRIME: u64 = 0x0000_0100_0000_01B3;
@@ -75,7 +77,7 @@ impl Fnv1a64 {
         &mut self,
         markers: &[[i32; 3]],
         vertices: &[[i32; 3]],
-        report: &crate::pipeline::FrameReport,
+        report: &crate::stages::report::FrameReport,
     ) {
         self.write_positions(markers);
         self.write_positions(vertices);
@@ -92,6 +94,7 @@ impl Fnv1a64 {
     }
 }
 
+#[cfg(feature = "format")]
 impl Default for Fnv1a64 {
     fn default() -> Self {
         Self::new()

@@ -6,17 +6,17 @@
 //! |---|---|---|---|
 //! | position (markers in, vertices out, marker rest) | `i32` | Q8.24 | rig units: `(p − centre) / half_extent`, so the mesh spans ±1.0 (±2²⁴) with headroom to ±128 |
 //! | vertex rest position (stored) | `i16` | Q0.15 | the same rig units at 2⁻¹⁵ resolution; widened by `<< 9` ([`REST_SHIFT`]) to Q8.24 |
-//! | kernel value φ (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest value |
+//! | radial value φ (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest value |
 //! | linear weight (stored) | `i24` in a `u32`, Σ\|w\| ≤ [`LINEAR_WEIGHT_ABS_SUM_MAX`] per vertex | Q(15−F).F, F ∈ [8, [`LINEAR_MAX_WEIGHT_FRAC_BITS`]] | the finest F whose weights meet the bound |
 //! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × value over at most [`MAX_INFLUENCES`] terms |
 //!
 //! # Overflow by design
 //!
-//! A kernel value is below 2²³ in magnitude and a coefficient below 2³¹, so one product is below
+//! A radial value is below 2²³ in magnitude and a coefficient below 2³¹, so one product is below
 //! 2⁵⁴ and a sum of at most 64 products below 2⁶⁰: the `i64` accumulator cannot overflow. The
-//! linear kernel's bounds (Σ|w| < 2¹⁵, displacements clamped to
+//! linear deformer's bounds (Σ|w| < 2¹⁵, displacements clamped to
 //! [`linear_displacement_limit`]) keep every sum it forms, and its output, inside 32 bits (the
-//! proof is in the linear kernel's module docs, `runtime/src/kernel/linear.rs`). The only saturations are at the edges: narrowing a result back to
+//! proof is in the linear deformer's module docs, `runtime/src/deformer/linear.rs`). The only saturations are at the edges: narrowing a result back to
 //! `i32` ([`round_shift_bounded`]) and clamping a displacement. Rounding is "half up" (add ½,
 //! arithmetic shift), identical on every platform because it is pure integer arithmetic.
 
@@ -34,19 +34,25 @@ pub const MAX_WEIGHT_FRAC_BITS: u8 = 22;
 pub const MAX_INFLUENCES: u8 = 64;
 /// Bits of a packed influence word that hold the marker index.
 pub const INFLUENCE_INDEX_BITS: u32 = 8;
+#[cfg(feature = "format")]
 /// Largest weight magnitude a packed influence can hold, as an integer (2²³ − 1).
 pub const WEIGHT_INT_MAX: i32 = (1 << 23) - 1;
+#[cfg(feature = "format")]
 /// Smallest packed weight (−2²³).
 pub const WEIGHT_INT_MIN: i32 = -(1 << 23);
 /// Largest Σ|w| over one vertex's weights, as integers, that the linear deformer accepts
 /// (`i16::MAX`). Every weight then fits in an `i16`, and every partial sum of products of the
-/// weights with a 16-bit value stays below 2³⁰: the linear kernel evaluates it in 32-bit lanes.
+/// weights with a 16-bit value stays below 2³⁰: the linear deformer evaluates it in 32-bit lanes.
 pub const LINEAR_WEIGHT_ABS_SUM_MAX: i32 = i16::MAX as i32;
 /// Largest number of fractional weight bits of the linear deformer: its weights sum to `2^F` and
 /// their magnitudes to at most [`LINEAR_WEIGHT_ABS_SUM_MAX`], so F ≤ 14.
 pub const LINEAR_MAX_WEIGHT_FRAC_BITS: u8 = 14;
+/// Smallest accepted scale exponent s of an RBF coefficient row (entries are `q · 2^−s`).
+pub const MIN_ROW_SHIFT: u8 = 1;
+/// Largest accepted scale exponent of an RBF coefficient row.
+pub const MAX_ROW_SHIFT: u8 = 48;
 
-/// Largest marker displacement magnitude the linear kernel uses with weights of `frac`
+/// Largest marker displacement magnitude the linear deformer uses with weights of `frac`
 /// fractional bits: `2^(15 + frac)` (at F = 14, 32 rig units); larger displacements saturate to it.
 ///
 /// With Σ|w| ≤ 2¹⁵ it bounds every weighted sum to `2^30` after the shift by F, so adding the
@@ -78,10 +84,10 @@ pub fn round_shift_sat(acc: i64, frac: u32) -> i32 {
     }
 }
 
-/// [`round_shift_sat`] for a kernel accumulator, whose magnitude is bounded by design:
+/// [`round_shift_sat`] for a deformer's accumulator, whose magnitude is bounded by design:
 /// `(acc + 2^(frac−1)) >> frac`, saturated to `i32`, with no saturation check on the addition.
 ///
-/// Every accumulator the kernels form is below 2⁶² in magnitude (sums of at most 64 products of a
+/// Every accumulator the deformers form is below 2⁶² in magnitude (sums of at most 64 products of a
 /// 24-bit and a 32-bit value, or of at most 256 products of a 16-bit and a 32-bit value, or three
 /// products of two 32-bit values with |rest| ≤ 2²⁴), and `frac` ≤ 48, so adding the half cannot
 /// overflow and the result is bit for bit that of [`round_shift_sat`]; the golden vectors check it.
@@ -97,6 +103,7 @@ pub fn unpack_influence(word: u32) -> (u8, i32) {
     (word as u8, (word as i32) >> INFLUENCE_INDEX_BITS)
 }
 
+#[cfg(feature = "format")]
 /// Pack a marker index and a 24-bit weight into an influence word; `None` if the weight does not
 /// fit in 24 bits.
 pub fn pack_influence(marker: u8, weight: i32) -> Option<u32> {

@@ -3,14 +3,14 @@
 //! Plays a facebake rig: loads a rig blob from a byte slice (zero-copy, validated once) and, per
 //! frame, turns marker positions into deformed vertex positions with integer arithmetic only.
 //!
-//! * `#![no_std]`, no `alloc`, no recursion; one `unsafe` call, the x86-64 linear kernel's entry
-//!   into its SSE2 code (SSE2 is in the x86-64 baseline; a test holds it equal to the portable
-//!   code, bit for bit).
+//! * `#![no_std]`, no `alloc`, no recursion; one `unsafe` call, the x86-64 linear deformer's
+//!   entry into its SSE2 code (SSE2 is in the x86-64 baseline; a test holds it equal to the
+//!   portable code, bit for bit).
 //! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
 //!   branch on marker data (planar bones: bounded, with one branch per control triangle, which
 //!   builds its rest frame too when the markers make it degenerate).
 //! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
-//!   with documented fixed-point formats ([`fixed`]).
+//!   with documented fixed-point formats (`fixed.rs`).
 //!
 //! ```no_run
 //! # fn demo(blob: &[u8], markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), ()> {
@@ -18,21 +18,62 @@
 //! rig.deform(markers, out).map_err(|_| ())?;
 //! # Ok(()) }
 //! ```
+//!
+//! # Layout
+//!
+//! | module | what |
+//! |---|---|
+//! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`] |
+//! | `deformer/` | one module per deformer (`linear`, `rbf`, `planar`), each owning its section, validation, cost and per-frame code; `mod.rs` dispatches |
+//! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `retarget`, `report` |
+//! | `format/` | the blob: `header`, `records` (every record size), `error` ([`LoadError`]), `RigData` (the docs of every section) |
+//! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
+//! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |
+//!
+//! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
+//! crate; `format/records` imports only `fixed`, `format/error` only `fixed` and `records`; the
+//! deformers and the stages build on those; `format` (the payload) imports the deformers and the
+//! stages; `rig` sits on top. `.ci/module-cycles.sh` checks the graph in CI.
+//!
+//! # Features
+//!
+//! * `format`: makes the format internals public, for the baker that writes blobs, the tests
+//!   and the firmware harness: the modules `format` (sections, records, header writer),
+//!   `deformer` and `stages` (section types), `fixed` and `checksum`, and `Rig::data`,
+//!   `Rig::deformer`, `Rig::stages`, `Rig::weight_frac_bits`. A player needs none of it.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod checksum;
-pub mod fixed;
-pub mod format;
-mod kernel;
-pub mod pipeline;
-pub mod rig;
-pub mod space;
-pub mod sqrt;
+/// Declares modules that are public with the `format` feature and private without it.
+macro_rules! format_internals {
+    ($($(#[$attr:meta])* mod $name:ident;)*) => {$(
+        $(#[$attr])*
+        #[cfg(feature = "format")]
+        pub mod $name;
+        $(#[$attr])*
+        #[cfg(not(feature = "format"))]
+        mod $name;
+    )*};
+}
 
-pub use format::{LoadError, Space};
-pub use kernel::planar::DegenerateTriangles;
-pub use pipeline::{FrameReport, PlayState};
-pub use rig::{Cost, FrameError, Rig};
-pub use space::ConvertError;
+format_internals! {
+    mod checksum;
+    mod deformer;
+    mod fixed;
+    mod format;
+    mod stages;
+}
+mod cost;
+mod rig;
+mod space;
+mod sqrt;
+
+pub use cost::Cost;
+pub use deformer::DegenerateTriangles;
+pub use format::error::{LoadError, Section, StagesLoadError, StagesSection};
+pub use rig::{FrameError, Rig};
+pub use space::{ConvertError, Space};
+pub use stages::compensate::{FitFailure, RigidFit};
+pub use stages::report::{FrameReport, MarkerSet, RigidStatus};
+pub use stages::PlayState;

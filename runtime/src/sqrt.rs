@@ -1,6 +1,6 @@
 //! Integer square roots and vector normalisation, in a fixed number of steps.
 //!
-//! The per-frame stages that need lengths (rigid fits, retargeting kernels, planar-bone frames)
+//! The per-frame stages that need lengths (rigid fits, retargeting radial functions, planar-bone frames)
 //! build on these two primitives. Both are pure integer arithmetic, so they give the same bits on
 //! every platform, and both run a fixed number of iterations whatever their input.
 

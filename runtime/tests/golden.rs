@@ -102,7 +102,7 @@ fn fixed_point_primitives_at_the_extremes() {
     assert_eq!(round_shift_sat(i64::MAX, 1), i32::MAX);
     assert_eq!(round_shift_sat(i64::MIN, 1), i32::MIN);
     // Adding ½ saturates at i64::MAX, so the very top rounds down (accumulators stay below 2⁶⁰,
-    // so the kernels never get there); pinned because it is still the contract on every target.
+    // so the deformers never get there); pinned because it is still the contract on every target.
     assert_eq!(round_shift_sat(i64::MAX, 62), 1);
     assert_eq!(round_shift_sat(i64::MIN, 62), -2);
     assert_eq!(round_shift_sat(1 << 61, 62), 1);

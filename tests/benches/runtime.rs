@@ -43,8 +43,9 @@ use facebake::mesh::farthest_point_sampling;
 use facebake::model::FaceMesh;
 use facebake::surface::SurfaceMarker;
 use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
-use facebake_runtime::format::{Deformer, MAX_MARKERS};
+use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, weights_config};
 

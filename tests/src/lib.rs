@@ -98,7 +98,7 @@ pub fn facecap_blobs() -> [(&'static str, &'static [u8]); 2] {
 /// Reseal a blob whose payload was edited, so the structural validation (not the CRC) is what
 /// a test exercises.
 pub fn reseal(blob: &mut [u8]) {
-    let header_len = facebake_runtime::format::HEADER_LEN;
+    let header_len = facebake_runtime::format::records::HEADER_LEN;
     let crc = facebake_runtime::checksum::crc32(&blob[header_len..]);
     blob[16..20].copy_from_slice(&crc.to_le_bytes());
 }

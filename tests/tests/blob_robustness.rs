@@ -2,12 +2,16 @@
 //! distinct error, on a real baked blob (the FaceCap head).
 
 use facebake::ground_truth::SplitMix64;
+use facebake_runtime::deformer::linear::LinearDeformer;
+use facebake_runtime::deformer::planar::PlanarDeformer;
+use facebake_runtime::deformer::rbf::RbfDeformer;
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{pack_influence, unpack_influence};
-use facebake_runtime::format::{
-    self, Bytes, Deformer, LinearInfluences, LoadError, PlanarBones, RbfCoefficients, RigData,
-    Section, HEADER_LEN, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES,
-};
+use facebake_runtime::format::header::header_for;
+use facebake_runtime::format::records::{Bytes, HEADER_LEN, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES};
+use facebake_runtime::format::RigData;
 use facebake_runtime::Rig;
+use facebake_runtime::{LoadError, Section};
 use facebake_tests::{facecap_blobs, facecap_default, facecap_planar, facecap_weights, reseal};
 
 /// Every FaceCap rig, the planar-bones one included: (name, blob).
@@ -24,7 +28,7 @@ fn blob() -> Vec<u8> {
 /// Re-encode an edited payload into a sealed blob.
 fn seal(data: &RigData<'_>) -> Vec<u8> {
     let payload = postcard::to_allocvec(data).unwrap();
-    let mut out = format::header_for(&payload).unwrap().to_vec();
+    let mut out = header_for(&payload).unwrap().to_vec();
     out.extend_from_slice(&payload);
     out
 }
@@ -39,7 +43,7 @@ fn the_real_blobs_load() {
     }
     assert!(matches!(
         Rig::from_bytes(&blob()).unwrap().deformer(),
-        Deformer::RbfCoefficients(_)
+        Deformer::Rbf(_)
     ));
 }
 
@@ -240,30 +244,30 @@ fn every_payload_error_is_distinct() {
         let packed = pack_influence(m, w + delta).unwrap();
         heavy[at..at + 4].copy_from_slice(&packed.to_le_bytes());
     }
-    let cases: [(LinearInfluences<'_>, Option<LoadError>); 10] = [
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 10] = [
         (
-            LinearInfluences {
+            LinearDeformer {
                 max_influences: 0,
                 ..lin
             },
             Some(LoadError::BadMaxInfluences { found: 0 }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 max_influences: 65,
                 ..lin
             },
             Some(LoadError::BadMaxInfluences { found: 65 }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 weight_frac_bits: 23,
                 ..lin
             },
             Some(LoadError::BadWeightFormat { found: 23 }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 max_influences: 7,
                 ..lin
             },
@@ -273,7 +277,7 @@ fn every_payload_error_is_distinct() {
             }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 influences: Bytes(&bad_index),
                 ..lin
             },
@@ -283,14 +287,14 @@ fn every_payload_error_is_distinct() {
             }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 influences: Bytes(&bad_sum),
                 ..lin
             },
             Some(LoadError::WeightsNotNormalised { vertex: 0 }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 influences: Bytes(&heavy),
                 ..lin
             },
@@ -298,21 +302,21 @@ fn every_payload_error_is_distinct() {
         ),
         (
             // The linear form's weights fit 16 bits: at most 14 fractional bits.
-            LinearInfluences {
+            LinearDeformer {
                 weight_frac_bits: 15,
                 ..lin
             },
             Some(LoadError::BadWeightFormat { found: 15 }),
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 influence_counts: Bytes(short),
                 ..lin
             },
             None,
         ),
         (
-            LinearInfluences {
+            LinearDeformer {
                 influences: Bytes(fewer),
                 ..lin
             },
@@ -339,7 +343,7 @@ fn every_payload_error_is_distinct() {
 fn every_coefficient_error_is_distinct() {
     let b = blob();
     let good = *Rig::from_bytes(&b).unwrap().data();
-    let Deformer::RbfCoefficients(rbf) = good.deformer else {
+    let Deformer::Rbf(rbf) = good.deformer else {
         panic!("the default is the coefficient form")
     };
     let markers = usize::from(good.marker_count);
@@ -352,44 +356,44 @@ fn every_coefficient_error_is_distinct() {
     let mut bad_index = rbf.influences.0.to_vec();
     bad_index[4 * 8 * 3 + 4] = 41; // vertex 3, second term: centre 41 of 40
     let short = &rbf.matrix.0[2..];
-    let cases: [(RbfCoefficients<'_>, LoadError); 7] = [
+    let cases: [(RbfDeformer<'_>, LoadError); 7] = [
         (
-            RbfCoefficients {
+            RbfDeformer {
                 influences_per_vertex: 0,
                 ..rbf
             },
             LoadError::BadMaxInfluences { found: 0 },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 weight_frac_bits: 7,
                 ..rbf
             },
             LoadError::BadWeightFormat { found: 7 },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 row_shifts: Bytes(&bad_shift),
                 ..rbf
             },
             LoadError::BadRowShift { row: 3, shift: 0 },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 matrix: Bytes(&bad_row),
                 ..rbf
             },
             LoadError::CoefficientsNotNormalised { row: 5 },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 matrix: Bytes(&bad_unit),
                 ..rbf
             },
             LoadError::CoefficientsNotNormalised { row: markers },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 influences: Bytes(&bad_index),
                 ..rbf
             },
@@ -399,7 +403,7 @@ fn every_coefficient_error_is_distinct() {
             },
         ),
         (
-            RbfCoefficients {
+            RbfDeformer {
                 matrix: Bytes(short),
                 ..rbf
             },
@@ -412,7 +416,7 @@ fn every_coefficient_error_is_distinct() {
     ];
     for (i, (edited, want)) in cases.into_iter().enumerate() {
         let d = RigData {
-            deformer: Deformer::RbfCoefficients(edited),
+            deformer: Deformer::Rbf(edited),
             ..good
         };
         assert_eq!(Rig::from_bytes(&seal(&d)).unwrap_err(), want, "case {i}");
@@ -420,7 +424,7 @@ fn every_coefficient_error_is_distinct() {
     // Fewer influences than vertices × K, and the affine flag without its rows.
     let fewer = &rbf.influences.0[32..];
     let d = RigData {
-        deformer: Deformer::RbfCoefficients(RbfCoefficients {
+        deformer: Deformer::Rbf(RbfDeformer {
             influences: Bytes(fewer),
             ..rbf
         }),
@@ -434,7 +438,7 @@ fn every_coefficient_error_is_distinct() {
         }
     ));
     let d = RigData {
-        deformer: Deformer::RbfCoefficients(RbfCoefficients {
+        deformer: Deformer::Rbf(RbfDeformer {
             affine: false,
             ..rbf
         }),
@@ -453,7 +457,7 @@ fn every_coefficient_error_is_distinct() {
 fn every_planar_error_is_distinct() {
     let b = &facecap_planar().blob;
     let good = *Rig::from_bytes(b).unwrap().data();
-    let Deformer::PlanarBones(p) = good.deformer else {
+    let Deformer::Planar(p) = good.deformer else {
         panic!("the planar bake has a planar deformer")
     };
     // Triangle 0 with a marker past the last one; with all three corners on one marker.
@@ -483,23 +487,23 @@ fn every_planar_error_is_distinct() {
         .unwrap();
     let short_tris = &p.triangles.0[..p.triangles.0.len() - 3];
     let fewer = &p.influences.0[..p.influences.0.len() - PLANAR_INFLUENCE_BYTES];
-    let cases: Vec<(PlanarBones<'_>, LoadError)> = vec![
+    let cases: Vec<(PlanarDeformer<'_>, LoadError)> = vec![
         (
-            PlanarBones {
+            PlanarDeformer {
                 max_influences: 0,
                 ..p
             },
             LoadError::BadMaxInfluences { found: 0 },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 triangle_count: 0,
                 ..p
             },
             LoadError::BadTriangleCount { found: 0 },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 triangle_count: MAX_TRIANGLES as u16 + 1,
                 ..p
             },
@@ -508,7 +512,7 @@ fn every_planar_error_is_distinct() {
             },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 triangles: Bytes(short_tris),
                 ..p
             },
@@ -519,7 +523,7 @@ fn every_planar_error_is_distinct() {
             },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 triangles: Bytes(&tris),
                 ..p
             },
@@ -529,14 +533,14 @@ fn every_planar_error_is_distinct() {
             },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 triangles: Bytes(&flat),
                 ..p
             },
             LoadError::DegenerateRestTriangle { triangle: 0 },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 influences: Bytes(&records),
                 ..p
             },
@@ -546,7 +550,7 @@ fn every_planar_error_is_distinct() {
             },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 influences: Bytes(&region7),
                 ..p
             },
@@ -556,14 +560,14 @@ fn every_planar_error_is_distinct() {
             },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 influences: Bytes(&weight),
                 ..p
             },
             LoadError::WeightsNotNormalised { vertex: 0 },
         ),
         (
-            PlanarBones {
+            PlanarDeformer {
                 max_influences: 1,
                 ..p
             },
@@ -575,24 +579,24 @@ fn every_planar_error_is_distinct() {
     ];
     for (i, (edited, want)) in cases.into_iter().enumerate() {
         let d = RigData {
-            deformer: Deformer::PlanarBones(edited),
+            deformer: Deformer::Planar(edited),
             ..good
         };
         assert_eq!(Rig::from_bytes(&seal(&d)).unwrap_err(), want, "case {i}");
     }
     // A vertex without influences, and a short influence section: length errors.
     for edited in [
-        PlanarBones {
+        PlanarDeformer {
             influence_counts: Bytes(&counts),
             ..p
         },
-        PlanarBones {
+        PlanarDeformer {
             influences: Bytes(fewer),
             ..p
         },
     ] {
         let d = RigData {
-            deformer: Deformer::PlanarBones(edited),
+            deformer: Deformer::Planar(edited),
             ..good
         };
         assert!(matches!(

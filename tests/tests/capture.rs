@@ -195,10 +195,9 @@ fn compensation_recovers_known_head_motion() {
         worst / diag
     );
     assert!(worst / diag < 2e-5, "{}", worst / diag);
-    assert!(reports.iter().all(|r| matches!(
-        r.rigid,
-        facebake_runtime::pipeline::RigidStatus::Fitted { .. }
-    )));
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.rigid, facebake_runtime::RigidStatus::Fitted { .. })));
 }
 
 /// Knock out 10 % of the marker samples at random, plus a whole marker for 2-second stretches:

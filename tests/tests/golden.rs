@@ -421,7 +421,7 @@ fn golden_files_match_the_baker_byte_for_byte() {
 
 #[test]
 fn capture_edge_frames_do_what_they_say() {
-    use facebake_runtime::pipeline::{rigid::FitFailure, RigidStatus};
+    use facebake_runtime::{FitFailure, RigidStatus};
     let capture = capture_rig();
     let frames = actor_frames(capture);
     let rig = Rig::from_bytes(&capture.baked.blob).unwrap();

@@ -12,7 +12,7 @@ use facebake::bake::Baked;
 use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::mesh::distance;
-use facebake_runtime::format::Deformer;
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::Rig;
 use facebake_tests::{facecap_default, facecap_planar, facecap_weights, lip_vertices};
 
@@ -46,7 +46,7 @@ fn play(rig: &Rig<'_>, truth: &GroundTruth) -> Vec<(Positions, Positions)> {
 fn runtime_matches_the_f64_equations_on_every_ground_truth_frame() {
     let (truth, baked) = (truth(), planar());
     let rig = Rig::from_bytes(&baked.blob).unwrap();
-    assert!(matches!(rig.deformer(), Deformer::PlanarBones(_)));
+    assert!(matches!(rig.deformer(), Deformer::Planar(_)));
     let exact = baked
         .reference
         .deformer
@@ -238,7 +238,7 @@ fn degenerate_triangles_keep_their_rest_orientation_and_are_reported() {
     let exact = baked.reference.deformer.planar().unwrap();
     let space = rig.space();
     let truth = truth();
-    let Deformer::PlanarBones(p) = rig.deformer() else {
+    let Deformer::Planar(p) = rig.deformer() else {
         panic!("planar rig")
     };
     let tri: Vec<usize> = p.triangles.0[..3].iter().map(|&m| usize::from(m)).collect();
@@ -327,7 +327,7 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         &StagesConfig::default(),
     );
     let rig = Rig::from_bytes(&j.baked.blob).unwrap();
-    assert!(matches!(rig.deformer(), Deformer::PlanarBones(_)));
+    assert!(matches!(rig.deformer(), Deformer::Planar(_)));
     let own = PlanarReference::from_rig(&rig).expect("a planar rig");
     let exact = j
         .baked

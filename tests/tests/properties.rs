@@ -3,8 +3,8 @@
 //! exactly that translation, and the map is linear within rounding.
 
 use facebake::ground_truth::SplitMix64;
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::linear_displacement_limit;
-use facebake_runtime::format::Deformer;
 use facebake_runtime::{FrameError, Rig};
 use facebake_tests::facecap_blobs;
 
@@ -78,8 +78,8 @@ fn linear_within_rounding() {
 fn linearity(rig: &Rig<'_>) {
     let tolerance = match rig.deformer() {
         Deformer::Linear(_) => 1,
-        Deformer::RbfCoefficients(_) => 18,
-        Deformer::PlanarBones(_) => panic!("planar bones are not linear in the markers"),
+        Deformer::Rbf(_) => 18,
+        Deformer::Planar(_) => panic!("planar bones are not linear in the markers"),
     };
     let rest = rest_markers(rig);
     let mut rng = SplitMix64(11);
@@ -168,7 +168,7 @@ fn extremes(rig: &Rig<'_>) {
             }
             // Every vertex ends near that extreme (within the mesh's size, 2^24), none wraps
             // round to the other sign.
-            Deformer::RbfCoefficients(_) | Deformer::PlanarBones(_) => {
+            Deformer::Rbf(_) | Deformer::Planar(_) => {
                 for o in out {
                     for c in o {
                         assert_eq!(c.signum(), extreme.signum());

@@ -3,8 +3,12 @@
 
 use facebake::ground_truth::SplitMix64;
 use facebake::stages::StagesConfig;
-use facebake_runtime::format::{self, Bytes, LoadError, RigData, HEADER_LEN};
-use facebake_runtime::pipeline::{Retarget, RetargetForm, Stages, StagesError, StagesSection};
+use facebake_runtime::format::header::header_for;
+use facebake_runtime::format::records::{Bytes, HEADER_LEN};
+use facebake_runtime::format::{self, RigData};
+use facebake_runtime::stages::retarget::{RbfRetarget, Retarget};
+use facebake_runtime::stages::Stages;
+use facebake_runtime::{LoadError, StagesLoadError, StagesSection};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, reseal, JawMoCapRig};
 
@@ -15,28 +19,28 @@ fn rig() -> &'static JawMoCapRig {
 
 fn seal(data: &RigData<'_>) -> Vec<u8> {
     let payload = postcard::to_allocvec(data).unwrap();
-    let mut out = format::header_for(&payload).unwrap().to_vec();
+    let mut out = header_for(&payload).unwrap().to_vec();
     out.extend_from_slice(&payload);
     out
 }
 
-fn rbf<'a, 'b>(d: &'b mut RigData<'a>) -> &'b mut Retarget<'a> {
+fn rbf<'a, 'b>(d: &'b mut RigData<'a>) -> &'b mut RbfRetarget<'a> {
     match &mut d.stages.as_mut().unwrap().retarget {
-        RetargetForm::Rbf(r) => r,
-        RetargetForm::PerMarker(_) => panic!("the default bake retargets by RBF"),
+        Retarget::Rbf(r) => r,
+        Retarget::Proportional(_) => panic!("the default bake retargets by RBF"),
     }
 }
 
-fn rbf_of<'a>(s: &Stages<'a>) -> Retarget<'a> {
+fn rbf_of<'a>(s: &Stages<'a>) -> RbfRetarget<'a> {
     match s.retarget {
-        RetargetForm::Rbf(r) => r,
-        RetargetForm::PerMarker(_) => panic!("the default bake retargets by RBF"),
+        Retarget::Rbf(r) => r,
+        Retarget::Proportional(_) => panic!("the default bake retargets by RBF"),
     }
 }
 
-fn stages_error(data: &RigData<'_>) -> StagesError {
+fn stages_error(data: &RigData<'_>) -> StagesLoadError {
     match Rig::from_bytes(&seal(data)) {
-        Err(LoadError::BadStages(e)) => e,
+        Err(LoadError::Stages(e)) => e,
         other => panic!("expected a stages error, got {other:?}"),
     }
 }
@@ -53,12 +57,12 @@ fn every_stages_error_is_distinct() {
     };
     assert_eq!(
         with(&|d| d.stages.as_mut().unwrap().actor_space.half_extent = f32::NAN),
-        StagesError::BadActorSpace
+        StagesLoadError::BadActorSpace
     );
     let short = &s.actor_neutral.0[..12];
     assert!(matches!(
         with(&|d| d.stages.as_mut().unwrap().actor_neutral = Bytes(short)),
-        StagesError::SectionLength {
+        StagesLoadError::SectionLength {
             section: StagesSection::ActorNeutral,
             ..
         }
@@ -68,12 +72,12 @@ fn every_stages_error_is_distinct() {
     let far: &'static [u8] = far.leak();
     assert_eq!(
         with(&|d| d.stages.as_mut().unwrap().actor_neutral = Bytes(far)),
-        StagesError::NeutralOutOfRange { marker: 1 }
+        StagesLoadError::NeutralOutOfRange { marker: 1 }
     );
     for head in [&[0u8, 1][..], &[2, 1, 3], &[0, 1, 200], &[0; 33]] {
         assert_eq!(
             with(&|d| d.stages.as_mut().unwrap().head_markers = Bytes(head)),
-            StagesError::BadHeadMarkers,
+            StagesLoadError::BadHeadMarkers,
             "{head:?}"
         );
     }
@@ -82,7 +86,7 @@ fn every_stages_error_is_distinct() {
         let anchors: &'static [u8] = anchors.leak();
         assert_eq!(
             with(&|d| d.stages.as_mut().unwrap().anchors = Bytes(anchors)),
-            StagesError::BadAnchors,
+            StagesLoadError::BadAnchors,
             "{anchors:?}"
         );
     }
@@ -92,13 +96,13 @@ fn every_stages_error_is_distinct() {
     if !one_head {
         assert_eq!(
             with(&|d| d.stages.as_mut().unwrap().anchors = Bytes(with_fill)),
-            StagesError::BadAnchors
+            StagesLoadError::BadAnchors
         );
     }
     for bad in [0, -1, (1 << 30) + 1] {
         assert_eq!(
             with(&|d| d.stages.as_mut().unwrap().max_displacement = bad),
-            StagesError::BadMaxDisplacement
+            StagesLoadError::BadMaxDisplacement
         );
     }
     let mut fill = s.fill.0.to_vec();
@@ -106,27 +110,33 @@ fn every_stages_error_is_distinct() {
     let fill: &'static [u8] = fill.leak();
     assert_eq!(
         with(&|d| d.stages.as_mut().unwrap().fill = Bytes(fill)),
-        StagesError::BadFillNeighbour { marker: 1 }
+        StagesLoadError::BadFillNeighbour { marker: 1 }
     );
     let mut radii = rbf_of(&s).radii.0.to_vec();
     radii[8..12].copy_from_slice(&0i32.to_le_bytes());
     let radii: &'static [u8] = radii.leak();
     assert_eq!(
         with(&|d| rbf(d).radii = Bytes(radii)),
-        StagesError::BadRadius { marker: 2 }
+        StagesLoadError::BadRadius { marker: 2 }
     );
     let mut alpha = rbf_of(&s).alpha.0.to_vec();
     alpha[36..40].copy_from_slice(&(1i32 << 23).to_le_bytes());
     let alpha: &'static [u8] = alpha.leak();
     assert_eq!(
         with(&|d| rbf(d).alpha = Bytes(alpha)),
-        StagesError::AlphaOutOfRange { marker: 3 }
+        StagesLoadError::AlphaOutOfRange { marker: 3 }
     );
-    assert_eq!(with(&|d| rbf(d).alpha_shift = 49), StagesError::BadShift);
-    assert_eq!(with(&|d| rbf(d).linear_shift = 0), StagesError::BadShift);
+    assert_eq!(
+        with(&|d| rbf(d).alpha_shift = 49),
+        StagesLoadError::BadShift
+    );
+    assert_eq!(
+        with(&|d| rbf(d).linear_shift = 0),
+        StagesLoadError::BadShift
+    );
     assert!(matches!(
         with(&|d| rbf(d).radii = Bytes(&[])),
-        StagesError::SectionLength {
+        StagesLoadError::SectionLength {
             section: StagesSection::Radii,
             ..
         }

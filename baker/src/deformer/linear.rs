@@ -1,7 +1,9 @@
 //! The linear deformer: K weights per vertex on marker displacements; its f64 reference,
 //! [`LinearF64`], is the rig's own quantised weights in exact arithmetic.
 
-use facebake_runtime::format::{Bytes, Deformer, LinearInfluences, INFLUENCE_BYTES};
+use facebake_runtime::deformer::linear::LinearDeformer;
+use facebake_runtime::deformer::Deformer;
+use facebake_runtime::format::records::{Bytes, INFLUENCE_BYTES};
 
 use super::{
     dequantise_rows, influence_counts, le_words, DeformerBytes, DeformerOutput, Section,
@@ -29,7 +31,7 @@ impl LinearBytes {
     /// The runtime's section over these bytes.
     pub(super) fn section(&self) -> Section<'_> {
         Section {
-            deformer: Deformer::Linear(LinearInfluences {
+            deformer: Deformer::Linear(LinearDeformer {
                 weight_frac_bits: self.weight_frac_bits,
                 max_influences: self.counts.iter().copied().max().unwrap_or(0).max(1),
                 influence_counts: Bytes(&self.counts),
@@ -74,7 +76,7 @@ pub(crate) struct LinearF64 {
 
 impl LinearF64 {
     /// The section `l`, weights scaled by `scale`.
-    pub(crate) fn new(l: &LinearInfluences<'_>, scale: f64) -> Self {
+    pub(crate) fn new(l: &LinearDeformer<'_>, scale: f64) -> Self {
         Self {
             rows: dequantise_rows(
                 l.influences.0,

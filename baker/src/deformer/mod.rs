@@ -16,8 +16,9 @@ pub mod linear;
 pub mod planar;
 pub mod rbf;
 
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::POS_FRAC_BITS;
-use facebake_runtime::format::{read_influence, Deformer, INFLUENCE_BYTES};
+use facebake_runtime::format::records::{read_influence, INFLUENCE_BYTES};
 use facebake_runtime::{Rig, Space};
 
 /// Which deformer the runtime runs.
@@ -218,13 +219,13 @@ impl SparseF64 {
             .collect();
         let deformer = match rig.deformer() {
             Deformer::Linear(l) => SparseDeformer::Linear(linear::LinearF64::new(l, scale)),
-            Deformer::RbfCoefficients(r) => SparseDeformer::Rbf(rbf::RbfF64::new(
+            Deformer::Rbf(r) => SparseDeformer::Rbf(rbf::RbfF64::new(
                 r,
                 rig.vertex_count(),
                 rig.marker_count(),
                 scale,
             )),
-            Deformer::PlanarBones(_) => {
+            Deformer::Planar(_) => {
                 SparseDeformer::Planar(planar::reference::PlanarReference::from_rig(rig))
             }
         };

@@ -4,7 +4,9 @@
 //! system for the marker displacements, paper 000 eq 14, thesis eq 2.5, and evaluate it at every
 //! vertex, eq 2.6); and [`RbfF64`], the rig's own quantised numbers in exact arithmetic.
 
-use facebake_runtime::format::{Bytes, Deformer, RbfCoefficients, INFLUENCE_BYTES};
+use facebake_runtime::deformer::rbf::RbfDeformer;
+use facebake_runtime::deformer::Deformer;
+use facebake_runtime::format::records::{Bytes, INFLUENCE_BYTES};
 
 use super::{dequantise_rows, le_words, DeformerBytes, DeformerOutput, Section, SectionError};
 use crate::rbf::RbfSystem;
@@ -50,7 +52,7 @@ impl RbfBytes {
     /// The runtime's section over these bytes.
     pub(super) fn section(&self) -> Section<'_> {
         Section {
-            deformer: Deformer::RbfCoefficients(RbfCoefficients {
+            deformer: Deformer::Rbf(RbfDeformer {
                 influences_per_vertex: self.k,
                 weight_frac_bits: self.weight_frac_bits,
                 affine: self.affine,
@@ -153,12 +155,7 @@ pub(crate) struct RbfF64 {
 impl RbfF64 {
     /// The section `r` of a rig with `vertices` vertices and `markers` markers, radial values
     /// scaled by `scale`.
-    pub(crate) fn new(
-        r: &RbfCoefficients<'_>,
-        vertices: usize,
-        markers: usize,
-        scale: f64,
-    ) -> Self {
+    pub(crate) fn new(r: &RbfDeformer<'_>, vertices: usize, markers: usize, scale: f64) -> Self {
         let k = usize::from(r.influences_per_vertex);
         let rows = dequantise_rows(r.influences.0, (0..vertices).map(|_| k), scale);
         let matrix = r

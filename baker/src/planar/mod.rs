@@ -12,7 +12,8 @@
 pub mod region;
 pub mod triangulate;
 
-use facebake_runtime::format::{PlanarInfluence, MAX_TRIANGLES, PLANAR_WEIGHT_FRAC_BITS};
+use facebake_runtime::deformer::planar::{PlanarInfluence, PLANAR_WEIGHT_FRAC_BITS};
+use facebake_runtime::format::records::MAX_TRIANGLES;
 
 use crate::mesh::distance;
 use region::{falloff, Frame, Region, V3};
@@ -237,7 +238,7 @@ pub fn records(
     row.iter()
         .map(|&(inf, weight)| {
             let local = frames[inf.triangle].local(inf.region, s);
-            // Fractional bits per coordinate (see the runtime's `PlanarBones`).
+            // Fractional bits per coordinate (see the runtime's `PlanarDeformer`).
             let bits = match inf.region {
                 Region::Triangle => [26, 26, 24, 24],
                 Region::Edge(_) => [26, 24, 24, 24],

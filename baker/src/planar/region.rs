@@ -173,7 +173,7 @@ impl Frame {
     }
 
     /// Local coordinates of `s` in its region's rest frame, as the blob stores them (x, y, z, w;
-    /// see the runtime's `PlanarBones`): R_A the affine coordinates along P − O and Q − O and the
+    /// see the runtime's `PlanarDeformer`): R_A the affine coordinates along P − O and Q − O and the
     /// height; R_B,i the fraction along e_i, the distance along u_i and the height; R_C,i the
     /// components along u_i and u_{i−1}, the height and the in-plane distance D_i(S) of eq 10.
     pub fn local(&self, region: Region, s: &V3) -> [f64; 4] {

@@ -2,7 +2,7 @@
 //! on an actor's raw markers, and their f64 reference.
 //!
 //! From a capture (its neutral frame or range) and the character's marker positions this module
-//! builds [`facebake_runtime::pipeline::Stages`]: the actor's space and neutral markers, the head
+//! builds [`facebake_runtime::stages::Stages`]: the actor's space and neutral markers, the head
 //! markers (named, or the most rigid subset of the neutral range), the neighbours each marker is
 //! rebuilt from when missing, and the retargeting map (inverse multiquadric with per-centre radius
 //! plus affine, [`RetargetMap`]) from actor space to the character's rig space.
@@ -13,10 +13,11 @@
 use std::ops::Range;
 
 use facebake_runtime::fixed::pack_influence;
-use facebake_runtime::format::Space;
-use facebake_runtime::pipeline::{
-    FILL_FRAC_BITS, FILL_NEIGHBOURS, MAX_ALPHA_SHIFT, MAX_HEAD_MARKERS, NEUTRAL_LIMIT,
-};
+use facebake_runtime::format::records::FILL_NEIGHBOURS;
+use facebake_runtime::stages::compensate::MAX_HEAD_MARKERS;
+use facebake_runtime::stages::fill::FILL_FRAC_BITS;
+use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
+use facebake_runtime::Space;
 
 pub mod reference;
 pub mod retarget;
@@ -201,7 +202,7 @@ pub struct StagesBytes {
     /// Offset, Q8.24.
     pub offset: [i32; 3],
     /// Proportional retargeting instead of the RBF map: (shift, matrices, rest) as the runtime's
-    /// `PerMarker` holds them.
+    /// `ProportionalRetarget` holds them.
     pub proportional: Option<(u8, Vec<u8>, Vec<u8>)>,
     /// Anchor marker indices, ascending.
     pub anchors: Vec<u8>,
@@ -609,7 +610,7 @@ fn encode(
     })
 }
 
-/// The runtime's `PerMarker` sections for `p`: one shift for every matrix entry.
+/// The runtime's `ProportionalRetarget` sections for `p`: one shift for every matrix entry.
 fn encode_proportional(p: &Proportional) -> Result<(u8, Vec<u8>, Vec<u8>), StagesError> {
     let entries = p.matrices.iter().flatten().flatten().copied();
     let shift = shift_for(entries, f64::from(i32::MAX), 40).max(1);

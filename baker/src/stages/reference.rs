@@ -13,7 +13,7 @@
 //! 5. [`StagesF64::retarget`]: the unquantised RBF map (or proportional scaling) to the
 //!    character's rig units.
 
-use facebake_runtime::format::Space;
+use facebake_runtime::Space;
 
 use super::retarget::{Proportional, RetargetMap};
 use super::rigid::{kabsch, RigidTransform};

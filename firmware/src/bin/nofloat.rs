@@ -11,7 +11,7 @@ use core::hint::black_box;
 use core::panic::PanicInfo;
 
 use cortex_m_rt::entry;
-use facebake_runtime::format::MAX_MARKERS;
+use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
 
 /// Output room: the harness is never run, so a few vertices are enough to link the path.

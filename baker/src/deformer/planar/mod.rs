@@ -1,7 +1,11 @@
 //! The planar deformer: planar bones (paper 000 §4.1–4.2), K control-triangle transforms per
 //! vertex. The control surface, regions and weights are built in [`crate::planar`].
 
-use facebake_runtime::format::{self, Bytes, Deformer, PlanarBones, PlanarInfluence};
+use facebake_runtime::deformer::planar::{
+    write_planar_influence, PlanarDeformer, PlanarInfluence, PLANAR_WEIGHT_FRAC_BITS,
+};
+use facebake_runtime::deformer::Deformer;
+use facebake_runtime::format::records::{Bytes, PLANAR_INFLUENCE_BYTES};
 use facebake_runtime::Space;
 
 pub mod reference;
@@ -26,7 +30,7 @@ impl PlanarBytes {
     fn new(triangles: &[[u8; 3]], rows: &[Vec<PlanarInfluence>]) -> Result<Self, SectionError> {
         let mut records = Vec::new();
         for r in rows.iter().flatten() {
-            let b = format::write_planar_influence(r).ok_or_else(|| {
+            let b = write_planar_influence(r).ok_or_else(|| {
                 SectionError(format!("control triangle {} out of range", r.triangle))
             })?;
             records.extend_from_slice(&b);
@@ -43,7 +47,7 @@ impl PlanarBytes {
     /// The runtime's section over these bytes.
     pub(super) fn section(&self) -> Section<'_> {
         Section {
-            deformer: Deformer::PlanarBones(PlanarBones {
+            deformer: Deformer::Planar(PlanarDeformer {
                 max_influences: self.counts.iter().copied().max().unwrap_or(0).max(1),
                 triangle_count: self.triangle_count,
                 triangles: Bytes(&self.triangles),
@@ -51,7 +55,7 @@ impl PlanarBytes {
                 influences: Bytes(&self.records),
             }),
             influence_bytes: self.records.len(),
-            influences: self.records.len() / format::PLANAR_INFLUENCE_BYTES,
+            influences: self.records.len() / PLANAR_INFLUENCE_BYTES,
         }
     }
 }
@@ -86,7 +90,7 @@ pub(crate) fn bake(
     let reference = PlanarReference::new(vertices.to_vec(), rest.to_vec(), p.triangles, p.rows);
     let output = DeformerOutput {
         bytes: DeformerBytes::Planar(PlanarBytes::new(&triangles, &p.records)?),
-        frac_bits: facebake_runtime::format::PLANAR_WEIGHT_FRAC_BITS,
+        frac_bits: PLANAR_WEIGHT_FRAC_BITS,
         dropped: p.dropped,
         rounding: p.max_weight_rounding,
         matrix_rounding: 0.0,

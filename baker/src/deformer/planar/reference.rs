@@ -14,10 +14,10 @@
 //! A triangle that is degenerate in a frame (2 · area ≤ 2⁻¹⁰ of its longest edge squared, the
 //! runtime's test) uses its rest frame at the current markers, as the runtime does.
 
+use facebake_runtime::deformer::planar::{read_planar_influence, PLANAR_WEIGHT_FRAC_BITS};
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::POS_FRAC_BITS;
-use facebake_runtime::format::{
-    read_planar_influence, Deformer, PLANAR_INFLUENCE_BYTES, PLANAR_WEIGHT_FRAC_BITS,
-};
+use facebake_runtime::format::records::PLANAR_INFLUENCE_BYTES;
 use facebake_runtime::Rig;
 
 use crate::mesh::{dot, norm, sub};
@@ -111,7 +111,7 @@ impl PlanarReference {
     /// Pass the bake's exact positions to check the runtime against the equations; pass the
     /// rig's own ([`Self::from_rig`]) when only the blob is at hand.
     pub fn with_positions(rig: &Rig<'_>, rest: Vec<V3>, marker_rest: Vec<V3>) -> Option<Self> {
-        let Deformer::PlanarBones(p) = rig.deformer() else {
+        let Deformer::Planar(p) = rig.deformer() else {
             return None;
         };
         let triangles = p

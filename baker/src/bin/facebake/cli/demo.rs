@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::Args;
-use facebake_runtime::format::Deformer;
+use facebake_runtime::deformer::Deformer;
 use serde::Serialize;
 
 use super::bake::bytes_text;
@@ -283,8 +283,8 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         blob_bytes: baked.blob.len(),
         deformer: match rig.deformer() {
             Deformer::Linear(_) => "linear",
-            Deformer::RbfCoefficients(_) => "rbf-coefficients",
-            Deformer::PlanarBones(_) => "planar-bones",
+            Deformer::Rbf(_) => "rbf-coefficients",
+            Deformer::Planar(_) => "planar-bones",
         },
         k: cost.max_influences,
         weight_format: weight_format(rig.weight_frac_bits()),

@@ -4,11 +4,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use facebake_runtime::format::{Deformer, HEADER_LEN};
+use facebake_runtime::deformer::Deformer;
+use facebake_runtime::format::records::HEADER_LEN;
 use facebake_runtime::{Cost, Rig};
 use serde::Serialize;
 
-use facebake_runtime::pipeline::RetargetForm;
+use facebake_runtime::stages::retarget::Retarget;
 
 use super::bake::bytes_text;
 use super::{emit, load_rig, marker_names, print_json, read_file, weight_format, CliError};
@@ -173,7 +174,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             0,
             l.influences.0.len(),
         ),
-        Deformer::RbfCoefficients(r) => (
+        Deformer::Rbf(r) => (
             "rbf-coefficients",
             Some(r.affine),
             0,
@@ -181,7 +182,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             r.matrix.0.len(),
             r.influences.0.len(),
         ),
-        Deformer::PlanarBones(p) => (
+        Deformer::Planar(p) => (
             "planar-bones",
             None,
             p.influence_counts.0.len(),
@@ -195,8 +196,8 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             + st.head_markers.0.len()
             + st.fill.0.len()
             + match st.retarget {
-                RetargetForm::Rbf(r) => r.radii.0.len() + r.alpha.0.len(),
-                RetargetForm::PerMarker(p) => p.matrices.0.len() + p.rest.0.len(),
+                Retarget::Rbf(r) => r.radii.0.len() + r.alpha.0.len(),
+                Retarget::Proportional(p) => p.matrices.0.len() + p.rest.0.len(),
             }
     });
     let known = stages_bytes
@@ -270,8 +271,8 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                     c.horn_squarings,
                     c.fill_terms,
                     match st.retarget {
-                        RetargetForm::Rbf(_) => "RBF",
-                        RetargetForm::PerMarker(_) => "proportional",
+                        Retarget::Rbf(_) => "RBF",
+                        Retarget::Proportional(_) => "proportional",
                     },
                     c.retarget_kernels,
                     c.retarget_multiply_adds

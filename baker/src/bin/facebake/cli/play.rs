@@ -115,7 +115,7 @@ pub fn play_stages(
     frames: &[Vec<Option<[f64; 3]>>],
     mut each: impl FnMut(usize, &[[f64; 3]]),
 ) -> Result<StagesSummary, CliError> {
-    use facebake_runtime::pipeline::RigidStatus;
+    use facebake_runtime::RigidStatus;
     let stages = rig
         .stages()
         .ok_or_else(|| CliError::input(path, "the rig has no capture stages"))?;

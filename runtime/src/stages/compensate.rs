@@ -11,7 +11,7 @@
 //! [`SQUARINGS`] repeated squarings A ← A² (each renormalised by a power of two) raise A to the
 //! power 2³²: every other direction shrinks by (λ₂/λ₁)^(2³²). Any column of the result is then
 //! the eigenvector up to scale; the one with the largest diagonal entry is taken and normalised
-//! ([`crate::sqrt::normalize`]). No loop depends on the data; the cost is fixed.
+//! (`sqrt::normalize`). No loop depends on the data; the cost is fixed.
 //!
 //! Formats: positions Q8.24 (actor units), centred coordinates clamped to ±2²⁸ (16 units: a head
 //! is at most a few units across), S in `i64` (at most 32 products below 2⁵⁶), N and A
@@ -19,7 +19,28 @@
 //! rotation matrix Q1.30.
 
 use crate::fixed::round_shift_sat;
+use crate::format::error::StagesLoadError;
+use crate::format::records::Bytes;
 use crate::sqrt::{isqrt_u64, normalize, UNIT_FRAC_BITS};
+
+/// Most head markers a rig may name.
+pub const MAX_HEAD_MARKERS: usize = 32;
+/// Fewest head markers a rig may name when it names any, and a rigid fit needs: three.
+const MIN_HEAD_MARKERS: usize = 3;
+
+/// Check the `head_markers` section: `u8` indices below `markers`, strictly ascending; none (no
+/// compensation) or 3 to [`MAX_HEAD_MARKERS`].
+pub(crate) fn validate(head_markers: Bytes<'_>, markers: usize) -> Result<(), StagesLoadError> {
+    let head = head_markers.0;
+    let ascending = head.windows(2).all(|w| w[0] < w[1]);
+    let in_range = head.iter().all(|&h| usize::from(h) < markers);
+    let count_ok = head.is_empty() || (MIN_HEAD_MARKERS..=MAX_HEAD_MARKERS).contains(&head.len());
+    if ascending && in_range && count_ok {
+        Ok(())
+    } else {
+        Err(StagesLoadError::BadHeadMarkers)
+    }
+}
 
 /// Squarings of Horn's shifted matrix: it is raised to the power 2^SQUARINGS.
 pub const SQUARINGS: usize = 32;
@@ -101,10 +122,10 @@ pub enum FitFailure {
 }
 
 /// Corresponding head-marker positions: neutral and current, Q8.24, at most
-/// [`super::MAX_HEAD_MARKERS`].
-pub struct HeadPairs {
-    neutral: [[i32; 3]; super::MAX_HEAD_MARKERS],
-    current: [[i32; 3]; super::MAX_HEAD_MARKERS],
+/// [`MAX_HEAD_MARKERS`].
+pub(crate) struct HeadPairs {
+    neutral: [[i32; 3]; MAX_HEAD_MARKERS],
+    current: [[i32; 3]; MAX_HEAD_MARKERS],
     len: usize,
 }
 
@@ -118,16 +139,16 @@ impl HeadPairs {
     /// No pairs.
     pub const fn new() -> Self {
         Self {
-            neutral: [[0; 3]; super::MAX_HEAD_MARKERS],
-            current: [[0; 3]; super::MAX_HEAD_MARKERS],
+            neutral: [[0; 3]; MAX_HEAD_MARKERS],
+            current: [[0; 3]; MAX_HEAD_MARKERS],
             len: 0,
         }
     }
 
-    /// Add a pair; ignored beyond [`super::MAX_HEAD_MARKERS`] (the loader caps head markers
+    /// Add a pair; ignored beyond [`MAX_HEAD_MARKERS`] (the loader caps head markers
     /// there, so it never happens with a loaded rig).
     pub fn push(&mut self, neutral: [i32; 3], current: [i32; 3]) {
-        if self.len < super::MAX_HEAD_MARKERS {
+        if self.len < MAX_HEAD_MARKERS {
             self.neutral[self.len] = neutral;
             self.current[self.len] = current;
             self.len += 1;
@@ -137,11 +158,6 @@ impl HeadPairs {
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.len
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
     }
 
     /// Keep only the pairs for which `keep(index)` holds, in order.
@@ -189,7 +205,7 @@ impl HeadPairs {
     /// The least-squares rigid motion carrying the neutral points onto the current ones.
     pub fn fit(&self) -> Result<RigidFit, FitFailure> {
         let n = self.len;
-        if n < 3 {
+        if n < MIN_HEAD_MARKERS {
             return Err(FitFailure::TooFew);
         }
         let cn = centroid(&self.neutral[..n]);

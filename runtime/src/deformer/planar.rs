@@ -1,4 +1,5 @@
-//! The planar-bones kernel (paper 000 §4.1–4.2): vertices ride the frames of marker triangles.
+//! The planar deformer, planar bones (paper 000 §4.1–4.2): vertices ride the frames of marker
+//! triangles.
 //!
 //! Per frame, two stages:
 //!
@@ -6,12 +7,12 @@
 //!    e_i = V_{i+1} − V_i (Q8.24, saturated to ±2³⁰, i.e. 64 rig units: the mesh spans ±1),
 //!    the unit normal
 //!    n = unit(e₀ × (V₂ − V₀)) and the unit in-plane edge normals u_i = unit(e_i × n), both Q1.30
-//!    from [`normalize3`] (each component within 2 LSB of the exact unit vector). The cross
+//!    from `sqrt::normalize3` (each component within 2 LSB of the exact unit vector). The cross
 //!    products are taken on the edges shifted right until every component is below 2³⁰, so
 //!    they fit `i64` whatever the marker positions; the shift only drops low bits of large
 //!    edges (a relative change below 2⁻³⁰).
 //! 2. **Vertices**: each of a vertex's influences places it with its region's transform
-//!    (see [`PlanarBones`] for the table): products of an `i32` coordinate and a frame component
+//!    (see [`PlanarDeformer`] for the table): products of an `i32` coordinate and a frame component
 //!    of at most 2³⁰ in magnitude, so each below 2⁶¹, in `i64`: a ratio (Q6.26) times an edge
 //!    is Q.50, a length (Q8.24) times a unit vector Q.54, shifted right by 4 to Q.50 where the
 //!    two meet (R_A, R_B); every sum stays below 1.5 · 2⁶² (no overflow). The sum is narrowed to
@@ -25,7 +26,7 @@
 //! A control triangle is **degenerate** in a frame when twice its area is at most 2⁻¹⁰ of its
 //! longest edge squared ([`DEGENERATE_LOG2`]): collinear or coincident markers, for instance a
 //! marker knocked out and rebuilt onto a line. Its orientation is then meaningless, so the
-//! kernel uses the triangle's **rest** frame (rest edges, normal and edge normals) placed at the
+//! deformer uses the triangle's **rest** frame (rest edges, normal and edge normals) placed at the
 //! current markers: its vertices translate with the region's origin marker instead of flying
 //! off. The frame call reports every such triangle. The loader rejects triangles degenerate at
 //! rest, so the fallback always exists. The fallback costs one more frame build for that
@@ -37,14 +38,98 @@
 //! `influences × (12 multiply-adds, 1 narrowing)` plus one normalisation per apex influence,
 //! plus per vertex three narrowings. No loop depends on marker data.
 
+use serde::{Deserialize, Serialize};
+
+use crate::cost::Cost;
+use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
 use crate::fixed::round_shift_bounded;
-use crate::fixed::MAX_INFLUENCES;
-use crate::format::{
-    expect_len, read_planar_influence, read_position, LoadError, PlanarBones, Section,
-    MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, PLANAR_REGIONS, PLANAR_WEIGHT_FRAC_BITS, POSITION_BYTES,
+use crate::format::error::{expect_len, LoadError, Section};
+use crate::format::records::{
+    read_position, Bytes, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, POSITION_BYTES,
+    TRIANGLE_BYTES,
 };
-use crate::rig::Cost;
 use crate::sqrt::{normalize3, UNIT_FRAC_BITS};
+
+/// Fractional bits of a planar weight (Q1.15: one is 2¹⁵).
+pub const PLANAR_WEIGHT_FRAC_BITS: u8 = 15;
+/// Region codes of a planar influence: R_A, then R_B,0..2, then R_C,0..2.
+pub const PLANAR_REGIONS: u8 = 7;
+
+/// The planar deformer's section (planar bones, paper 000 §4.1–4.2): a control surface of marker
+/// triangles (layout: [`crate::format::RigData`]).
+///
+/// Each influence names a triangle (O, P, Q) = (V₀, V₁, V₂), with edges e_i = V_{i+1} − V_i,
+/// unit normal n = e₀ × (V₂ − V₀) / ‖…‖ and unit in-plane edge normals u_i = e_i × n / ‖…‖,
+/// a region, a weight and local coordinates baked in the rest frame. In the current frame
+/// (primed), the vertex's position for that triangle is:
+///
+/// | region | origin | position | x | y | z | w |
+/// |---|---|---|---|---|---|---|
+/// | R_A (eq 1) | O | O′ + x e₀′ + y (Q′ − O′) + z n′ | Q6.26 | Q6.26 | Q8.24 | 0 |
+/// | R_B,i (eq 9) | V_i | V_i′ + x e_i′ + y u_i′ + z n′ | Q6.26 | Q8.24 | Q8.24 | 0 |
+/// | R_C,i (eq 10) | V_i | V_i′ + w · unit(x u_i′ + y u_{i−1}′) + z n′ | Q8.24 | Q8.24 | Q8.24 | Q8.24 |
+///
+/// In R_C,i, w is the rest in-plane distance D_i(S) of eq 10, so the apex scaling D/d keeps it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanarDeformer<'a> {
+    /// Most influences any vertex has (K), in [1, 64].
+    pub max_influences: u8,
+    /// Number of control triangles, in [1, [`MAX_TRIANGLES`]].
+    pub triangle_count: u16,
+    /// Per triangle: three `u8` marker indices.
+    #[serde(borrow)]
+    pub triangles: Bytes<'a>,
+    /// Per vertex: how many influences it has (`u8`, at least 1).
+    #[serde(borrow)]
+    pub influence_counts: Bytes<'a>,
+    /// The influence records, vertex after vertex ([`PLANAR_INFLUENCE_BYTES`] each).
+    #[serde(borrow)]
+    pub influences: Bytes<'a>,
+}
+
+/// One decoded planar influence record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlanarInfluence {
+    /// Control triangle index.
+    pub triangle: u16,
+    /// Region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i (anything above 6 is rejected by the
+    /// loader).
+    pub region: u8,
+    /// Weight, Q1.15.
+    pub weight: u16,
+    /// Local coordinates x, y, z, w (formats per region: see [`PlanarDeformer`]).
+    pub coords: [i32; 4],
+}
+
+/// Decode one planar influence from a [`PLANAR_INFLUENCE_BYTES`]-long chunk.
+#[inline(always)]
+pub fn read_planar_influence(b: &[u8]) -> PlanarInfluence {
+    let b: &[u8; PLANAR_INFLUENCE_BYTES] = b.try_into().unwrap_or(&[0; PLANAR_INFLUENCE_BYTES]);
+    let head = u16::from_le_bytes([b[0], b[1]]);
+    let word = |at: usize| i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+    PlanarInfluence {
+        triangle: head & 0x1FFF,
+        region: (head >> 13) as u8,
+        weight: u16::from_le_bytes([b[2], b[3]]),
+        coords: [word(4), word(8), word(12), word(16)],
+    }
+}
+
+/// Encode one planar influence (the inverse of [`read_planar_influence`]); `None` if the
+/// triangle index does not fit 13 bits or the region 3 bits.
+#[cfg(feature = "format")]
+pub fn write_planar_influence(i: &PlanarInfluence) -> Option<[u8; PLANAR_INFLUENCE_BYTES]> {
+    if i.triangle > 0x1FFF || i.region > 7 {
+        return None;
+    }
+    let mut b = [0u8; PLANAR_INFLUENCE_BYTES];
+    b[..2].copy_from_slice(&(i.triangle | (u16::from(i.region) << 13)).to_le_bytes());
+    b[2..4].copy_from_slice(&i.weight.to_le_bytes());
+    for (c, v) in i.coords.iter().enumerate() {
+        b[4 + 4 * c..8 + 4 * c].copy_from_slice(&v.to_le_bytes());
+    }
+    Some(b)
+}
 
 /// A triangle is degenerate when 2 · area ≤ 2^−DEGENERATE_LOG2 · (longest edge)².
 pub const DEGENERATE_LOG2: u32 = 10;
@@ -183,50 +268,11 @@ fn place(frame: &Frame, region: u8, coords: [i32; 4], origin: [i32; 3]) -> [i32;
     [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_bounded(acc[c], frac)))
 }
 
-/// Which control triangles were degenerate in a frame (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DegenerateTriangles {
-    bits: [u32; MAX_TRIANGLES / 32],
-}
-
-impl Default for DegenerateTriangles {
-    fn default() -> Self {
-        Self {
-            bits: [0; MAX_TRIANGLES / 32],
-        }
-    }
-}
-
-impl DegenerateTriangles {
-    fn mark(&mut self, t: usize) {
-        if let Some(word) = self.bits.get_mut(t / 32) {
-            *word |= 1 << (t % 32);
-        }
-    }
-
-    /// Whether triangle `t` was degenerate (and so used its rest orientation).
-    pub fn contains(&self, t: usize) -> bool {
-        self.bits
-            .get(t / 32)
-            .is_some_and(|word| word & (1 << (t % 32)) != 0)
-    }
-
-    /// How many triangles were degenerate.
-    pub fn count(&self) -> usize {
-        self.bits.iter().map(|w| w.count_ones() as usize).sum()
-    }
-
-    /// The degenerate triangles, in increasing order.
-    pub fn iter(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..MAX_TRIANGLES).filter(|&t| self.contains(t))
-    }
-}
-
 /// Deform one frame. `markers` has one position per rig marker (checked by the caller),
 /// `marker_rest` and `planar` were validated at load, `out` has one entry per vertex.
 #[inline(never)]
-pub(crate) fn deform(
-    planar: &PlanarBones<'_>,
+fn deform(
+    planar: &PlanarDeformer<'_>,
     marker_rest: &[u8],
     markers: &[[i32; 3]],
     out: &mut [[i32; 3]],
@@ -237,7 +283,7 @@ pub(crate) fn deform(
     let rest = |m: usize| rest_marker(marker_rest, m);
     for (t, (frame, tri)) in frames
         .iter_mut()
-        .zip(planar.triangles.0.chunks_exact(3))
+        .zip(planar.triangles.0.chunks_exact(TRIANGLE_BYTES))
         .enumerate()
     {
         *frame = match build_frame(&corners(current, tri)) {
@@ -261,7 +307,11 @@ pub(crate) fn deform(
             let inf = read_planar_influence(r);
             let t = usize::from(inf.triangle);
             let frame = frames.get(t).unwrap_or(&NO_FRAME);
-            let tri = planar.triangles.0.get(3 * t..3 * t + 3).unwrap_or(&[0; 3]);
+            let tri = planar
+                .triangles
+                .0
+                .get(TRIANGLE_BYTES * t..TRIANGLE_BYTES * (t + 1))
+                .unwrap_or(&[0; TRIANGLE_BYTES]);
             let corner = match inf.region {
                 0 => 0,
                 r => usize::from(r - 1) % 3,
@@ -280,7 +330,7 @@ pub(crate) fn deform(
 }
 
 /// The per-frame work of [`deform`] on a rig with `vertices` vertices and `markers` markers.
-pub(crate) fn cost(planar: &PlanarBones<'_>, vertices: usize, markers: usize) -> Cost {
+fn cost(planar: &PlanarDeformer<'_>, vertices: usize, markers: usize) -> Cost {
     let records = planar.influences.0.chunks_exact(PLANAR_INFLUENCE_BYTES);
     let influences = records.len();
     let apex = records
@@ -305,27 +355,30 @@ pub(crate) fn cost(planar: &PlanarBones<'_>, vertices: usize, markers: usize) ->
     }
 }
 
-/// Check a planar-bones deformer against the rig's counts: everything the per-frame path relies
-/// on, each failure with its own [`LoadError`].
-pub(crate) fn validate(
-    planar: &PlanarBones<'_>,
+/// Check a planar section against the rig's counts: everything the per-frame path relies on,
+/// each failure with its own [`LoadError`].
+fn validate(
+    planar: &PlanarDeformer<'_>,
     marker_rest: &[u8],
     vertices: usize,
     markers: usize,
 ) -> Result<(), LoadError> {
     let k = planar.max_influences;
-    if k == 0 || k > MAX_INFLUENCES {
-        return Err(LoadError::BadMaxInfluences { found: k });
-    }
+    check::max_influences(k)?;
     let triangles = usize::from(planar.triangle_count);
     if triangles == 0 || triangles > MAX_TRIANGLES {
         return Err(LoadError::BadTriangleCount {
             found: planar.triangle_count,
         });
     }
-    expect_len(Section::Triangles, planar.triangles, triangles, 3)?;
+    expect_len(
+        Section::Triangles,
+        planar.triangles,
+        triangles,
+        TRIANGLE_BYTES,
+    )?;
     let rest = |m: usize| rest_marker(marker_rest, m);
-    for (triangle, tri) in planar.triangles.0.chunks_exact(3).enumerate() {
+    for (triangle, tri) in planar.triangles.0.chunks_exact(TRIANGLE_BYTES).enumerate() {
         if let Some(&marker) = tri.iter().find(|&&m| usize::from(m) >= markers) {
             return Err(LoadError::TriangleMarkerOutOfRange { triangle, marker });
         }
@@ -333,22 +386,10 @@ pub(crate) fn validate(
             return Err(LoadError::DegenerateRestTriangle { triangle });
         }
     }
-    expect_len(
-        Section::InfluenceCounts,
+    check::counted_records(
         planar.influence_counts,
-        vertices,
-        1,
-    )?;
-    let total: usize = planar
-        .influence_counts
-        .0
-        .iter()
-        .map(|&c| usize::from(c))
-        .sum();
-    expect_len(
-        Section::Influences,
         planar.influences,
-        total,
+        vertices,
         PLANAR_INFLUENCE_BYTES,
     )?;
     let one = 1u32 << PLANAR_WEIGHT_FRAC_BITS;
@@ -380,6 +421,29 @@ pub(crate) fn validate(
         }
     }
     Ok(())
+}
+
+impl DeformerSection for PlanarDeformer<'_> {
+    fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError> {
+        validate(self, rig.marker_rest, rig.vertices, rig.markers)
+    }
+
+    fn cost(&self, rig: &Shared<'_>) -> Cost {
+        cost(self, rig.vertices, rig.markers)
+    }
+
+    fn weight_frac_bits(&self) -> u8 {
+        PLANAR_WEIGHT_FRAC_BITS
+    }
+
+    fn deform(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        out: &mut [[i32; 3]],
+    ) -> DegenerateTriangles {
+        deform(self, rig.marker_rest, markers, out)
+    }
 }
 
 #[cfg(test)]

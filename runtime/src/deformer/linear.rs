@@ -1,4 +1,4 @@
-//! The linear kernel: each vertex moves by a weighted sum of at most K marker displacements.
+//! The linear deformer: each vertex moves by a weighted sum of at most K marker displacements.
 //!
 //! ```text
 //! d[j]   = clamp(m[j] − m_rest[j], ±2^(15+F))                          per marker
@@ -7,7 +7,7 @@
 //!
 //! # Why it cannot overflow, and why it fits 16-bit lanes
 //!
-//! The loader guarantees Σ_k |w[v,k]| ≤ 2¹⁵ − 1 for every vertex (so every weight is an `i16`)
+//! The loader guarantees `Σ_k |w[v,k]| ≤ 2¹⁵ − 1` for every vertex (so every weight is an `i16`)
 //! and F ≤ 14. Split a displacement into 16-bit halves, `d = hi · 2¹⁶ + lo` with `lo = d as i16`
 //! (signed) and `hi = (d − lo) >> 16`. With |d| ≤ 2^(15+F): |lo| ≤ 2¹⁵ and |hi| ≤ 2^(F−1), both
 //! `i16`. Then
@@ -25,7 +25,7 @@
 //!
 //! Two implementations compute exactly this integer, so their outputs are bit for bit equal:
 //!
-//! * [`portable`]: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
+//! * `portable`: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
 //!   and axis; one `SMLAL` on a Cortex-M4);
 //! * `sse2` (x86-64): the halves of every marker's displacement in one 128-bit table entry; two
 //!   influences at a time, their halves are interleaved (`punpcklwd`/`punpckhwd`) and multiplied by
@@ -36,15 +36,118 @@
 //! one addition per axis. There is no branch on marker data and no check that can fail: the loader
 //! has validated every index, count and bound.
 
-use crate::fixed::{linear_displacement_limit, unpack_influence};
-use crate::format::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
+use serde::{Deserialize, Serialize};
+
+use crate::cost::Cost;
+use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
+use crate::fixed::{
+    linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
+    LINEAR_WEIGHT_ABS_SUM_MAX,
+};
+use crate::format::error::LoadError;
+use crate::format::records::{
+    read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
+    POSITION_BYTES, REST_BYTES,
+};
+
+/// The linear deformer's section: every vertex moves by a fixed weighted sum of marker
+/// displacements (layout: [`crate::format::RigData`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LinearDeformer<'a> {
+    /// Fractional bits of the stored weights, in [8, 14].
+    pub weight_frac_bits: u8,
+    /// Most influences any vertex has (K), in [1, 64].
+    pub max_influences: u8,
+    /// Per vertex: how many influences it has (`u8` each).
+    #[serde(borrow)]
+    pub influence_counts: Bytes<'a>,
+    /// The packed influences, vertex after vertex (`u32` LE each).
+    #[serde(borrow)]
+    pub influences: Bytes<'a>,
+}
+
+impl DeformerSection for LinearDeformer<'_> {
+    fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError> {
+        check::max_influences(self.max_influences)?;
+        check::weight_format(self.weight_frac_bits, LINEAR_MAX_WEIGHT_FRAC_BITS)?;
+        check::counted_records(
+            self.influence_counts,
+            self.influences,
+            rig.vertices,
+            INFLUENCE_BYTES,
+        )?;
+        let one = 1i64 << self.weight_frac_bits;
+        let mut words = self.influences.0.chunks_exact(INFLUENCE_BYTES);
+        for (vertex, &count) in self.influence_counts.0.iter().enumerate() {
+            if count > self.max_influences {
+                return Err(LoadError::TooManyInfluences { vertex, count });
+            }
+            let (mut sum, mut abs_sum) = (0i64, 0i64);
+            for w in words.by_ref().take(usize::from(count)) {
+                let (marker, weight) = read_influence(w);
+                if usize::from(marker) >= rig.markers {
+                    return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
+                }
+                sum += i64::from(weight);
+                abs_sum += i64::from(weight).abs();
+            }
+            if count > 0 && sum != one {
+                return Err(LoadError::WeightsNotNormalised { vertex });
+            }
+            if abs_sum > i64::from(LINEAR_WEIGHT_ABS_SUM_MAX) {
+                return Err(LoadError::WeightsTooLarge { vertex });
+            }
+        }
+        Ok(())
+    }
+
+    fn cost(&self, rig: &Shared<'_>) -> Cost {
+        let (v, m) = (rig.vertices, rig.markers);
+        let influences = self.influences.0.len() / INFLUENCE_BYTES;
+        Cost {
+            vertices: v,
+            markers: m,
+            influences,
+            max_influences: usize::from(self.max_influences),
+            coefficient_rows: 0,
+            multiply_adds: 3 * influences,
+            subtractions: 3 * m,
+            narrowings: 3 * v,
+            scratch_bytes: SCRATCH_BYTES,
+            frame_builds: 0,
+            normalisations: 0,
+        }
+    }
+
+    fn weight_frac_bits(&self) -> u8 {
+        self.weight_frac_bits
+    }
+
+    fn deform(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        out: &mut [[i32; 3]],
+    ) -> DegenerateTriangles {
+        deform(
+            markers,
+            rig.marker_rest,
+            rig.vertex_rest,
+            self.influence_counts.0,
+            self.influences.0,
+            self.weight_frac_bits,
+            out,
+        );
+        DegenerateTriangles::default()
+    }
+}
 
 /// Per marker index, its clamped displacement `[x, y, z, 0]` (Q8.24). Four lanes rather than
 /// three: an entry is 16 bytes, so indexing it is one shift (one instruction fewer per influence
 /// on a Cortex-M4 than a 12-byte entry).
 pub(crate) type Displacements = [[i32; 4]; MAX_MARKERS];
 
-/// Stack the kernel uses per frame: the displacement table, plus on x86-64 its 16-bit halves
+/// Stack the deformer uses per frame: the displacement table, plus on x86-64 its 16-bit halves
 /// (one 128-bit entry per marker index).
 pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
     + if cfg!(all(target_arch = "x86_64", target_feature = "sse2")) {
@@ -55,7 +158,8 @@ pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
 
 /// The clamped displacement of every marker (Q8.24), in marker order; later entries stay zero.
 ///
-/// `markers` are the current positions, `marker_rest` the rest section (12 bytes a marker).
+/// `markers` are the current positions, `marker_rest` the rest section ([`POSITION_BYTES`] a
+/// marker).
 pub(crate) fn displacements(
     markers: &[[i32; 3]],
     marker_rest: &[u8],
@@ -79,11 +183,12 @@ pub(crate) fn displacements(
 
 /// Write deformed positions for every vertex.
 ///
-/// `markers` and `marker_rest` as in [`displacements`]; `rest` is the vertex rest section (6
-/// bytes a vertex), `counts` one byte a vertex, `influences` four bytes an influence, all
+/// `markers` and `marker_rest` as in [`displacements`]; `rest` is the vertex rest section
+/// ([`REST_BYTES`] a vertex), `counts` one byte a vertex, `influences` [`INFLUENCE_BYTES`] an
+/// influence, all
 /// validated at load (including Σ|w| ≤ 2¹⁵ − 1 per vertex and F ≤ 14). `out` has one entry per
 /// vertex.
-pub(crate) fn deform(
+fn deform(
     markers: &[[i32; 3]],
     marker_rest: &[u8],
     rest: &[u8],
@@ -112,7 +217,7 @@ pub(crate) struct Sections<'a> {
     rest: &'a [u8],
     /// Influences per vertex, one byte a vertex.
     counts: &'a [u8],
-    /// Packed influences, four bytes each, vertex after vertex.
+    /// Packed influences, [`INFLUENCE_BYTES`] each, vertex after vertex.
     influences: &'a [u8],
     /// F.
     weight_frac_bits: u8,
@@ -129,9 +234,9 @@ impl<'a> Sections<'a> {
         let uniform =
             |k: u8| self.counts.first() == Some(&k) && self.counts.iter().all(|&c| c == k);
         if uniform(4) {
-            self.uniform::<16>(out, &mut f);
+            self.uniform::<{ 4 * INFLUENCE_BYTES }>(out, &mut f);
         } else if uniform(8) {
-            self.uniform::<32>(out, &mut f);
+            self.uniform::<{ 8 * INFLUENCE_BYTES }>(out, &mut f);
         } else {
             for (o, r, words) in self.vertices(out) {
                 f(words, r, o);
@@ -139,7 +244,7 @@ impl<'a> Sections<'a> {
         }
     }
 
-    /// [`Self::for_each_vertex`] when every vertex has `N / 4` influences.
+    /// [`Self::for_each_vertex`] when every vertex has `N / INFLUENCE_BYTES` influences.
     #[inline(always)]
     fn uniform<const N: usize>(
         self,
@@ -176,7 +281,7 @@ fn per_vertex<'a>(counts: &'a [u8], influences: &'a [u8]) -> impl Iterator<Item 
     let mut words = influences;
     counts.iter().map(move |&count| {
         let (mine, tail) = words
-            .split_at_checked(4 * usize::from(count))
+            .split_at_checked(INFLUENCE_BYTES * usize::from(count))
             .unwrap_or((&[], &[]));
         words = tail;
         mine
@@ -198,7 +303,7 @@ pub(crate) mod portable {
         let half = 1i64 << (frac - 1);
         rig.for_each_vertex(out, |words, r, o| {
             let mut acc = [0i64; 3];
-            for w in words.chunks_exact(4) {
+            for w in words.chunks_exact(INFLUENCE_BYTES) {
                 let (marker, weight) =
                     unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
                 // A u8 index into a 256-entry array: in range by construction.
@@ -454,12 +559,12 @@ mod tests {
         }
     }
 
-    /// The kernel's formula evaluated in i128, with no cleverness: the contract both
+    /// The deformer's formula evaluated in i128, with no cleverness: the contract both
     /// implementations must meet bit for bit.
     fn reference(c: &Case, d: &Displacements) -> Vec<[i32; 3]> {
         let mut out = vec![];
-        let mut words = c.words.chunks_exact(4);
-        for (r, &n) in c.rest.chunks_exact(6).zip(&c.counts) {
+        let mut words = c.words.chunks_exact(INFLUENCE_BYTES);
+        for (r, &n) in c.rest.chunks_exact(REST_BYTES).zip(&c.counts) {
             let mut acc = [0i128; 3];
             for w in words.by_ref().take(usize::from(n)) {
                 let (m, w) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));

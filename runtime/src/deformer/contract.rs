@@ -1,0 +1,125 @@
+//! What every deformer provides, with one signature shape ([`DeformerSection`]), what it is given
+//! ([`Shared`]) and what a frame reports ([`DegenerateTriangles`]). Each deformer's module
+//! implements the trait for its section type; [`super::Deformer`] dispatches to it.
+//!
+//! Kept apart from `deformer/mod.rs` so that the deformers import it and `mod.rs` imports them,
+//! with no cycle between the files.
+
+use crate::cost::Cost;
+use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
+use crate::format::error::{expect_len, LoadError, Section};
+use crate::format::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES};
+
+/// The rig's counts and the sections every deformer reads besides its own.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Shared<'a> {
+    /// Number of vertices (`vertex_count`).
+    pub vertices: usize,
+    /// Number of markers (`marker_count`).
+    pub markers: usize,
+    /// The `marker_rest` section (validated before the deformer).
+    pub marker_rest: &'a [u8],
+    /// The `vertex_rest` section (validated before the deformer).
+    pub vertex_rest: &'a [u8],
+}
+
+/// One deformer's operations. Each section type implements it in its own module.
+pub(crate) trait DeformerSection {
+    /// Check the section against the rig's counts and shared sections: everything the per-frame
+    /// path relies on, each failure with its own [`LoadError`].
+    fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError>;
+
+    /// The per-frame work of [`Self::deform`], fixed by the rig.
+    fn cost(&self, rig: &Shared<'_>) -> Cost;
+
+    /// Fractional bits of the stored weights (or radial values).
+    #[cfg_attr(not(feature = "format"), allow(dead_code))]
+    fn weight_frac_bits(&self) -> u8;
+
+    /// Deform one frame: `markers` has one position per rig marker and `out` one entry per
+    /// vertex (the caller checked both), `rig` and `self` were validated at load. Never fails.
+    fn deform(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        out: &mut [[i32; 3]],
+    ) -> DegenerateTriangles;
+}
+
+/// Validation steps more than one deformer shares.
+pub(crate) mod check {
+    use super::*;
+
+    /// K is in [1, [`MAX_INFLUENCES`]].
+    pub(crate) fn max_influences(k: u8) -> Result<(), LoadError> {
+        if k == 0 || k > MAX_INFLUENCES {
+            return Err(LoadError::BadMaxInfluences { found: k });
+        }
+        Ok(())
+    }
+
+    /// `weight_frac_bits` is in [[`MIN_WEIGHT_FRAC_BITS`], `max`].
+    pub(crate) fn weight_format(weight_frac_bits: u8, max: u8) -> Result<(), LoadError> {
+        if !(MIN_WEIGHT_FRAC_BITS..=max).contains(&weight_frac_bits) {
+            return Err(LoadError::BadWeightFormat {
+                found: weight_frac_bits,
+            });
+        }
+        Ok(())
+    }
+
+    /// `counts` has one `u8` per vertex and `records` exactly as many `record_bytes`-long
+    /// records as the counts add up to (vertex after vertex).
+    pub(crate) fn counted_records(
+        counts: Bytes<'_>,
+        records: Bytes<'_>,
+        vertices: usize,
+        record_bytes: usize,
+    ) -> Result<(), LoadError> {
+        expect_len(Section::InfluenceCounts, counts, vertices, COUNT_BYTES)?;
+        let total: usize = counts.0.iter().map(|&c| usize::from(c)).sum();
+        expect_len(Section::Influences, records, total, record_bytes)
+    }
+}
+
+/// Which control triangles of a planar rig were degenerate in a frame (collinear or coincident
+/// markers) and so kept their rest orientation; always empty for the other deformers. See
+/// [`crate::Rig::deform_report`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DegenerateTriangles {
+    bits: [u32; MAX_TRIANGLES / 32],
+}
+
+impl Default for DegenerateTriangles {
+    fn default() -> Self {
+        Self {
+            bits: [0; MAX_TRIANGLES / 32],
+        }
+    }
+}
+
+impl DegenerateTriangles {
+    /// Record triangle `t` as degenerate.
+    pub(crate) fn mark(&mut self, t: usize) {
+        if let Some(word) = self.bits.get_mut(t / 32) {
+            *word |= 1 << (t % 32);
+        }
+    }
+
+    /// Whether triangle `t` was degenerate (and so used its rest orientation).
+    pub fn contains(&self, t: usize) -> bool {
+        self.bits
+            .get(t / 32)
+            .is_some_and(|word| word & (1 << (t % 32)) != 0)
+    }
+
+    /// How many triangles were degenerate.
+    pub fn count(&self) -> usize {
+        self.bits.iter().map(|w| w.count_ones() as usize).sum()
+    }
+
+    /// The degenerate triangles, in increasing order.
+    pub fn iter(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..MAX_TRIANGLES).filter(|&t| self.contains(t))
+    }
+}

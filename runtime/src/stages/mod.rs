@@ -1,0 +1,353 @@
+//! The capture stages: per frame, an actor's raw markers become the character's markers.
+//!
+//! A live stream has no baker between the camera and the face, so a rig may carry these stages
+//! ([`Stages`], optional in the blob) and the runtime runs them before deforming:
+//!
+//! 1. **Input check.** A marker is missing when the caller says so (`None`) or when a coordinate
+//!    lies beyond ±64 actor units ([`INPUT_LIMIT`]); the latter is reported as rejected. Static
+//!    anchors ignore their samples.
+//! 2. **Head-motion compensation** ([`compensate`]): the least-squares rigid motion of the present
+//!    head markers from the neutral frame (Horn's quaternion method in fixed point). A head
+//!    marker whose residual exceeds `max_displacement` is dropped and the fit done once more.
+//!    With fewer than three usable head markers, or collinear ones, the last good fit is held.
+//! 3. **Plausibility.** A compensated marker further than `max_displacement` from its neutral
+//!    position is rejected (a swapped or ghost marker).
+//! 4. **Fill** ([`fill`]): a missing or rejected marker moves with the weighted mean displacement
+//!    of its present baked neighbours; with none present it holds its last good displacement
+//!    (zero if it was never seen).
+//! 5. **Retargeting** ([`retarget`]): the baked map carries each compensated actor marker into
+//!    the character's rig space.
+//!
+//! [`report`] says what happened to each marker. Each step's module validates its part of the
+//! section at load ([`crate::format::error::StagesLoadError`]). Every loop runs a number of times
+//! fixed by the rig; [`Stages::cost`] states it.
+
+pub mod compensate;
+pub mod fill;
+pub mod report;
+pub mod retarget;
+
+use serde::{Deserialize, Serialize};
+
+use crate::format::error::{expect_stages_len, StagesLoadError, StagesSection};
+use crate::format::records::{
+    read_position, Bytes, FILL_BYTES, MAX_MARKERS, POSITION_BYTES,
+};
+use crate::space::Space;
+use crate::stages::compensate::{HeadPairs, RigidFit, MAX_HEAD_MARKERS};
+use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
+use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
+
+/// Largest accepted input coordinate magnitude: 64 actor units in Q8.24.
+pub const INPUT_LIMIT: i32 = 1 << 30;
+
+/// The capture stages of a rig (see the module docs). Markers are the rig's markers, in the
+/// rig's order: actor marker `j` drives character marker `j`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stages<'a> {
+    /// Actor units in the capture's space: `actor = (capture − centre) / half_extent`, Q8.24.
+    pub actor_space: Space,
+    /// The actor's neutral markers, 3 × `i32` LE (Q8.24 actor units) each, within ±4 units.
+    #[serde(borrow)]
+    pub actor_neutral: Bytes<'a>,
+    /// Head markers for compensation: `u8` indices, strictly ascending; none (no
+    /// compensation) or 3 to [`MAX_HEAD_MARKERS`].
+    #[serde(borrow)]
+    pub head_markers: Bytes<'a>,
+    /// Largest plausible displacement of a compensated marker from its neutral position,
+    /// Q8.24 actor units, in (0, [`INPUT_LIMIT`]].
+    pub max_displacement: i32,
+    /// Per marker, [`FILL_NEIGHBOURS`](crate::format::records::FILL_NEIGHBOURS) packed words (neighbour index, Q8.16 weight ≥ 0; weight 0
+    /// marks an unused slot), `u32` LE.
+    #[serde(borrow)]
+    pub fill: Bytes<'a>,
+    /// The retargeting map.
+    #[serde(borrow)]
+    pub retarget: Retarget<'a>,
+    /// Static anchors (paper 003): `u8` marker indices, strictly ascending, none of them a head
+    /// marker. Their samples are ignored and, having no fill neighbours, they are held at zero
+    /// displacement: the character's markers stay at rest and pin the skin around them.
+    #[serde(borrow)]
+    pub anchors: Bytes<'a>,
+}
+
+
+impl<'a> Stages<'a> {
+    /// Check every length, index and range against `markers` (the rig's marker count, already
+    /// validated to 1..=256).
+    pub(crate) fn validate(&self, markers: usize) -> Result<(), StagesLoadError> {
+        if !self.actor_space.is_valid() {
+            return Err(StagesLoadError::BadActorSpace);
+        }
+        expect_stages_len(
+            StagesSection::ActorNeutral,
+            self.actor_neutral,
+            markers,
+            POSITION_BYTES,
+        )?;
+        for (marker, p) in self
+            .actor_neutral
+            .0
+            .chunks_exact(POSITION_BYTES)
+            .enumerate()
+        {
+            if read_position(p)
+                .iter()
+                .any(|c| c.unsigned_abs() > NEUTRAL_LIMIT as u32)
+            {
+                return Err(StagesLoadError::NeutralOutOfRange { marker });
+            }
+        }
+        compensate::validate(self.head_markers, markers)?;
+        let head = self.head_markers.0;
+        let anchors = self.anchors.0;
+        if !(anchors.windows(2).all(|w| w[0] < w[1])
+            && anchors
+                .iter()
+                .all(|&a| usize::from(a) < markers && !head.contains(&a)))
+        {
+            return Err(StagesLoadError::BadAnchors);
+        }
+        if !(1..=INPUT_LIMIT).contains(&self.max_displacement) {
+            return Err(StagesLoadError::BadMaxDisplacement);
+        }
+        fill::validate(self.fill, markers)?;
+        if !anchors
+            .iter()
+            .all(|&a| fill::has_no_neighbours(self.fill, usize::from(a)))
+        {
+            return Err(StagesLoadError::BadAnchors);
+        }
+        self.retarget.validate(markers)
+    }
+
+    /// Number of markers.
+    pub fn marker_count(&self) -> usize {
+        self.actor_neutral.0.len() / POSITION_BYTES
+    }
+
+    /// The actor's neutral position of marker `i` (Q8.24 actor units); `None` out of range.
+    pub fn neutral(&self, i: usize) -> Option<[i32; 3]> {
+        self.actor_neutral
+            .0
+            .get(i * POSITION_BYTES..(i + 1) * POSITION_BYTES)
+            .map(read_position)
+    }
+
+    /// The head markers used for compensation.
+    #[cfg(feature = "format")]
+    pub fn head_markers(&self) -> &'a [u8] {
+        self.head_markers.0
+    }
+
+    /// The work of one frame, fixed by the rig.
+    #[cfg(feature = "format")]
+    pub fn cost(&self) -> StagesCost {
+        let markers = self.marker_count();
+        let head = self.head_markers.0.len();
+        StagesCost {
+            markers,
+            head_markers: head,
+            rigid_fits: if head > 0 { 2 } else { 0 },
+            horn_squarings: if head > 0 { 2 * compensate::SQUARINGS } else { 0 },
+            fill_terms: markers * crate::format::records::FILL_NEIGHBOURS,
+            retarget_kernels: match self.retarget {
+                Retarget::Rbf(_) => markers * markers,
+                Retarget::Proportional(_) => 0,
+            },
+            retarget_multiply_adds: match self.retarget {
+                Retarget::Rbf(_) => 3 * markers * markers + 9 * markers,
+                Retarget::Proportional(_) => 9 * markers,
+            },
+        }
+    }
+
+    /// Run the stages on one frame (see the module docs): `actor` holds one entry per marker
+    /// (Q8.24 actor units, `None` when missing); `out` receives the character's markers (Q8.24
+    /// rig units). The caller checks the slice lengths ([`crate::Rig::play`] does).
+    pub fn solve(
+        &self,
+        state: &mut PlayState,
+        actor: &[Option<[i32; 3]>],
+        out: &mut [[i32; 3]],
+    ) -> FrameReport {
+        let markers = self.marker_count().min(actor.len()).min(out.len());
+        let mut report = FrameReport::default();
+        let mut present = MarkerSet::EMPTY;
+        for (j, p) in actor.iter().enumerate().take(markers) {
+            match p {
+                _ if self.anchors.0.contains(&(j as u8)) => {}
+                Some(p) if p.iter().all(|c| c.unsigned_abs() <= INPUT_LIMIT as u32) => {
+                    present.insert(j)
+                }
+                Some(_) => report.rejected.insert(j),
+                None => {}
+            }
+        }
+
+        let fit = self.fit_head(state, actor, &present, &mut report);
+
+        let mut displacement = [[0i32; 3]; MAX_MARKERS];
+        let limit = i64::from(self.max_displacement);
+        for (j, slot) in displacement.iter_mut().enumerate().take(markers) {
+            let (Some(Some(p)), Some(u)) = (
+                actor.get(j).filter(|_| present.contains(j)),
+                self.neutral(j),
+            ) else {
+                continue;
+            };
+            let a = fit.compensate(*p);
+            let d = [0, 1, 2].map(|c| i64::from(a[c]) - i64::from(u[c]));
+            // The squares are only formed once every |d| ≤ limit ≤ 2^30: below 2^62 in all.
+            let far = d.iter().any(|v| v.abs() > limit)
+                || d.iter().map(|v| v * v).sum::<i64>() > limit * limit;
+            if far {
+                present.remove(j);
+                report.rejected.insert(j);
+            } else {
+                // |d| ≤ max_displacement ≤ 2^30.
+                *slot = d.map(|v| v as i32);
+            }
+        }
+
+        for j in 0..markers {
+            if present.contains(j) {
+                state.last[j] = displacement[j];
+                state.seen.insert(j);
+                continue;
+            }
+            let words = self
+                .fill
+                .0
+                .get(j * FILL_BYTES..(j + 1) * FILL_BYTES)
+                .unwrap_or(&[]);
+            if let Some(d) = fill::rebuild(words, &displacement[..markers], &present) {
+                displacement[j] = d;
+                report.rebuilt.insert(j);
+            } else {
+                displacement[j] = if state.seen.contains(j) {
+                    state.last[j]
+                } else {
+                    [0; 3]
+                };
+                report.held.insert(j);
+            }
+        }
+
+        for (j, (o, d)) in out.iter_mut().zip(&displacement).enumerate().take(markers) {
+            let u = self.neutral(j).unwrap_or([0; 3]);
+            *o = self.retarget.map(self.actor_neutral.0, j, u, *d);
+        }
+        report
+    }
+
+    /// Step 2 of the module docs: the head fit of this frame, or the one held.
+    fn fit_head(
+        &self,
+        state: &mut PlayState,
+        actor: &[Option<[i32; 3]>],
+        present: &MarkerSet,
+        report: &mut FrameReport,
+    ) -> RigidFit {
+        if self.head_markers.0.is_empty() {
+            report.rigid = RigidStatus::NotUsed;
+            return RigidFit::IDENTITY;
+        }
+        let mut pairs = HeadPairs::new();
+        for &h in self.head_markers.0 {
+            let h = usize::from(h);
+            if let (true, Some(Some(q)), Some(p)) =
+                (present.contains(h), actor.get(h), self.neutral(h))
+            {
+                pairs.push(p, *q);
+            }
+        }
+        let mut fitted = pairs.fit();
+        if let Ok(fit) = fitted {
+            let limit = self.max_displacement;
+            let before = pairs.len();
+            let residuals: [i32; MAX_HEAD_MARKERS] = core::array::from_fn(|i| {
+                if i < before {
+                    pairs.residual(&fit, i)
+                } else {
+                    0
+                }
+            });
+            pairs.retain(|i| residuals[i] <= limit);
+            if pairs.len() < before {
+                report.head_markers_dropped = (before - pairs.len()) as u8;
+                fitted = pairs.fit();
+            }
+        }
+        match fitted {
+            Ok(fit) => {
+                report.rigid = RigidStatus::Fitted {
+                    head_markers: pairs.len() as u8,
+                };
+                report.rigid_residual = pairs.rms_residual(&fit);
+                state.fit = Some(fit);
+                fit
+            }
+            Err(why) => {
+                report.rigid = RigidStatus::Held(why);
+                state.fit.unwrap_or(RigidFit::IDENTITY)
+            }
+        }
+    }
+}
+
+
+/// The work of one frame of the capture stages.
+#[cfg(feature = "format")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StagesCost {
+    /// Markers in and out.
+    pub markers: usize,
+    /// Head markers.
+    pub head_markers: usize,
+    /// Rigid fits at most (one, plus one after dropping outlying head markers).
+    pub rigid_fits: usize,
+    /// 4 × 4 matrix squarings at most.
+    pub horn_squarings: usize,
+    /// Fill terms at most (markers × neighbours).
+    pub fill_terms: usize,
+    /// Radial function (inverse multiquadric) evaluations: markers² for the RBF map, 0 for the
+    /// proportional one; each one integer reciprocal square root. (The field keeps its old name:
+    /// `fixtures/golden/hashes.txt` records this struct's `Debug` form.)
+    pub retarget_kernels: usize,
+    /// Multiply-adds: the RBF map's radial terms (3 per evaluation) and affine part, or the
+    /// per-marker matrices.
+    pub retarget_multiply_adds: usize,
+}
+
+/// What the capture stages remember between frames: the last good displacement of every marker
+/// and the last good head fit. About 3 KB; no allocation.
+#[derive(Clone, Debug)]
+pub struct PlayState {
+    last: [[i32; 3]; MAX_MARKERS],
+    seen: MarkerSet,
+    fit: Option<RigidFit>,
+}
+
+impl Default for PlayState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl PlayState {
+    /// A fresh state: nothing seen yet.
+    pub const fn new() -> Self {
+        Self {
+            last: [[0; 3]; MAX_MARKERS],
+            seen: MarkerSet::EMPTY,
+            fit: None,
+        }
+    }
+
+    /// The last good head fit.
+    pub fn last_fit(&self) -> Option<RigidFit> {
+        self.fit
+    }
+}
+
