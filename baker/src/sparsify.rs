@@ -125,7 +125,7 @@ pub enum QuantiseFor {
     /// Σ|q| within [`LINEAR_WEIGHT_ABS_SUM_MAX`] (F ≤ [`LINEAR_MAX_WEIGHT_FRAC_BITS`]), what the
     /// runtime's 16-bit linear kernel needs and its loader checks.
     LinearWeights,
-    /// Kernel values φ of the RBF-coefficient form: plain rounding, the finest F that holds every
+    /// Radial values φ of the RBF deformer: plain rounding, the finest F that holds every
     /// value in 24 bits.
     KernelValues,
 }

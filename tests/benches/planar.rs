@@ -1,8 +1,8 @@
 //! Per-frame cost of the planar-bones kernel against the linear kernel at the same K.
 //!
 //! The FaceCap ground-truth head (2694 vertices, 40 markers) baked three ways at K = 8: planar
-//! bones, the weights form (the linear kernel; IMQ as [`facebake_tests::weights_config`]) and
-//! the default coefficients form, all fed the "jaw open" frame's markers. One criterion group,
+//! bones, the linear deformer (IMQ as [`facebake_tests::weights_config`]) and
+//! the default RBF deformer, all fed the "jaw open" frame's markers. One criterion group,
 //! then a same-run table: the three paths timed in interleaved rounds of equal duration after
 //! a warm-up, each ratio the median of per-round ratios, so machine noise hits both sides alike.
 //!

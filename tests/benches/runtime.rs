@@ -14,7 +14,7 @@
 //! Paths:
 //!
 //! * `fixed`: [`Rig::deform`], the no_std Q8.24 runtime;
-//! * `f32` (weights form): [`F32Rig`], the same sparse rig decoded once from the blob's own
+//! * `f32` (linear deformer): [`F32Rig`], the same sparse rig decoded once from the blob's own
 //!   quantised numbers into f32 and evaluated with the same per-vertex gather, as a float
 //!   linear-blend-skinning library's positions-only path would; on x86-64 hand-vectorised with
 //!   SSE like the fixed-point kernel (one `[x, y, z, 0]` vector per marker, `mulps` + `addps` per
@@ -286,7 +286,7 @@ impl<'a> Prepared<'a> {
         black_box(&self.out_q);
     }
 
-    /// One f32 frame (weights form only; a no-op otherwise).
+    /// One f32 frame (linear deformer only; a no-op otherwise).
     fn float(&mut self) {
         if let Some(f) = &self.f32_rig {
             f.deform(black_box(&self.case.markers_f32), &mut self.out_f32);
@@ -294,7 +294,7 @@ impl<'a> Prepared<'a> {
         black_box(&self.out_f32);
     }
 
-    /// One f32 frame of the plain-Rust evaluation (weights form only; a no-op otherwise).
+    /// One f32 frame of the plain-Rust evaluation (linear deformer only; a no-op otherwise).
     fn float_plain(&mut self) {
         if let Some(f) = &self.f32_rig {
             f.deform_portable(black_box(&self.case.markers_f32), &mut self.out_f32);
@@ -413,7 +413,7 @@ fn synthetic_cases() -> Vec<Case> {
         .collect()
 }
 
-/// One criterion group per rig: fixed, f32 (weights form) and dense f64 (FaceCap).
+/// One criterion group per rig: fixed, f32 (linear deformer) and dense f64 (FaceCap).
 fn bench_case(c: &mut Criterion, case: &Case) {
     let mut p = Prepared::new(case);
     let mut group = c.benchmark_group(&case.name);

@@ -191,7 +191,7 @@ fn a_rigid_motion_of_the_markers_moves_the_mesh_rigidly() {
         // Fixed-point error only: unit vectors within 2 LSB of 2^-30, positions at 2^-24.
         assert!(p < 1e-6, "planar {p:.3e} at {degrees}°");
         // The linear kernel interpolates displacements: it shears and shrinks the head. (The
-        // coefficient form's affine rows reproduce any affine motion, a global rotation too.)
+        // RBF deformer's affine rows reproduce any affine motion, a global rotation too.)
         assert!(l > 1e-3, "linear {l:.3e}");
     }
 }

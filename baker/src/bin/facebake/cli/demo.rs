@@ -91,7 +91,7 @@ pub struct DemoSummary {
     pub frames: usize,
     /// Blob size, bytes.
     pub blob_bytes: usize,
-    /// The deformer: "linear" or "rbf-coefficients".
+    /// The deformer: "rbf", "linear" or "planar".
     pub deformer: &'static str,
     /// K.
     pub k: usize,
@@ -283,8 +283,8 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         blob_bytes: baked.blob.len(),
         deformer: match rig.deformer() {
             Deformer::Linear(_) => "linear",
-            Deformer::Rbf(_) => "rbf-coefficients",
-            Deformer::Planar(_) => "planar-bones",
+            Deformer::Rbf(_) => "rbf",
+            Deformer::Planar(_) => "planar",
         },
         k: cost.max_influences,
         weight_format: weight_format(rig.weight_frac_bits()),
