@@ -1,7 +1,7 @@
 //! The bake: a [`Scene`] and [`BakeOptions`] in, a sealed rig blob out, written once.
 //!
 //! [`bake()`] checks the options against each other once, then the distance strategy gives each
-//! vertex its dense weights (Euclidean: [`euclidean`]; geodesic, hybrid, PBW and masks:
+//! vertex its dense weights (Euclidean: `euclidean`; geodesic, hybrid, PBW and masks:
 //! [`crate::surface`]) and the deformer ([`crate::deformer`]) keeps, re-fits and quantises K of
 //! them; with a capture, the stages ([`crate::stages`]) are baked in the same rig space; then the
 //! blob is written with everything in it.

@@ -1,5 +1,5 @@
 //! The linear deformer: K weights per vertex on marker displacements; its f64 reference,
-//! [`LinearF64`], is the rig's own quantised weights in exact arithmetic.
+//! `LinearF64`, is the rig's own quantised weights in exact arithmetic.
 
 use facebake_runtime::deformer::linear::LinearDeformer;
 use facebake_runtime::deformer::Deformer;

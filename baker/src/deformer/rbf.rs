@@ -2,7 +2,7 @@
 //!
 //! Its f64 references: [`DenseRbf`], the papers' method literally (every frame, solve the RBF
 //! system for the marker displacements, paper 000 eq 14, thesis eq 2.5, and evaluate it at every
-//! vertex, eq 2.6); and [`RbfF64`], the rig's own quantised numbers in exact arithmetic.
+//! vertex, eq 2.6); and `RbfF64`, the rig's own quantised numbers in exact arithmetic.
 
 use facebake_runtime::deformer::rbf::RbfDeformer;
 use facebake_runtime::deformer::Deformer;

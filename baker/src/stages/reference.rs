@@ -1,16 +1,16 @@
 //! The capture stages in f64, unquantised: the reference the runtime is compared with. One
 //! function per step of the runtime's stages, in its order:
 //!
-//! 1. [`StagesF64::input`]: a sample is missing when absent, when it belongs to a static anchor
+//! 1. `input`: a sample is missing when absent, when it belongs to a static anchor
 //!    (whose samples are ignored, so it stays at rest) or when a coordinate lies beyond ±64 actor
 //!    units (then it is also rejected);
-//! 2. [`StagesF64::fit_head`]: Kabsch on the present head markers, dropping those beyond
+//! 2. `fit_head`: Kabsch on the present head markers, dropping those beyond
 //!    `max_displacement` and fitting once more; the last good fit held when none is possible;
-//! 3. [`StagesF64::plausibility`]: a compensated marker further than `max_displacement` from
+//! 3. `plausibility`: a compensated marker further than `max_displacement` from
 //!    neutral is rejected;
-//! 4. [`StagesF64::fill`]: a missing marker moves with its present neighbours' weighted mean
+//! 4. `fill`: a missing marker moves with its present neighbours' weighted mean
 //!    displacement, else holds its last one (zero if never seen);
-//! 5. [`StagesF64::retarget`]: the unquantised RBF map (or proportional scaling) to the
+//! 5. `retarget`: the unquantised RBF map (or proportional scaling) to the
 //!    character's rig units.
 
 use facebake_runtime::Space;
