@@ -415,3 +415,23 @@ fn masks_keep_planar_lip_vertices_off_the_other_lips_triangles() {
         got[0].0.report.planar.as_ref().unwrap().triangles
     );
 }
+
+/// A given control triangle whose markers are collinear is refused, named as the layout names
+/// it (its place in the list and its markers).
+#[test]
+fn a_degenerate_given_triangle_is_refused_by_name() {
+    let truth = truth();
+    let mut markers = facebake_tests::truth_markers(truth);
+    let (a, b) = (markers[0].rest, markers[1].rest);
+    markers[2].rest = [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]));
+    let mut scene = facebake::Scene::new(&truth.mesh, markers);
+    scene.control_triangles = Some(vec![[3, 4, 5], [0, 1, 2]]);
+    let err = facebake::bake(&scene, &facebake_tests::planar_config(8))
+        .err()
+        .expect("a collinear control triangle is refused")
+        .to_string();
+    assert!(
+        err.contains("triangles[1]") && err.contains("\"M02\"") && err.contains("degenerate"),
+        "{err}"
+    );
+}

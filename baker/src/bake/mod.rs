@@ -15,13 +15,14 @@ use crate::blob::{self, BlobContents, BlobError, BlobSizes};
 use crate::deformer::planar::reference::PlanarReference;
 use crate::deformer::planar::PlanarSummary;
 use crate::deformer::rbf::DenseRbf;
+use crate::deformer::DeformerError;
 use crate::deformer::{self, DeformerKind, DeformerOutput};
 use crate::model::Capture;
 use crate::model::FaceMesh;
 use crate::model::MarkerGroups;
 use crate::model::PlacedMarker;
 use crate::options::{BakeOptions, Method};
-use crate::planar::PlanarOptions;
+use crate::planar::{PlanarError, PlanarOptions, DEGENERATE_ANGLE_DEGREES};
 use crate::rbf::SolveError;
 use crate::sparsify::SparsifyError;
 use crate::stages::reference::StagesF64;
@@ -362,7 +363,8 @@ fn bake_deformer(
                 masks: allowance.as_ref(),
             },
             space,
-        )?;
+        )
+        .map_err(|e| named_triangle(scene, e))?;
         return Ok(DeformerBake {
             output,
             radial: None,
@@ -415,6 +417,23 @@ fn bake_deformer(
             weights: s.dense,
         }),
     })
+}
+
+/// A degenerate control triangle the scene gave, named by its markers as the layout names it.
+fn named_triangle(scene: &Scene<'_>, e: DeformerError) -> BakeError {
+    match e {
+        DeformerError::Planar(PlanarError::DegenerateTriangle {
+            triangle,
+            markers,
+            angle,
+        }) if scene.control_triangles.is_some() => {
+            let names = markers.map(|m| scene.markers.get(m).map_or("?", |x| x.name.as_str()));
+            BakeError::Input(format!(
+                "triangles[{triangle}] {names:?} is degenerate on the mesh: its smallest angle is {angle:.3}° (at least {DEGENERATE_ANGLE_DEGREES}° needed)"
+            ))
+        }
+        e => e.into(),
+    }
 }
 
 /// The warning of an ill-conditioned RBF system.
