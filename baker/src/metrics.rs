@@ -33,8 +33,8 @@
 //! farther than [`STATIC_SPACING_FACTOR`] × the mean marker spacing (mean distance from a marker
 //! to its nearest other marker) from every marker that is not a head marker.
 
-use crate::io::gltf_mesh::{weld_positions, FaceMesh};
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
+use crate::model::{weld_positions, FaceMesh};
 use crate::surface::openings::{find_openings, Opening};
 
 /// Openings with fewer rim vertices are not mouth or eyes.
@@ -468,7 +468,7 @@ impl Regions {
                     .iter()
                     .map(|&v| p[v as usize])
                     .collect();
-                if let Ok(motion) = crate::rigid::kabsch(&from, &to) {
+                if let Ok(motion) = crate::stages::rigid::kabsch(&from, &to) {
                     p = p.iter().map(|q| motion.apply_inverse(q)).collect();
                 }
             }

@@ -6,11 +6,10 @@
 //! within 2 mm, eyelids within 1.5 mm, no edge over 2×, no flip), which the default bake does
 //! not meet yet; tighten them as the bake improves. Run with `-- --nocapture` to see them all.
 
-use facebake::bake::{bake, BakeConfig, BakeInput, RigForm};
 use facebake::ground_truth::GroundTruth;
 use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
-use facebake::surface::evaluate::Scene;
-use facebake::surface::{Method, SurfaceConfig};
+use facebake::surface::evaluate::Benchmark;
+use facebake::{BakeOptions, DeformerKind, Method};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{bake_scene, facecap_default, facecap_truth, fixture, jawmocap_rig_with};
 
@@ -152,39 +151,20 @@ fn facecap_ground_truth_default_bake() {
 /// The ground truth driven by the bundled JawMoCap layout's 41 markers as placed on FaceCap
 /// (lip and eyelid groups, no anchors): what `bake --layout` bakes. Its `Mouth_Down` sits on
 /// the chin crease, 35 mm below `Mouth_Up` (issue 11), which every lip figure here carries.
-fn layout_scene() -> &'static Scene {
-    static CELL: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+fn layout_scene() -> &'static Benchmark {
+    static CELL: std::sync::OnceLock<Benchmark> = std::sync::OnceLock::new();
     CELL.get_or_init(|| {
         let truth = facecap_truth();
         let path = fixture("facecap_jawmocap_layout.toml");
         let layout = facebake::io::layout::read_layout(&path).expect("layout reads");
-        let placed =
-            facebake::io::layout::place_markers(&layout, &truth.mesh, 0.02).expect("places");
-        let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
-        let groups = facebake::io::marker_groups::read_groups(&path, &names).expect("groups");
-        Scene::new(truth, &placed, groups, 0).expect("scene builds")
+        let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("places");
+        Benchmark::new(truth, &placed, layout.groups.clone(), 0).expect("benchmark builds")
     })
 }
 
-/// A Euclidean bake of the layout scene's markers with `config` (the default and planar).
-fn bake_layout_scene(config: &BakeConfig) -> Vec<u8> {
-    let s = layout_scene();
-    let names: Vec<String> = s.markers.iter().map(|m| m.name.clone()).collect();
-    let rest: Vec<[f64; 3]> = s.markers.iter().map(|m| m.rest).collect();
-    let stiffness: Vec<f64> = s.markers.iter().map(|m| m.stiffness).collect();
-    bake(
-        &BakeInput {
-            vertices: &s.truth.mesh.positions,
-            marker_names: &names,
-            marker_rest: &rest,
-            stiffness: &stiffness,
-            triangles: &s.truth.mesh.triangles,
-            planar_masks: None,
-        },
-        config,
-    )
-    .expect("bakes")
-    .blob
+/// A bake of the layout scene's markers with `options`.
+fn bake_layout_scene(options: &BakeOptions) -> Vec<u8> {
+    bake_scene(layout_scene(), options).blob
 }
 
 fn layout_take(blob: &[u8]) -> TakeMetrics {
@@ -199,7 +179,7 @@ fn layout_take(blob: &[u8]) -> TakeMetrics {
 fn facecap_layout_default_and_planar() {
     guard(
         "FaceCap truth, JawMoCap layout, default bake",
-        &layout_take(&bake_layout_scene(&BakeConfig::default())),
+        &layout_take(&bake_layout_scene(&BakeOptions::default())),
         &Pinned {
             drift_mm: 21.53,
             lips_mm: 46.9,
@@ -211,9 +191,9 @@ fn facecap_layout_default_and_planar() {
     );
     guard(
         "FaceCap truth, JawMoCap layout, --form planar",
-        &layout_take(&bake_layout_scene(&BakeConfig {
-            form: RigForm::Planar,
-            ..BakeConfig::default()
+        &layout_take(&bake_layout_scene(&BakeOptions {
+            deformer: DeformerKind::Planar,
+            ..BakeOptions::default()
         })),
         &Pinned {
             drift_mm: 36.69,
@@ -224,27 +204,6 @@ fn facecap_layout_default_and_planar() {
             flipped: 81,
         },
     );
-}
-
-/// `bake --method M [--masks]`'s surface-aware configuration.
-fn surface(method: Method, masks: bool) -> SurfaceConfig {
-    let d = SurfaceConfig::default();
-    let base = if method == Method::Euclidean {
-        BakeConfig::default()
-    } else {
-        d.bake.clone()
-    };
-    let form = if masks || method == Method::Pbw {
-        RigForm::Weights
-    } else {
-        base.form
-    };
-    SurfaceConfig {
-        method,
-        masks,
-        bake: BakeConfig { form, ..base },
-        ..d
-    }
 }
 
 #[test]
@@ -291,7 +250,7 @@ fn facecap_layout_surface_aware() {
         ),
     ];
     for (label, method, masks, pins) in &pinned {
-        let baked = bake_scene(layout_scene(), &surface(*method, *masks));
+        let baked = bake_scene(layout_scene(), &BakeOptions::for_method(*method, *masks));
         guard(
             &format!("FaceCap truth, JawMoCap layout, {label}"),
             &layout_take(&baked.blob),
@@ -306,13 +265,13 @@ fn jawmocap_through_the_demo_rig() {
     // The demo's head markers: forehead and the top of the nose.
     let head = ["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"];
     let j = jawmocap_rig_with(
-        &BakeConfig::default(),
+        &BakeOptions::default(),
         &StagesConfig {
             head: HeadMarkers::Named(head.map(str::to_string).to_vec()),
             ..StagesConfig::default()
         },
     );
-    let rig = Rig::from_bytes(&j.blob).expect("rig loads");
+    let rig = Rig::from_bytes(&j.baked.blob).expect("rig loads");
     let (space, actor) = (rig.space(), rig.stages().expect("stages").actor_space);
     let mut state = PlayState::new();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];

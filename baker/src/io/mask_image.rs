@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::surface::masks::Side;
+use crate::model::Side;
 
 /// A vertex further inside than this fraction of the bounding-box diagonal behind the outermost
 /// surface at its pixel is hidden from the image.
@@ -75,7 +75,7 @@ pub struct Cylinder {
 impl Cylinder {
     /// The projection around the vertical axis through the centre of `positions`' bounds.
     pub fn of(positions: &[[f64; 3]]) -> Self {
-        let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
+        let (lo, hi) = crate::model::bounds(positions.iter().copied());
         Self {
             centre_x: 0.5 * (lo[0] + hi[0]),
             centre_z: 0.5 * (lo[2] + hi[2]),
@@ -153,7 +153,7 @@ pub fn read_sides(
             .fold(f64::MIN, f64::max);
         fill_triangle(width, height, q, |at| depth[at] = depth[at].max(r));
     });
-    let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
+    let (lo, hi) = crate::model::bounds(positions.iter().copied());
     let tolerance = HIDDEN_FRACTION * crate::mesh::distance(&lo, &hi);
     let (mut upper, mut lower) = (Vec::new(), Vec::new());
     for (v, p) in positions.iter().enumerate() {

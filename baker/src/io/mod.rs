@@ -1,10 +1,10 @@
-//! Readers and writers for the files the baker touches.
+//! Readers and writers for the files the baker touches: parsing and writing only, into and out
+//! of the types of [`crate::model`].
 
 pub mod capture;
-pub mod control_triangles;
 pub mod glb;
 pub mod gltf_mesh;
 pub mod layout;
-pub mod marker_groups;
 pub mod mask_image;
+pub mod mask_sides;
 pub mod npy;

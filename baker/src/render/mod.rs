@@ -119,7 +119,7 @@ pub struct Framing {
 impl Framing {
     /// Frame the bounding box of `points` in a `size`-pixel panel.
     pub fn new(points: &[[f64; 3]], size: usize) -> Self {
-        let (lo, hi) = crate::io::gltf_mesh::bounds(
+        let (lo, hi) = crate::model::bounds(
             points
                 .iter()
                 .copied()
@@ -152,9 +152,9 @@ impl Framing {
         size: usize,
     ) -> Self {
         let finite = |p: &&[f64; 3]| p.iter().all(|x| x.is_finite());
-        let (lo, hi) = crate::io::gltf_mesh::bounds(rest.iter().filter(finite).copied());
+        let (lo, hi) = crate::model::bounds(rest.iter().filter(finite).copied());
         let grow = GROWTH * (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
-        let (dlo, dhi) = crate::io::gltf_mesh::bounds(drawn.into_iter().filter(finite).copied());
+        let (dlo, dhi) = crate::model::bounds(drawn.into_iter().filter(finite).copied());
         let corner = |d: [f64; 3], r: [f64; 3], sign: f64| {
             [0, 1, 2].map(|c| {
                 let outward = (sign * (d[c] - r[c])).clamp(0.0, grow);

@@ -7,19 +7,18 @@
 
 use crate::geodesic::{GeodesicMethod, Source};
 use crate::ground_truth::{stats, ErrorStats, GroundTruth, GroundTruthError};
-use crate::io::layout::PlacedMarker;
-use crate::io::marker_groups::MarkerGroups;
 use crate::mesh::{distance, SurfacePoint};
+use crate::model::{MarkerGroups, PlacedMarker, Side};
 
 use super::geometry::SurfaceGeometry;
-use super::masks::{vertex_sides, MaskError, Side, SideRule};
+use super::masks::{vertex_sides, MaskError, SideRule};
 use super::{SurfaceError, SurfaceMarker};
 
 /// Width of the lip and eyelid bands: skin within this edge distance of the opening, metres.
 pub const BAND: f64 = 0.008;
 
 /// A ground truth with layout markers, anchors and the lip / eyelid bands.
-pub struct Scene {
+pub struct Benchmark {
     /// The morph-target truth (mesh, frames, skin); its own markers are not used, except the
     /// static ones as anchors.
     pub truth: GroundTruth,
@@ -34,9 +33,9 @@ pub struct Scene {
     pub bands: Vec<Vec<Option<Side>>>,
 }
 
-/// A scene could not be set up.
+/// A benchmark could not be set up.
 #[derive(Debug, thiserror::Error)]
-pub enum SceneError {
+pub enum BenchmarkError {
     /// The ground truth.
     #[error(transparent)]
     Truth(#[from] GroundTruthError),
@@ -66,7 +65,7 @@ fn crossing_frame(truth: &GroundTruth, mask: &str) -> Option<usize> {
     truth.frames.iter().position(|f| f.name == want)
 }
 
-impl Scene {
+impl Benchmark {
     /// `truth` with `placed` layout markers (and their `groups`), plus the truth's
     /// `anchors` static markers.
     pub fn new(
@@ -74,7 +73,7 @@ impl Scene {
         placed: &[PlacedMarker],
         groups: Vec<MarkerGroups>,
         anchors: usize,
-    ) -> Result<Self, SceneError> {
+    ) -> Result<Self, BenchmarkError> {
         let mesh = &truth.mesh;
         let mut markers: Vec<SurfaceMarker> =
             placed.iter().map(SurfaceMarker::from_placed).collect();

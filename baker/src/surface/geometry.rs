@@ -2,7 +2,7 @@
 //! marker, marker-to-marker geodesics, the openings and the distance to each.
 
 use crate::geodesic::{GeodesicError, GeodesicMethod, Geodesics, Source};
-use crate::io::gltf_mesh::FaceMesh;
+use crate::model::FaceMesh;
 
 use super::openings::{find_openings, Opening};
 

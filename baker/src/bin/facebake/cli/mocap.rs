@@ -8,18 +8,18 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::bake::bake_layout;
-use super::demo::{JAWMOCAP_FILE, JAWMOCAP_HEAD_MARKERS, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
 use super::play::{play_stages, StagesSummary};
 use super::{load_rig, max_distance, to_f32, write_file, CliError};
-use crate::bake::BakeConfig;
-use crate::io::capture::read_capture;
-use crate::io::glb::write_glb_with_morphs;
-use crate::io::gltf_mesh::load_mesh;
-use crate::io::layout::read_layout;
-use crate::io::npy::write_npy_f32;
-use crate::reference::SparseF64;
-use crate::stages::{bake_stages, HeadMarkers, StagesConfig, StateF64};
+use facebake::deformer::SparseF64;
+use facebake::demo::{jawmocap_head_markers, JAWMOCAP_FILE, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
+use facebake::io::capture::read_capture;
+use facebake::io::glb::write_glb_with_morphs;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::read_layout;
+use facebake::io::npy::write_npy_f32;
+use facebake::model::{place_markers, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::stages::reference::StateF64;
+use facebake::{BakeError, BakeOptions, Scene, StagesConfig};
 
 /// Frames of the capture put in the `.glb` besides the chosen expressions.
 const EXTRA_GLB_FRAMES: usize = 3;
@@ -70,34 +70,41 @@ pub fn run(
     let mesh = load_mesh(&mesh_path, Some(MESH_NAME), None)?;
     let layout = read_layout(&layout_path)?;
     let capture = read_capture(&capture_path)?;
-    let (baked, placed) = bake_layout(&mesh, &layout, &BakeConfig::default(), None, None)?;
+    let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
-    let space = load_rig(&layout_path, &baked.blob)?.space();
-    let head = if JAWMOCAP_HEAD_MARKERS
-        .iter()
-        .all(|h| capture.marker_index(h).is_some())
-    {
-        HeadMarkers::Named(JAWMOCAP_HEAD_MARKERS.map(str::to_string).to_vec())
-    } else {
-        HeadMarkers::MostRigid(4)
+    let mut scene = Scene::placed(&mesh, &placed);
+    scene.capture = Some(&capture);
+    let options = BakeOptions {
+        stages: StagesConfig {
+            head: jawmocap_head_markers(&capture),
+            ..StagesConfig::default()
+        },
+        ..BakeOptions::default()
     };
-    let config = StagesConfig {
-        head,
-        ..StagesConfig::default()
+    let baked = facebake::bake(&scene, &options).map_err(|e| match e {
+        BakeError::Stages(_) => CliError::input(&capture_path, e.to_string()),
+        _ => CliError::Bake {
+            path: layout_path.clone(),
+            source: e,
+        },
+    })?;
+    let space = baked.space;
+    let (Some(stages), Some(stages_report)) = (&baked.reference.stages, &baked.report.stages)
+    else {
+        return Err(CliError::input(
+            &capture_path,
+            "the bake made no capture stages",
+        ));
     };
-    let stages = bake_stages(&capture, &names, &character, &space, &config)
-        .map_err(|e| CliError::input(&capture_path, e.to_string()))?;
-    let blob = crate::blob::with_stages(&baked.blob, &stages.bytes)
-        .map_err(|e| CliError::input(&capture_path, e.to_string()))?;
+    let blob = &baked.blob;
     let mut files = Vec::new();
     let rig_path = dir.join("jawmocap.fbk");
-    write_file(&rig_path, &blob)?;
+    write_file(&rig_path, blob)?;
     files.push((
         rig_path.clone(),
         "rig blob with the capture stages".to_string(),
     ));
-    let rig = load_rig(&rig_path, &blob)?;
+    let rig = load_rig(&rig_path, blob)?;
 
     // The capture in rig marker order, metres.
     let metres = capture.in_metres();
@@ -126,11 +133,11 @@ pub fn run(
     let mut worst = 0.0f64;
     let bar = super::progress(frames.len(), "playing the capture", quiet);
     let summary = play_stages(&rig, &rig_path, &frames, |f, positions| {
-        let (actor, _) = stages.reference.compensate(&mut ref_state, &frames[f]);
+        let (actor, _) = stages.compensate(&mut ref_state, &frames[f]);
         let markers: Vec<[f64; 3]> = actor
             .iter()
             .map(|a| {
-                let m = stages.reference.map.map(a);
+                let m = stages.map.map(a);
                 [0, 1, 2].map(|c| f64::from(space.centre[c]) + m[c] * f64::from(space.half_extent))
             })
             .collect();
@@ -170,7 +177,7 @@ pub fn run(
 
     // Frames for the .glb: neutral, mouth widest open, jaw furthest sideways, a few more.
     let index = |name: &str| names.iter().position(|n| n == name);
-    let dist = |a: &[f64; 3], b: &[f64; 3]| crate::mesh::distance(a, b);
+    let dist = |a: &[f64; 3], b: &[f64; 3]| facebake::mesh::distance(a, b);
     let mut chosen: Vec<(String, usize)> = vec![("neutral (frame 0)".to_string(), 0)];
     if let (Some(up), Some(down)) = (index("Mouth_Up"), index("Mouth_Down")) {
         let f = (0..compensated.len())
@@ -206,7 +213,8 @@ pub fn run(
         chosen.push((format!("frame {f}"), f));
     }
 
-    let head: Vec<usize> = (stages.report.head_markers.iter())
+    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+    let head: Vec<usize> = (stages_report.head_markers.iter())
         .filter_map(|h| names.iter().position(|n| n == h))
         .collect();
     let (structure, pictures) = super::render::demo_capture(
@@ -250,7 +258,7 @@ pub fn run(
         frames: frames.len(),
         rate_hz: capture.rate_hz,
         markers: names.len(),
-        head_markers: stages.report.head_markers.clone(),
+        head_markers: stages_report.head_markers.clone(),
         blob_bytes: blob.len(),
         stages: summary,
         runtime_vs_f64_fraction: worst / mesh.diagonal(),

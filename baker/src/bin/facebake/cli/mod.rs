@@ -12,15 +12,16 @@ macro_rules! outln {
     }};
 }
 
-pub mod bake;
-pub mod compensate;
-pub mod demo;
-pub mod inspect;
-pub mod mask_images;
-pub mod mocap;
-pub mod play;
-pub mod render;
-pub mod verify;
+mod bake;
+mod compensate;
+mod demo;
+mod inspect;
+mod mask_images;
+mod mocap;
+mod play;
+mod render;
+mod values;
+mod verify;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -29,12 +30,13 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use facebake_runtime::{LoadError, Rig};
 
-use crate::bake::BakeError;
-use crate::ground_truth::GroundTruthError;
-use crate::io::capture::{CaptureError, Units};
-use crate::io::glb::GlbError;
-use crate::io::gltf_mesh::MeshLoadError;
-use crate::io::layout::LayoutError;
+use facebake::bake::BakeError;
+use facebake::ground_truth::GroundTruthError;
+use facebake::io::capture::CaptureError;
+use facebake::io::glb::GlbError;
+use facebake::io::gltf_mesh::MeshLoadError;
+use facebake::model::LayoutError;
+use facebake::model::Units;
 
 /// The exit codes, as documented in `--help`.
 pub const EXIT_CODES: &str = "\
@@ -101,9 +103,6 @@ pub enum CliError {
     /// A layout could not be read, written or placed.
     #[error(transparent)]
     Layout(#[from] LayoutError),
-    /// A layout's control triangles are wrong.
-    #[error(transparent)]
-    Triangles(Box<crate::io::control_triangles::TrianglesError>),
     /// A capture could not be read or written.
     #[error(transparent)]
     Capture(#[from] CaptureError),
@@ -167,12 +166,6 @@ impl CliError {
             path: path.to_path_buf(),
             source,
         }
-    }
-}
-
-impl From<crate::io::control_triangles::TrianglesError> for CliError {
-    fn from(e: crate::io::control_triangles::TrianglesError) -> Self {
-        Self::Triangles(Box::new(e))
     }
 }
 
@@ -312,22 +305,11 @@ pub fn marker_names(rig: &Rig<'_>) -> Vec<String> {
     rig.marker_names().map(str::to_string).collect()
 }
 
-/// The bounding-box diagonal of the rig's (dequantised) rest vertices, in asset units.
-pub fn rig_diagonal(rig: &Rig<'_>) -> f64 {
-    let space = rig.space();
-    let (lo, hi) = crate::io::gltf_mesh::bounds(
-        (0..rig.vertex_count())
-            .filter_map(|i| rig.vertex_rest(i))
-            .map(|q| space.to_asset_f64(q)),
-    );
-    crate::mesh::distance(&lo, &hi)
-}
-
 /// Largest distance between corresponding points.
 pub fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     a.iter()
         .zip(b)
-        .map(|(p, q)| crate::mesh::distance(p, q))
+        .map(|(p, q)| facebake::mesh::distance(p, q))
         .fold(0.0, f64::max)
 }
 
@@ -345,7 +327,7 @@ pub fn weight_format(frac_bits: u8) -> String {
 /// index on ties) within `1e-6 ×` the mesh's diagonal, else an error naming the marker.
 pub fn marker_vertices(
     rig: &Rig<'_>,
-    mesh: &crate::io::gltf_mesh::FaceMesh,
+    mesh: &facebake::model::FaceMesh,
 ) -> Result<Vec<u32>, CliError> {
     let space = rig.space();
     let tolerance = 1e-6 * mesh.diagonal();
@@ -357,7 +339,7 @@ pub fn marker_vertices(
                 .positions
                 .iter()
                 .enumerate()
-                .map(|(v, q)| (v, crate::mesh::distance(&p, q)))
+                .map(|(v, q)| (v, facebake::mesh::distance(&p, q)))
                 .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
             if d <= tolerance {
                 Ok(best as u32)

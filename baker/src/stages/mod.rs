@@ -19,12 +19,17 @@ use facebake_runtime::stages::fill::FILL_FRAC_BITS;
 use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
 use facebake_runtime::Space;
 
-use crate::blob::{space_for, to_rig_units};
-use crate::io::capture::Capture;
+pub mod reference;
+pub mod retarget;
+pub mod rigid;
+
 use crate::mesh::distance;
+use crate::model::Capture;
 use crate::rbf::SolveError;
-use crate::retarget::RetargetMap;
-use crate::rigid::{kabsch, most_rigid_subset, RigidError, RigidTransform};
+use crate::space::{space_for, to_rig_units};
+use reference::StagesF64;
+use retarget::{Proportional, RetargetMap};
+use rigid::{kabsch, most_rigid_subset, RigidError};
 
 /// Which markers carry the head's rigid motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,7 +45,7 @@ pub enum HeadMarkers {
 }
 
 /// How compensated actor markers become the character's.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum RetargetKind {
     /// The RBF map of paper 000 §5.1: inverse multiquadric with per-centre radii plus affine.
     #[default]
@@ -51,86 +56,8 @@ pub enum RetargetKind {
     Proportional,
 }
 
-/// Paper 003 §4's proportional retargeting, in f64: `v_j + M_j d_j`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Proportional {
-    /// Per marker, M_j (character rig units per actor unit).
-    pub matrices: Vec<[[f64; 3]; 3]>,
-    /// Per marker, v_j (character rig units).
-    pub rest: Vec<[f64; 3]>,
-    /// Per-axis scales of the upper face (character y at or above the markers' median) and of
-    /// the lower face.
-    pub scales: [[f64; 3]; 2],
-}
-
-impl Proportional {
-    /// Build it from the actor's neutral markers (actor units) and the character's (rig units):
-    /// the rotation between the faces (Kabsch on the centred marker sets), then per region and
-    /// axis the ratio of the character's marker extent to the turned actor's. The regions split
-    /// at the median height (y, glTF's up axis) of the character's markers.
-    pub fn new(neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, StagesError> {
-        let fit = kabsch(neutral, character)?;
-        let r = fit.rotation;
-        let mean = |p: &[[f64; 3]]| {
-            [0, 1, 2].map(|c| p.iter().map(|q| q[c]).sum::<f64>() / p.len() as f64)
-        };
-        let (cu, cv) = (mean(neutral), mean(character));
-        let turned: Vec<[f64; 3]> = neutral
-            .iter()
-            .map(|u| {
-                let d = nalgebra::Vector3::new(u[0] - cu[0], u[1] - cu[1], u[2] - cu[2]);
-                let w = r * d;
-                [w.x, w.y, w.z]
-            })
-            .collect();
-        let mut heights: Vec<f64> = character.iter().map(|v| v[1]).collect();
-        heights.sort_by(f64::total_cmp);
-        let median = heights[heights.len() / 2];
-        let upper = |j: usize| character[j][1] >= median;
-        let extent = |pts: &mut dyn Iterator<Item = f64>| {
-            let (lo, hi) = pts.fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)));
-            hi - lo
-        };
-        let n = neutral.len();
-        let overall = {
-            let spread = |p: &[[f64; 3]], c: [f64; 3]| {
-                p.iter().map(|q| distance(q, &c).powi(2)).sum::<f64>()
-            };
-            (spread(character, cv) / spread(neutral, cu).max(f64::MIN_POSITIVE)).sqrt()
-        };
-        let scales = [true, false].map(|up| {
-            [0, 1, 2].map(|c| {
-                let ev = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| character[j][c]));
-                let ew = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| turned[j][c]));
-                if ew > 1e-9 && ev > 1e-9 {
-                    ev / ew
-                } else {
-                    overall
-                }
-            })
-        });
-        let matrices = (0..n)
-            .map(|j| {
-                let s = scales[usize::from(!upper(j))];
-                [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]))
-            })
-            .collect();
-        Ok(Self {
-            matrices,
-            rest: character.to_vec(),
-            scales,
-        })
-    }
-
-    /// Character marker `j` for the compensated actor displacement `d`.
-    pub fn map(&self, j: usize, d: &[f64; 3]) -> [f64; 3] {
-        let m = &self.matrices[j];
-        [0, 1, 2].map(|row| self.rest[j][row] + (0..3).map(|c| m[row][c] * d[c]).sum::<f64>())
-    }
-}
-
 /// How to bake the capture stages.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct StagesConfig {
     /// Frames averaged into the actor's neutral pose (frame 0 by default).
     pub neutral: Range<usize>,
@@ -289,174 +216,6 @@ pub struct BakedStages {
     pub reference: StagesF64,
     /// What was baked.
     pub report: StagesReport,
-}
-
-/// The capture stages in f64, unquantised: the reference for the runtime.
-pub struct StagesF64 {
-    /// Actor space (metres).
-    pub actor_space: Space,
-    /// Neutral markers, actor units.
-    pub neutral: Vec<[f64; 3]>,
-    /// Head marker indices.
-    pub head: Vec<usize>,
-    /// Actor units.
-    pub max_displacement: f64,
-    /// Per marker, (neighbour, weight) pairs.
-    pub fill: Vec<Vec<(usize, f64)>>,
-    /// Actor units → character rig units.
-    pub map: RetargetMap,
-    /// Proportional retargeting, used instead of `map` when present.
-    pub proportional: Option<Proportional>,
-}
-
-/// What the reference did with one frame (mirrors the runtime's report).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FrameReportF64 {
-    /// The head fit of this frame, if one was made.
-    pub fit: Option<RigidTransform>,
-    /// RMS residual of the fitted head markers, actor units.
-    pub residual: f64,
-    /// Rejected markers.
-    pub rejected: Vec<usize>,
-    /// Rebuilt markers.
-    pub rebuilt: Vec<usize>,
-    /// Held markers.
-    pub held: Vec<usize>,
-}
-
-/// State the reference keeps between frames.
-#[derive(Clone, Debug, Default)]
-pub struct StateF64 {
-    last: Vec<Option<[f64; 3]>>,
-    fit: Option<RigidTransform>,
-}
-
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-impl StagesF64 {
-    /// One frame (metres, `None` = missing) → the character's markers in rig units.
-    pub fn solve(
-        &self,
-        state: &mut StateF64,
-        frame: &[Option<[f64; 3]>],
-    ) -> (Vec<[f64; 3]>, FrameReportF64) {
-        let (actor, report) = self.compensate(state, frame);
-        let out = actor
-            .iter()
-            .enumerate()
-            .map(|(j, a)| match &self.proportional {
-                Some(p) => p.map(j, &sub(a, &self.neutral[j])),
-                None => self.map.map(a),
-            })
-            .collect();
-        (out, report)
-    }
-
-    /// The first steps of [`Self::solve`]: one frame (metres) → every marker in the actor's
-    /// neutral head frame (actor units), missing ones rebuilt or held.
-    pub fn compensate(
-        &self,
-        state: &mut StateF64,
-        frame: &[Option<[f64; 3]>],
-    ) -> (Vec<[f64; 3]>, FrameReportF64) {
-        let n = self.neutral.len();
-        state.last.resize(n, None);
-        let mut report = FrameReportF64::default();
-        let limit = 64.0;
-        let mut actor: Vec<Option<[f64; 3]>> = (0..n)
-            .map(|j| {
-                let p = frame.get(j).copied().flatten()?;
-                let a = to_rig_units(&self.actor_space, &p);
-                if a.iter().all(|c| c.is_finite() && c.abs() <= limit) {
-                    Some(a)
-                } else {
-                    report.rejected.push(j);
-                    None
-                }
-            })
-            .collect();
-
-        let fit = if self.head.is_empty() {
-            RigidTransform::identity()
-        } else {
-            let mut used: Vec<usize> = self
-                .head
-                .iter()
-                .copied()
-                .filter(|&h| actor[h].is_some())
-                .collect();
-            let fit_of = |used: &[usize]| {
-                let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
-                let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
-                kabsch(&from, &to)
-            };
-            let mut fitted = fit_of(&used);
-            if let Ok(fit) = &fitted {
-                let before = used.len();
-                used.retain(|&h| {
-                    let q = actor[h].unwrap_or_default();
-                    distance(&fit.apply(&self.neutral[h]), &q) <= self.max_displacement
-                });
-                if used.len() < before {
-                    fitted = fit_of(&used);
-                }
-            }
-            match fitted {
-                Ok(fit) => {
-                    let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
-                    let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
-                    report.residual = fit.rms_residual(&from, &to);
-                    report.fit = Some(fit);
-                    state.fit = Some(fit);
-                    fit
-                }
-                Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),
-            }
-        };
-
-        let mut disp: Vec<Option<[f64; 3]>> = vec![None; n];
-        for j in 0..n {
-            let Some(a) = actor[j] else { continue };
-            let d = sub(&fit.apply_inverse(&a), &self.neutral[j]);
-            if d.iter().map(|c| c * c).sum::<f64>().sqrt() > self.max_displacement {
-                report.rejected.push(j);
-                actor[j] = None;
-            } else {
-                disp[j] = Some(d);
-            }
-        }
-        let present = disp.clone();
-        for j in 0..n {
-            if let Some(d) = present[j] {
-                state.last[j] = Some(d);
-                continue;
-            }
-            let (mut acc, mut total) = ([0.0; 3], 0.0);
-            for &(k, w) in &self.fill[j] {
-                if let Some(d) = present[k] {
-                    total += w;
-                    (0..3).for_each(|c| acc[c] += w * d[c]);
-                }
-            }
-            disp[j] = Some(if total > 0.0 {
-                report.rebuilt.push(j);
-                acc.map(|a| a / total)
-            } else {
-                report.held.push(j);
-                state.last[j].unwrap_or([0.0; 3])
-            });
-        }
-        report.rejected.sort_unstable();
-        let out = (0..n)
-            .map(|j| {
-                let d = disp[j].unwrap_or_default();
-                [0, 1, 2].map(|c| self.neutral[j][c] + d[c])
-            })
-            .collect();
-        (out, report)
-    }
 }
 
 /// Bake the stages for a rig whose markers are `marker_names` at `character` (asset units, in
@@ -664,6 +423,7 @@ pub fn bake_stages(
         head: head.clone(),
         max_displacement: config.max_displacement,
         fill,
+        anchors: bytes.anchors.iter().map(|&a| usize::from(a)).collect(),
         map,
         proportional,
     };
@@ -698,7 +458,7 @@ pub fn bake_stages(
 
 /// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in
 /// rig marker order.
-pub(crate) fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
+pub fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
     let complete: Vec<Vec<[f64; 3]>> = capture
         .frames
         .iter()

@@ -8,14 +8,15 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::bake::DEFAULT_MAX_SNAP_FRACTION;
 use super::{emit, print_json, CliError};
-use crate::io::gltf_mesh::load_mesh;
-use crate::io::layout::{place_markers, read_layout};
-use crate::io::marker_groups::read_groups;
-use crate::io::mask_image::write_sides;
-use crate::surface::masks::{Side, SideRule};
-use crate::surface::{mask_sides, SurfaceConfig, SurfaceInput, SurfaceMarker};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::read_layout;
+use facebake::io::mask_image::write_sides;
+use facebake::model::DEFAULT_MAX_SNAP_FRACTION;
+use facebake::model::{place_markers, Side};
+use facebake::surface::SideRule;
+use facebake::surface::{mask_sides, SurfaceInput, SurfaceMarker};
+use facebake::SurfaceOptions;
 
 /// Arguments of `facebake mask-images`.
 #[derive(Debug, Args)]
@@ -59,9 +60,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
     let layout = read_layout(&args.layout)?;
     let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let groups = read_groups(&args.layout, &names)
-        .map_err(|e| CliError::input(&args.layout, e.to_string()))?;
+    let groups = &layout.groups;
     if groups.is_empty() {
         return Err(CliError::input(
             &args.layout,
@@ -73,10 +72,10 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
         &SurfaceInput {
             mesh: &mesh,
             markers: &markers,
-            groups: &groups,
+            groups,
             sides: &SideRule::Auto,
         },
-        &SurfaceConfig::default(),
+        &SurfaceOptions::default(),
     )
     .map_err(|e| CliError::input(&args.layout, format!("mask sides: {e}")))?;
     std::fs::create_dir_all(&args.output).map_err(|e| CliError::io(&args.output, e))?;

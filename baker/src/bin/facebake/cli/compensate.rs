@@ -10,10 +10,11 @@ use serde::Serialize;
 
 use super::bake::{parse_frames, parse_head};
 use super::{emit, parse_units, print_json, CliError};
-use crate::io::capture::{read_capture_with_units, write_csv, Capture, Units};
-use crate::pivot::{estimate_pivot, PivotEstimate};
-use crate::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
-use crate::stages::HeadMarkers;
+use facebake::io::capture::{read_capture_with_units, write_csv};
+use facebake::model::{Capture, Units};
+use facebake::pivot::{estimate_pivot, PivotEstimate};
+use facebake::stages::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
+use facebake::stages::HeadMarkers;
 
 /// Arguments of `facebake compensate`.
 #[derive(Debug, Args)]
@@ -106,7 +107,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
         })
         .collect::<Result<_, CliError>>()?;
     let all: Vec<usize> = (0..n).collect();
-    let complete = crate::stages::complete_sample(&capture, &all);
+    let complete = facebake::stages::complete_sample(&capture, &all);
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
             .iter()
@@ -140,7 +141,9 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             Fit::ThreePoint if present.len() >= 3 && present[..3] == head[..3] => {
                 three_point(&[from[0], from[1], from[2]], &[to[0], to[1], to[2]])
             }
-            Fit::ThreePoint => Err(crate::rigid::RigidError::TooFewPoints(present.len())),
+            Fit::ThreePoint => Err(facebake::stages::rigid::RigidError::TooFewPoints(
+                present.len(),
+            )),
         };
         match fitted {
             Ok(fit) => {
@@ -163,7 +166,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
     let centre = [0, 1, 2].map(|c| neutral.iter().map(|p| p[c]).sum::<f64>() / n as f64);
     let size = neutral
         .iter()
-        .map(|p| crate::mesh::distance(p, &centre))
+        .map(|p| facebake::mesh::distance(p, &centre))
         .fold(0.0, f64::max);
     let pivot = estimate_pivot(&head_frames, centre, size.max(f64::MIN_POSITIVE));
     let out = Capture {

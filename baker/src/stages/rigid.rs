@@ -221,7 +221,7 @@ mod tests {
     use crate::io::capture::read_capture;
     use nalgebra::Rotation3;
 
-    fn jaw() -> crate::io::capture::Capture {
+    fn jaw() -> crate::model::Capture {
         read_capture(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../fixtures/JawMoCap.trc"

@@ -10,10 +10,11 @@ use serde::Serialize;
 
 use super::play::evenly_spaced;
 use super::{emit, load_rig, marker_names, print_json, read_file, CliError};
-use crate::io::gltf_mesh::{load_mesh, FaceMesh};
-use crate::io::npy::read_npy_f32;
-use crate::metrics::{FrameMetrics, Regions, TakeMetrics};
-use crate::render::{write_png, MarkerSheet, Sheet, SheetFrame, PANEL};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::npy::read_npy_f32;
+use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
+use facebake::model::FaceMesh;
+use facebake::render::{write_png, MarkerSheet, Sheet, SheetFrame, PANEL};
 
 /// One frame's positions (vertices or markers).
 pub type Positions = Vec<[f64; 3]>;
@@ -23,7 +24,7 @@ pub const DEFAULT_ROWS: usize = 6;
 
 /// Arguments of `facebake render`.
 #[derive(Debug, Args)]
-pub struct RenderArgs {
+pub(crate) struct RenderArgs {
     /// The played frames: a float32 `.npy`, frames × vertices × 3, as `play` writes it.
     #[arg(value_name = "NPY")]
     pub frames_npy: PathBuf,
@@ -63,9 +64,9 @@ pub struct RenderArgs {
 
 /// Structure metrics of a take: per frame, and the worst over it.
 #[derive(Debug, Serialize)]
-pub struct Structure {
+pub(crate) struct Structure {
     /// How the static region was chosen, and its size.
-    pub static_rule: crate::metrics::StaticRule,
+    pub static_rule: facebake::metrics::StaticRule,
     /// Vertices in the static region.
     pub static_vertices: usize,
     /// Rim pairs across the mouth, and across the eyes.
@@ -78,7 +79,7 @@ pub struct Structure {
 
 /// What `render` reports.
 #[derive(Debug, Serialize)]
-pub struct RenderSummary {
+pub(crate) struct RenderSummary {
     /// The sheets written.
     pub files: Vec<PathBuf>,
     /// Frames drawn.
@@ -120,23 +121,27 @@ fn rig_markers(rig: &Rig<'_>) -> (Vec<[f64; 3]>, Vec<usize>) {
 }
 
 /// The regions of `mesh` (errors name it).
-pub fn regions(mesh: &FaceMesh, markers: &[[f64; 3]], head: &[usize]) -> Result<Regions, CliError> {
+pub(crate) fn regions(
+    mesh: &FaceMesh,
+    markers: &[[f64; 3]],
+    head: &[usize],
+) -> Result<Regions, CliError> {
     Regions::for_mesh(mesh, markers, head).map_err(|e| CliError::input(&mesh.source, e.to_string()))
 }
 
 /// The regions of the mesh a rig was baked from, with the rig's markers.
-pub fn rig_regions(rig: &Rig<'_>, mesh: &FaceMesh) -> Result<Regions, CliError> {
+pub(crate) fn rig_regions(rig: &Rig<'_>, mesh: &FaceMesh) -> Result<Regions, CliError> {
     let (markers, head) = rig_markers(rig);
     regions(mesh, &markers, &head)
 }
 
 /// `verify`'s structure metrics: `played` frames against `truths` (empty: none), labelled with
 /// the ground truth's frame names when there is one.
-pub fn verify_structure(
+pub(crate) fn verify_structure(
     regions: &Regions,
     played: &[Vec<[f64; 3]>],
     truths: &[Vec<[f64; 3]>],
-    truth: &Option<(crate::ground_truth::GroundTruth, Vec<usize>)>,
+    truth: &Option<(facebake::ground_truth::GroundTruth, Vec<usize>)>,
 ) -> Structure {
     let label = |f: usize| match truth {
         Some((t, frames)) => t.frames[frames[f]].name.clone(),
@@ -147,7 +152,7 @@ pub fn verify_structure(
 }
 
 /// Measure every frame and the take; `labels` name the frames.
-pub fn structure(
+pub(crate) fn structure(
     regions: &Regions,
     frames: &[Vec<[f64; 3]>],
     truth: Option<&[Vec<[f64; 3]>]>,
@@ -169,7 +174,7 @@ pub fn structure(
 }
 
 /// The text report of a [`Structure`]: the take's worst, then one line per frame if `per_frame`.
-pub fn structure_text(s: &Structure, per_frame: bool) -> String {
+pub(crate) fn structure_text(s: &Structure, per_frame: bool) -> String {
     let mut out = String::new();
     outln!(
         out,
@@ -217,13 +222,13 @@ fn sheet(
 }
 
 /// Write `sheet` to `path`.
-fn write_sheet(path: &Path, image: &crate::render::Image) -> Result<(), CliError> {
+fn write_sheet(path: &Path, image: &facebake::render::Image) -> Result<(), CliError> {
     super::ensure_parent(path)?;
     write_png(path, image).map_err(|e| CliError::input(path, e.to_string()))
 }
 
 /// The marker sheet of `names` at `rest` on `mesh`, written to `path`.
-pub fn write_marker_sheet(
+pub(crate) fn write_marker_sheet(
     path: &Path,
     title: String,
     mesh: &FaceMesh,
@@ -241,7 +246,7 @@ pub fn write_marker_sheet(
 }
 
 /// Run `facebake render`.
-pub fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
+pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
     let n = mesh.positions.len();
     let frames = read_frames(&args.frames_npy, n)?;
@@ -340,9 +345,9 @@ fn file_name(path: &Path) -> String {
 
 /// The demo's ground-truth pictures and metrics: the true frames (`.npy`), the contact sheet of
 /// `rows` (truth, result, error) and the marker sheet, written into `dir`. Returns the metrics and (file, what) pairs.
-pub fn demo_ground_truth(
+pub(crate) fn demo_ground_truth(
     dir: &Path,
-    truth: &crate::ground_truth::GroundTruth,
+    truth: &facebake::ground_truth::GroundTruth,
     played: &[Vec<[f64; 3]>],
     rows: &[&str],
 ) -> Result<(Structure, Vec<(PathBuf, String)>), CliError> {
@@ -366,7 +371,7 @@ pub fn demo_ground_truth(
         .map(|&x| x as f32)
         .collect();
     let shape = [truths.len(), mesh.positions.len(), 3];
-    crate::io::npy::write_npy_f32(&truth_path, &shape, &flat)
+    facebake::io::npy::write_npy_f32(&truth_path, &shape, &flat)
         .map_err(|e| CliError::io(&truth_path, e))?;
     let sheet_path = dir.join("facecap_sheet.png");
     let title = "FACECAP GROUND TRUTH, DEFAULT BAKE: TRUTH / RESULT / ERROR".to_string();
@@ -409,7 +414,7 @@ pub fn demo_ground_truth(
 /// The demo's capture pictures and metrics: the contact sheet of `rows` of the `played` frames
 /// (result with the retargeted `markers`, and displacement) and the marker sheet of the
 /// capture's layout, written into `dir`.
-pub fn demo_capture(
+pub(crate) fn demo_capture(
     dir: &Path,
     mesh: &FaceMesh,
     (played, markers): (&[Positions], &[Positions]),

@@ -108,8 +108,8 @@ pub struct InspectSummary {
     pub format_version: u16,
     /// Blob size in bytes.
     pub blob_bytes: usize,
-    /// The deformer: "linear" (weights on marker displacements), "rbf-coefficients" or
-    /// "planar-bones".
+    /// The deformer, named as `bake --deformer` names it: "linear" (weights on marker
+    /// displacements), "rbf" or "planar".
     pub deformer: &'static str,
     /// Whether an RBF-coefficient rig has the affine rows (`None` for linear rigs).
     pub affine: Option<bool>,
@@ -175,7 +175,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             l.influences.0.len(),
         ),
         Deformer::Rbf(r) => (
-            "rbf-coefficients",
+            "rbf",
             Some(r.affine),
             0,
             r.row_shifts.0.len(),
@@ -183,7 +183,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             r.influences.0.len(),
         ),
         Deformer::Planar(p) => (
-            "planar-bones",
+            "planar",
             None,
             p.influence_counts.0.len(),
             0,
@@ -239,7 +239,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         mean_influences_per_vertex: cost.influences as f64 / vertices.max(1) as f64,
         position_format: "Q8.24",
         rest_format: "Q0.15",
-        weight_format: if deformer == "planar-bones" {
+        weight_format: if deformer == "planar" {
             "Q1.15 (unsigned 16-bit)".into()
         } else {
             weight_format(rig.weight_frac_bits())
@@ -353,7 +353,7 @@ fn print_text(s: &InspectSummary) {
         sec.vertex_rest,
         if s.affine.is_some() {
             format!("coefficient shifts {}, coefficient map {}, ", sec.row_shifts, sec.matrix)
-        } else if s.deformer == "planar-bones" {
+        } else if s.deformer == "planar" {
             format!(
                 "control triangles {}, influence counts {}, ",
                 sec.matrix, sec.influence_counts

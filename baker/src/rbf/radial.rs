@@ -5,9 +5,9 @@ use serde::{Deserialize, Serialize};
 pub use crate::mesh::distance;
 
 /// Which radial function, before its width is resolved against the marker layout.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum KernelKind {
+pub enum RadialFunction {
     /// φ(r) = exp(−(r/c)²).
     Gaussian,
     /// φ_i(r) = 1/√(r² + r_i²), r_i = distance from centre i to its nearest other centre
@@ -21,9 +21,9 @@ pub enum KernelKind {
     ThinPlate,
 }
 
-impl KernelKind {
+impl RadialFunction {
     /// Every kernel, for sweeps.
-    pub const ALL: [KernelKind; 5] = [
+    pub const ALL: [RadialFunction; 5] = [
         Self::Gaussian,
         Self::InverseMultiquadric,
         Self::Multiquadric,
@@ -40,6 +40,12 @@ impl KernelKind {
             Self::Exponential => "exponential",
             Self::ThinPlate => "thin-plate",
         }
+    }
+
+    /// Whether φ grows with distance (multiquadric, thin plate): its terms cannot be truncated
+    /// to the K nearest centres, so it bakes only to the linear deformer.
+    pub fn grows(self) -> bool {
+        matches!(self, Self::Multiquadric | Self::ThinPlate)
     }
 
     /// Resolve the width: `width` if given, else `width_factor × mean nearest-centre distance`.
@@ -137,16 +143,16 @@ mod tests {
     fn kernels_match_their_formulas() {
         let centres = [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 4.0, 0.0]];
         assert_eq!(nearest_distances(&centres), vec![3.0, 3.0, 4.0]);
-        let imq = KernelKind::InverseMultiquadric.resolve(&centres, None, 1.0);
+        let imq = RadialFunction::InverseMultiquadric.resolve(&centres, None, 1.0);
         assert!((imq.phi(2, 3.0) - 0.2).abs() < 1e-15);
         let g = Kernel::Gaussian { c: 2.0 };
         assert!((g.phi(0, 2.0) - (-1.0f64).exp()).abs() < 1e-15);
         let tps = Kernel::ThinPlate { c: 1.0 };
         assert_eq!(tps.phi(0, 0.0), 0.0);
         assert!((tps.phi(0, std::f64::consts::E) - std::f64::consts::E.powi(2)).abs() < 1e-12);
-        let mq = KernelKind::Multiquadric.resolve(&centres, Some(4.0), 1.0);
+        let mq = RadialFunction::Multiquadric.resolve(&centres, Some(4.0), 1.0);
         assert_eq!(mq.phi(0, 3.0), 5.0);
-        let e = KernelKind::Exponential.resolve(&centres, None, 1.5);
+        let e = RadialFunction::Exponential.resolve(&centres, None, 1.5);
         assert!(
             (e.phi(0, 5.0) - (-1.0f64).exp()).abs() < 1e-15,
             "mean spacing 10/3 × 1.5 = 5"

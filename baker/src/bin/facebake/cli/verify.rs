@@ -13,14 +13,9 @@ use super::{
     deform_to_asset, emit, load_rig, marker_vertices, markers_to_rig, max_distance, parse_units,
     print_json, progress, read_file, CliError, EXIT_VERIFY_FAILED,
 };
-use crate::ground_truth::{stats, ErrorStats, GroundTruth, SplitMix64};
-use crate::io::capture::Units;
-use crate::io::gltf_mesh::FaceMesh;
-use crate::reference::SparseF64;
-
-/// The runtime may differ from the f64 evaluation by at most this fraction of the mesh's
-/// bounding-box diagonal.
-pub const TOLERANCE_FRACTION: f64 = 2e-5;
+use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
+use facebake::ground_truth::{stats, ErrorStats, GroundTruth, SplitMix64};
+use facebake::model::{FaceMesh, Units};
 
 /// Frames of the synthetic sequence used for meshes without morph targets.
 pub const SYNTHETIC_FRAMES: usize = 32;

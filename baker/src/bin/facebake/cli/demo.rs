@@ -10,48 +10,22 @@ use clap::Args;
 use facebake_runtime::deformer::Deformer;
 use serde::Serialize;
 
-use super::bake::{bake_layout, bytes_text};
+use super::bake::bytes_text;
 use super::inspect::CostSummary;
-use super::verify::TOLERANCE_FRACTION;
 use super::{
     deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress, to_f32,
     weight_format, write_file, CliError,
 };
-use crate::bake::BakeConfig;
-use crate::ground_truth::{stats, ErrorStats, GroundTruth};
-use crate::io::capture::{write_csv, Capture, Units};
-use crate::io::glb::write_glb_with_morphs;
-use crate::io::gltf_mesh::load_mesh;
-use crate::io::layout::{read_layout, write_layout};
-use crate::io::npy::write_npy_f32;
-use crate::reference::SparseF64;
-
-/// The demo's mesh file, in the fixtures folder.
-pub const MESH_FILE: &str = "FaceCapHeadGeneric.glb";
-/// The mesh inside it.
-pub const MESH_NAME: &str = "head";
-/// Markers placed on the head.
-pub const MARKERS: usize = 40;
-/// Of those, on skin that no morph target moves.
-pub const STATIC_MARKERS: usize = 6;
-/// Ground-truth frames put in the demo's `.glb`, by name.
-pub const GLB_FRAMES: [&str; 6] = [
-    "jaw open",
-    "open funnel",
-    "blink",
-    "smile",
-    "surprise",
-    "blend 0",
-];
-/// The JawMoCap capture's head markers: forehead and the top of the nose, which no expression
-/// moves much.
-pub const JAWMOCAP_HEAD_MARKERS: [&str; 4] = ["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"];
-/// The JawMoCap capture, in the fixtures folder.
-pub const JAWMOCAP_FILE: &str = "JawMoCap.trc";
-/// FaceCap's marker layout for the JawMoCap markers, in the fixtures folder.
-pub const JAWMOCAP_LAYOUT: &str = "facecap_jawmocap_layout.toml";
-/// Frame rate written to the demo's capture file.
-pub const CAPTURE_RATE_HZ: f64 = 30.0;
+use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
+use facebake::demo::{CAPTURE_RATE_HZ, GLB_FRAMES, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS};
+use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
+use facebake::io::capture::write_csv;
+use facebake::io::glb::write_glb_with_morphs;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::{read_layout, write_layout};
+use facebake::io::npy::write_npy_f32;
+use facebake::model::{place_markers, Capture, Units, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::{BakeOptions, Scene};
 
 /// Arguments of `facebake demo`.
 #[derive(Debug, Args)]
@@ -117,7 +91,7 @@ pub struct DemoSummary {
     pub frames: usize,
     /// Blob size, bytes.
     pub blob_bytes: usize,
-    /// The deformer: "linear" or "rbf-coefficients".
+    /// The deformer: "rbf", "linear" or "planar".
     pub deformer: &'static str,
     /// K.
     pub k: usize,
@@ -177,7 +151,19 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     write_layout(&layout_path, &truth.layout())?;
     wrote(&layout_path, "marker layout (40 vertex anchors)");
     let layout = read_layout(&layout_path)?;
-    let (baked, _) = bake_layout(&truth.mesh, &layout, &BakeConfig::default(), None, None)?;
+    let placed = place_markers(
+        &layout,
+        &truth.mesh,
+        DEFAULT_MAX_SNAP_FRACTION * truth.mesh.diagonal(),
+    )?;
+    let baked = facebake::bake(
+        &Scene::placed(&truth.mesh, &placed),
+        &BakeOptions::default(),
+    )
+    .map_err(|source| CliError::Bake {
+        path: layout_path.clone(),
+        source,
+    })?;
     let rig_path = dir.join("facecap.fbk");
     write_file(&rig_path, &baked.blob)?;
     wrote(&rig_path, "rig blob");
@@ -206,7 +192,11 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
             .collect();
         max_error = max_error.max(max_distance(&got, &reference.frame(&exact)));
         truth.skin_errors(&got, &truths[f], &mut e_runtime);
-        truth.skin_errors(&baked.dense.frame(&markers[f]), &truths[f], &mut e_dense);
+        truth.skin_errors(
+            &baked.reference.deformer.frame(&markers[f]),
+            &truths[f],
+            &mut e_dense,
+        );
         played.push(got);
     }
     let diagonal = truth.mesh.diagonal();
@@ -228,7 +218,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     let mut dense_passes = 0;
     while dense_passes < reps && (dense_passes == 0 || start.elapsed().as_secs_f64() < 0.5) {
         for m in &markers {
-            black_box(baked.dense.frame(black_box(m)));
+            black_box(baked.reference.deformer.frame(black_box(m)));
         }
         dense_passes += 1;
     }
@@ -298,8 +288,8 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         blob_bytes: baked.blob.len(),
         deformer: match rig.deformer() {
             Deformer::Linear(_) => "linear",
-            Deformer::Rbf(_) => "rbf-coefficients",
-            Deformer::Planar(_) => "planar-bones",
+            Deformer::Rbf(_) => "rbf",
+            Deformer::Planar(_) => "planar",
         },
         k: cost.max_influences,
         weight_format: weight_format(rig.weight_frac_bits()),

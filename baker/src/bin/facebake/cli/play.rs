@@ -10,10 +10,11 @@ use super::{
     deform_to_asset, emit, ensure_parent, load_rig, marker_names, markers_to_rig, parse_units,
     print_json, progress, read_file, CliError,
 };
-use crate::io::capture::{read_capture_with_units, Capture, Units};
-use crate::io::glb::write_glb_with_morphs;
-use crate::io::gltf_mesh::{load_mesh, FaceMesh};
-use crate::io::npy::write_npy_f32;
+use facebake::io::capture::read_capture_with_units;
+use facebake::io::glb::write_glb_with_morphs;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::npy::write_npy_f32;
+use facebake::model::{Capture, FaceMesh, Units};
 
 /// Frames put in the `.glb` when `--frames` is not given: this many, evenly spaced.
 pub const DEFAULT_GLB_FRAMES: usize = 10;

@@ -20,9 +20,9 @@ use facebake_runtime::fixed::POS_FRAC_BITS;
 use facebake_runtime::format::records::PLANAR_INFLUENCE_BYTES;
 use facebake_runtime::Rig;
 
-use super::region::{add, cross, scale, Frame, Region, V3};
-use super::Influence;
 use crate::mesh::{dot, norm, sub};
+use crate::planar::region::{add, cross, scale, Frame, Region, V3};
+use crate::planar::Influence;
 
 type M3 = [V3; 3];
 

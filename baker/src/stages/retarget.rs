@@ -9,7 +9,10 @@
 
 use nalgebra::DMatrix;
 
-use crate::rbf::{Kernel, KernelKind, RbfSystem, SolveError};
+use super::rigid::kabsch;
+use super::StagesError;
+use crate::mesh::distance;
+use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 
 /// An RBF map from actor space to character space.
 pub struct RetargetMap {
@@ -21,7 +24,7 @@ pub struct RetargetMap {
 impl RetargetMap {
     /// The map carrying `actor_neutral[i]` to `character[i]` for every marker.
     pub fn new(actor_neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, SolveError> {
-        let kernel = KernelKind::InverseMultiquadric.resolve(actor_neutral, None, 1.0);
+        let kernel = RadialFunction::InverseMultiquadric.resolve(actor_neutral, None, 1.0);
         let system = RbfSystem::new(actor_neutral, kernel, true, &vec![1.0; actor_neutral.len()])?;
         // Interpolate the target positions themselves (not displacements): f(U_i) = V_i.
         let coefficients = system.solve(character);
@@ -53,6 +56,84 @@ impl RetargetMap {
     /// 1-norm condition estimate of the map's system.
     pub fn condition(&self) -> f64 {
         self.system.condition()
+    }
+}
+
+/// Paper 003 §4's proportional retargeting, in f64: `v_j + M_j d_j`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Proportional {
+    /// Per marker, M_j (character rig units per actor unit).
+    pub matrices: Vec<[[f64; 3]; 3]>,
+    /// Per marker, v_j (character rig units).
+    pub rest: Vec<[f64; 3]>,
+    /// Per-axis scales of the upper face (character y at or above the markers' median) and of
+    /// the lower face.
+    pub scales: [[f64; 3]; 2],
+}
+
+impl Proportional {
+    /// Build it from the actor's neutral markers (actor units) and the character's (rig units):
+    /// the rotation between the faces (Kabsch on the centred marker sets), then per region and
+    /// axis the ratio of the character's marker extent to the turned actor's. The regions split
+    /// at the median height (y, glTF's up axis) of the character's markers.
+    pub fn new(neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, StagesError> {
+        let fit = kabsch(neutral, character)?;
+        let r = fit.rotation;
+        let mean = |p: &[[f64; 3]]| {
+            [0, 1, 2].map(|c| p.iter().map(|q| q[c]).sum::<f64>() / p.len() as f64)
+        };
+        let (cu, cv) = (mean(neutral), mean(character));
+        let turned: Vec<[f64; 3]> = neutral
+            .iter()
+            .map(|u| {
+                let d = nalgebra::Vector3::new(u[0] - cu[0], u[1] - cu[1], u[2] - cu[2]);
+                let w = r * d;
+                [w.x, w.y, w.z]
+            })
+            .collect();
+        let mut heights: Vec<f64> = character.iter().map(|v| v[1]).collect();
+        heights.sort_by(f64::total_cmp);
+        let median = heights[heights.len() / 2];
+        let upper = |j: usize| character[j][1] >= median;
+        let extent = |pts: &mut dyn Iterator<Item = f64>| {
+            let (lo, hi) = pts.fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)));
+            hi - lo
+        };
+        let n = neutral.len();
+        let overall = {
+            let spread = |p: &[[f64; 3]], c: [f64; 3]| {
+                p.iter().map(|q| distance(q, &c).powi(2)).sum::<f64>()
+            };
+            (spread(character, cv) / spread(neutral, cu).max(f64::MIN_POSITIVE)).sqrt()
+        };
+        let scales = [true, false].map(|up| {
+            [0, 1, 2].map(|c| {
+                let ev = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| character[j][c]));
+                let ew = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| turned[j][c]));
+                if ew > 1e-9 && ev > 1e-9 {
+                    ev / ew
+                } else {
+                    overall
+                }
+            })
+        });
+        let matrices = (0..n)
+            .map(|j| {
+                let s = scales[usize::from(!upper(j))];
+                [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]))
+            })
+            .collect();
+        Ok(Self {
+            matrices,
+            rest: character.to_vec(),
+            scales,
+        })
+    }
+
+    /// Character marker `j` for the compensated actor displacement `d`.
+    pub fn map(&self, j: usize, d: &[f64; 3]) -> [f64; 3] {
+        let m = &self.matrices[j];
+        [0, 1, 2].map(|row| self.rest[j][row] + (0..3).map(|c| m[row][c] * d[c]).sum::<f64>())
     }
 }
 
