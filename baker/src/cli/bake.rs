@@ -12,7 +12,8 @@ use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use crate::bake::{bake, BakeConfig, BakeInput, BakeReport, Baked, RigForm};
 use crate::io::capture::{read_capture_with_units, Units};
 use crate::io::control_triangles::{check_shapes, read_triangles};
-use crate::io::gltf_mesh::{load_mesh, FaceMesh};
+use crate::io::gltf_check::BufferAccess;
+use crate::io::gltf_mesh::{load_mesh_with, FaceMesh};
 use crate::io::layout::{place_markers, read_layout, MarkerLayout, PlacedMarker};
 use crate::io::marker_groups::{read_groups, read_vertex_sides};
 use crate::rbf::KernelKind;
@@ -42,6 +43,10 @@ pub struct BakeArgs {
     /// The marker layout (.toml or .json).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
+    /// Let a `.gltf` read its buffers from anywhere (absolute paths, `file:` URIs, `..`);
+    /// by default only files inside the mesh's folder are read.
+    #[arg(long)]
+    pub allow_outside_asset: bool,
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
@@ -84,11 +89,11 @@ pub struct BakeArgs {
     pub kernel: Option<KernelKind>,
     /// Kernel width in mesh units (default: --width-factor × the mean nearest-marker distance;
     /// the inverse multiquadric uses per-marker radii and ignores it).
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", value_parser = parse_positive)]
     pub width: Option<f64>,
     /// Width as a multiple of the mean nearest-marker distance, when --width is not given
     /// (default: 0.75 for euclidean, 1 for geodesic and hybrid).
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", value_parser = parse_positive)]
     pub width_factor: Option<f64>,
     /// Leave out the affine term of the RBF system.
     #[arg(long)]
@@ -101,7 +106,7 @@ pub struct BakeArgs {
     pub refit: Refit,
     /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
     /// (default: 1% of the mesh's bounding-box diagonal).
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", value_parser = parse_positive)]
     pub max_snap: Option<f64>,
     /// The actor's capture (.c3d, .trc or .csv): also bake the capture stages (head-motion
     /// compensation, fill, retargeting onto the layout's markers) from it, so that `play`
@@ -120,14 +125,14 @@ pub struct BakeArgs {
     pub head_markers: HeadMarkers,
     /// A compensated marker further than this from its neutral position is rejected and
     /// rebuilt, as a fraction of the actor's half extent.
-    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, requires = "capture")]
+    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, value_parser = parse_positive, requires = "capture")]
     pub max_displacement: f64,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
     #[arg(long, value_enum, default_value_t = RetargetKind::Rbf, requires = "capture")]
     pub retarget: RetargetKind,
     /// Planar form: bone radius as a multiple of the closest connected-marker distance.
-    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius)]
+    #[arg(long, value_name = "F", default_value_t = BakeConfig::default().planar_radius, value_parser = parse_positive)]
     pub planar_radius: f64,
     /// Layout markers the capture never has (e.g. inner lips), comma-separated: rebuilt from
     /// their nearest captured markers every frame (paper 000 §5.2). Any other layout marker
@@ -561,7 +566,17 @@ fn attach_stages(
 
 /// Run `facebake bake`.
 pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
-    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
+    let access = if args.allow_outside_asset {
+        BufferAccess::Anywhere
+    } else {
+        BufferAccess::AssetFolder
+    };
+    let mesh = load_mesh_with(
+        &args.mesh,
+        args.mesh_name.as_deref(),
+        args.primitive,
+        access,
+    )?;
     let layout = read_layout(&args.layout)?;
     if args.surface_aware() {
         return run_surface(args, &mesh, &layout);
@@ -798,7 +813,13 @@ pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
                 Err(format!("{s}: an empty range of frames"))
             }
         }
-        None => num(s).map(|n| n..n + 1),
+        None => {
+            let n = num(s)?;
+            let end = n
+                .checked_add(1)
+                .ok_or_else(|| format!("{s}: frame number too large"))?;
+            Ok(n..end)
+        }
     }
 }
 
@@ -812,12 +833,35 @@ pub fn parse_head(s: &str) -> Result<HeadMarkers, String> {
                 .parse()
                 .map(HeadMarkers::MostRigid)
                 .map_err(|_| format!("{n:?} is not a number of head markers")),
-            None => Ok(HeadMarkers::Named(
-                t.split(',')
+            None => {
+                let names: Vec<String> = t
+                    .split(',')
                     .map(|n| n.trim().to_string())
                     .filter(|n| !n.is_empty())
-                    .collect(),
-            )),
+                    .collect();
+                if let Some((_, n)) = names
+                    .iter()
+                    .enumerate()
+                    .find(|(i, n)| names[..*i].contains(n))
+                {
+                    return Err(format!("head marker {n:?} is named twice"));
+                }
+                Ok(HeadMarkers::Named(names))
+            }
         },
+    }
+}
+
+/// Parse a number that must be positive and finite (widths, radii, fractions): `nan`, `inf`,
+/// zero, negatives and subnormals are refused as bad arguments.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if x.is_normal() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s:?} must be a positive finite number"))
     }
 }

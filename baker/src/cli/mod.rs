@@ -201,7 +201,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
 
 /// Read a whole file.
 pub fn read_file(path: &Path) -> Result<Vec<u8>, CliError> {
-    std::fs::read(path).map_err(|e| CliError::io(path, e))
+    crate::io::read_bounded(path).map_err(|e| CliError::io(path, e))
 }
 
 /// Load a rig from blob bytes read from `path`.

@@ -27,3 +27,33 @@ pub fn escape_control(text: &str) -> std::borrow::Cow<'_, str> {
         .collect::<String>()
         .into()
 }
+
+/// Largest input file (capture, layout, `.npy`, rig blob) read whole: 1 GiB. Every reader sizes
+/// its allocations from the bytes it has, so this bounds them too.
+pub const MAX_INPUT_BYTES: u64 = 1 << 30;
+
+/// Reads a whole regular file of at most [`MAX_INPUT_BYTES`]: not a device (`/dev/zero`), a
+/// pipe, or a file that would exhaust memory.
+pub fn read_bounded(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    if meta.len() > MAX_INPUT_BYTES {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "the file is {} bytes, more than the {MAX_INPUT_BYTES} bytes read",
+                meta.len()
+            ),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(MAX_INPUT_BYTES).read_to_end(&mut bytes)?;
+    Ok(bytes)
+}

@@ -292,7 +292,7 @@ pub fn read_capture(path: &Path) -> Result<Capture, CaptureError> {
 /// unit the numbers are in). It is the way to read a CSV file that has no units line.
 pub fn read_capture_with_units(path: &Path, units: Option<Units>) -> Result<Capture, CaptureError> {
     let format = Format::of(path)?;
-    let bytes = std::fs::read(path).map_err(|source| CaptureError::Io {
+    let bytes = crate::io::read_bounded(path).map_err(|source| CaptureError::Io {
         path: path.to_path_buf(),
         source,
     })?;
