@@ -158,9 +158,23 @@ pub fn three_point(from: &[[f64; 3]; 3], to: &[[f64; 3]; 3]) -> Result<RigidTran
     })
 }
 
+/// Captures with more markers than this have their head-marker candidates pre-selected (see
+/// [`most_rigid_subset`]); the exact search then looks at this many.
+pub const RIGID_CANDIDATES: usize = 48;
+/// Neighbours (nearest in the first frame) each marker's pre-selection score looks at.
+pub const RIGID_NEIGHBOURS: usize = 12;
+
 /// The `size` markers whose pairwise distances vary least (standard deviation over `frames`):
 /// the best-scoring triple, then greedily the marker adding the least variation. Returns marker
 /// indices in ascending order and the mean standard deviation of their pairwise distances.
+///
+/// The exact search is cubic in the markers, so with more than [`RIGID_CANDIDATES`] markers it
+/// runs on that many candidates only: the markers with the smallest sum of their two least
+/// varying distances to their [`RIGID_NEIGHBOURS`] nearest neighbours (a marker of a rigid
+/// group has at least two rigid partners close by). The pre-selection costs
+/// O(n · ([`RIGID_NEIGHBOURS`] · frames + the markers within the neighbour radius along x)),
+/// near-linear for markers spread over a face; up to [`RIGID_CANDIDATES`] markers the result is
+/// the exact search's.
 pub fn most_rigid_subset(
     frames: &[Vec<[f64; 3]>],
     size: usize,
@@ -169,17 +183,100 @@ pub fn most_rigid_subset(
     if size < 3 || n < size {
         return Err(RigidError::TooFewPoints(n.min(size)));
     }
+    let candidates: Vec<usize> = if n <= RIGID_CANDIDATES.max(size) {
+        (0..n).collect()
+    } else {
+        rigid_candidates(frames, RIGID_CANDIDATES.max(size))
+    };
+    let (chosen, spread) = exact_most_rigid(frames, &candidates, size)?;
+    let mut chosen: Vec<usize> = chosen.iter().map(|&c| candidates[c]).collect();
+    chosen.sort_unstable();
+    Ok((chosen, spread))
+}
+
+/// Standard deviation over `frames` of the distance between markers `i` and `j`.
+fn distance_spread(frames: &[Vec<[f64; 3]>], i: usize, j: usize) -> f64 {
+    let d: Vec<f64> = frames
+        .iter()
+        .map(|f| crate::mesh::distance(&f[i], &f[j]))
+        .collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64;
+    var.sqrt()
+}
+
+/// The `count` markers most likely to belong to a rigid group (see [`most_rigid_subset`]), in
+/// ascending score.
+fn rigid_candidates(frames: &[Vec<[f64; 3]>], count: usize) -> Vec<usize> {
+    let first = &frames[0];
+    let n = first.len();
+    // Nearest neighbours in the first frame by a sweep along x.
+    let mut by_x: Vec<usize> = (0..n).collect();
+    by_x.sort_by(|&a, &b| first[a][0].total_cmp(&first[b][0]));
+    let mut score: Vec<(f64, usize)> = Vec::with_capacity(n);
+    for (rank, &i) in by_x.iter().enumerate() {
+        let mut near: Vec<(f64, usize)> = Vec::with_capacity(RIGID_NEIGHBOURS + 1);
+        let consider = |j: usize, near: &mut Vec<(f64, usize)>| {
+            let d = crate::mesh::distance(&first[i], &first[j]);
+            if near.len() < RIGID_NEIGHBOURS || d < near[near.len() - 1].0 {
+                let at = near.partition_point(|e| e.0 <= d);
+                near.insert(at, (d, j));
+                near.truncate(RIGID_NEIGHBOURS);
+            }
+        };
+        let radius = |near: &Vec<(f64, usize)>| {
+            if near.len() < RIGID_NEIGHBOURS {
+                f64::INFINITY
+            } else {
+                near[near.len() - 1].0
+            }
+        };
+        let (mut lo, mut hi) = (rank, rank + 1);
+        loop {
+            let dx_lo = (lo > 0).then(|| first[i][0] - first[by_x[lo - 1]][0]);
+            let dx_hi = (hi < n).then(|| first[by_x[hi]][0] - first[i][0]);
+            let r = radius(&near);
+            match (dx_lo.filter(|&d| d <= r), dx_hi.filter(|&d| d <= r)) {
+                (Some(a), Some(b)) if a <= b => {
+                    lo -= 1;
+                    consider(by_x[lo], &mut near);
+                }
+                (Some(_), None) => {
+                    lo -= 1;
+                    consider(by_x[lo], &mut near);
+                }
+                (_, Some(_)) => {
+                    consider(by_x[hi], &mut near);
+                    hi += 1;
+                }
+                (None, None) => break,
+            }
+        }
+        let mut spreads: Vec<f64> = near
+            .iter()
+            .map(|&(_, j)| distance_spread(frames, i, j))
+            .collect();
+        spreads.sort_by(f64::total_cmp);
+        score.push((spreads.iter().take(2).sum(), i));
+    }
+    score.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    score.truncate(count);
+    score.into_iter().map(|(_, i)| i).collect()
+}
+
+/// The exact search over the markers `among`; indices into `among`.
+fn exact_most_rigid(
+    frames: &[Vec<[f64; 3]>],
+    among: &[usize],
+    size: usize,
+) -> Result<(Vec<usize>, f64), RigidError> {
+    let n = among.len();
     let mut spread = vec![vec![0.0f64; n]; n];
     for i in 0..n {
         for j in i + 1..n {
-            let d: Vec<f64> = frames
-                .iter()
-                .map(|f| crate::mesh::distance(&f[i], &f[j]))
-                .collect();
-            let mean = d.iter().sum::<f64>() / d.len() as f64;
-            let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64;
-            spread[i][j] = var.sqrt();
-            spread[j][i] = var.sqrt();
+            let s = distance_spread(frames, among[i], among[j]);
+            spread[i][j] = s;
+            spread[j][i] = s;
         }
     }
     let mut best = (f64::INFINITY, [0, 1, 2]);
@@ -204,7 +301,6 @@ pub fn most_rigid_subset(
             .ok_or(RigidError::TooFewPoints(chosen.len()))?;
         chosen.push(next);
     }
-    chosen.sort_unstable();
     let pairs = chosen.len() * (chosen.len() - 1) / 2;
     let total: f64 = chosen
         .iter()

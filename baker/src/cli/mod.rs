@@ -280,7 +280,7 @@ pub fn markers_to_rig(
         .enumerate()
         .map(|(m, p)| {
             space.to_rig_f64(*p).map_err(|e| {
-                let name = rig.marker_names().nth(m).unwrap_or("?");
+                let name = crate::io::escape_control(rig.marker_names().nth(m).unwrap_or("?"));
                 CliError::input(
                     path,
                     format!("frame {frame} (counting from 0), marker \"{name}\" at {p:?}: {e}"),
@@ -363,7 +363,8 @@ pub fn marker_vertices(
                     format!(
                         "the rig's marker \"{}\" is {d:.3e} from the nearest vertex of mesh \"{}\"; \
                          a ground-truth check needs markers at vertices",
-                        names[m], mesh.mesh_name
+                        crate::io::escape_control(&names[m]),
+                        mesh.mesh_name
                     ),
                 ))
             }
