@@ -942,6 +942,149 @@ mod tests {
         assert!(e.contains("chunk length 100 runs past the end"), "{e}");
     }
 
+    /// A one-triangle `.gltf` in `dir` whose buffer `uri` is given; the buffer file holds the
+    /// positions and indices and is written at `bin` (if given).
+    fn triangle(dir: &Path, uri: &str, bin: Option<&Path>) -> PathBuf {
+        let mut data: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        data.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
+        if let Some(bin) = bin {
+            std::fs::write(bin, &data).unwrap();
+        }
+        let json = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"uri": uri, "byteLength": data.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                {"buffer": 0, "byteOffset": 36, "byteLength": 6}
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                 "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+                {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
+            ],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}]
+        });
+        let path = dir.join("t.gltf");
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        path
+    }
+
+    fn scratch_dir(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("facebake-gltf-check-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("asset")).unwrap();
+        dir
+    }
+
+    #[test]
+    fn buffers_stay_in_the_asset_folder_unless_allowed() {
+        let dir = scratch_dir("uris");
+        let asset = dir.join("asset");
+        let outside = dir.join("outside.bin");
+        // Inside the folder: read.
+        let ok = triangle(&asset, "t.bin", Some(&asset.join("t.bin")));
+        let (_, data) = import(&ok, BufferAccess::AssetFolder).unwrap();
+        assert_eq!(data[0].0.len(), 44);
+        // `..`, absolute and file: URIs: refused, then read when allowed.
+        triangle(&dir, "x", Some(&outside));
+        let absolute = outside.to_str().unwrap().to_owned();
+        for (uri, reason) in [
+            ("../outside.bin".to_owned(), "has a \"..\" component"),
+            ("%2e%2e/outside.bin".to_owned(), "has a \"..\" component"),
+            (absolute.clone(), "is an absolute path"),
+            (format!("file://{absolute}"), "is a file: URI"),
+        ] {
+            let path = triangle(&asset, &uri, None);
+            let e = import(&path, BufferAccess::AssetFolder)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("buffers[0].uri") && e.contains(reason),
+                "{uri}: {e}"
+            );
+            assert!(import(&path, BufferAccess::Anywhere).is_ok(), "{uri}");
+        }
+        // A link inside the folder that leads out of it.
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(&outside, asset.join("link.bin")).unwrap();
+            let path = triangle(&asset, "link.bin", None);
+            let e = import(&path, BufferAccess::AssetFolder)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("outside the asset's folder"), "{e}");
+        }
+        // Other schemes are never fetched.
+        let path = triangle(&asset, "https://example.com/t.bin", None);
+        let e = import(&path, BufferAccess::Anywhere)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("scheme \"https:\" is not read"), "{e}");
+        // A buffer file shorter than its byteLength.
+        std::fs::write(asset.join("short.bin"), [0u8; 10]).unwrap();
+        let path = triangle(&asset, "short.bin", None);
+        let e = import(&path, BufferAccess::AssetFolder)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("buffers[0]: byteLength 44, but only 10 bytes are there"),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn sparse_indices_must_rise_and_stay_in_range() {
+        let dir = scratch_dir("sparse");
+        let asset = dir.join("asset");
+        let path = triangle(&asset, "t.bin", Some(&asset.join("t.bin")));
+        let mut json: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        // Sparse POSITION values from view 0, indices from view 1 (u16 0, 1, 2 then 0).
+        json["accessors"][0]["sparse"] = serde_json::json!({
+            "count": 3,
+            "indices": {"bufferView": 1, "componentType": 5123},
+            "values": {"bufferView": 0}
+        });
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        assert!(import(&path, BufferAccess::AssetFolder).is_ok());
+        json["accessors"][0]["sparse"]["count"] = 4.into();
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        let e = import(&path, BufferAccess::AssetFolder)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("accessors[0].sparse: count 4 is not in 1..=3"),
+            "{e}"
+        );
+        json["accessors"][0]["sparse"]["count"] = 3.into();
+        json["bufferViews"][1]["byteOffset"] = 38.into();
+        json["bufferViews"][1]["byteLength"] = 6.into();
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        let e = import(&path, BufferAccess::AssetFolder)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sparse indices must rise strictly"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn fixtures_still_load() {
+        for name in [
+            "FaceCapHeadGeneric.glb",
+            "mediapipe_canonical_face_model.glb",
+        ] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../fixtures")
+                .join(name);
+            let (doc, data) = import(&path, BufferAccess::AssetFolder).unwrap();
+            assert_eq!(doc.buffers().count(), data.len());
+        }
+    }
+
     #[test]
     fn spans_never_overflow() {
         assert_eq!(span(0, 12, 1, 12), Some(12));
