@@ -65,20 +65,27 @@ fn bad_input(out: &Output, needles: &[&str]) -> String {
     stderr
 }
 
+/// Asserts a successful run, showing its stderr otherwise.
+fn succeeded(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
-/// `bake` of the repro mesh `name` with the JawMoCap layout.
-fn bake_mesh(name: &str, extra: &[&str]) -> Output {
-    let dir = TempDir::new(name);
-    let mesh = repro(name);
+/// `bake` of `mesh` with the JawMoCap layout and `extra` arguments, writing `dir/out.fbk`.
+fn bake(dir: &TempDir, mesh: &Path, extra: &[&str]) -> Output {
     let layout = fixture("facecap_jawmocap_layout.toml");
     let out = dir.join("out.fbk");
     let mut args = vec![
         "bake",
         "--mesh",
-        s(&mesh),
+        s(mesh),
         "--layout",
         s(&layout),
         "-o",
@@ -86,6 +93,11 @@ fn bake_mesh(name: &str, extra: &[&str]) -> Output {
     ];
     args.extend_from_slice(extra);
     bounded(&args)
+}
+
+/// `bake` of the repro mesh `name`.
+fn bake_mesh(name: &str, extra: &[&str]) -> Output {
+    bake(&TempDir::new(name), &repro(name), extra)
 }
 
 #[test]
@@ -164,10 +176,8 @@ fn gltf_indices_float_unreachable_panic() {
     json["bufferViews"][1]["byteLength"] = 12.into();
     let mesh = dir.join("float_indices.gltf");
     std::fs::write(&mesh, serde_json::to_vec(&json).unwrap()).unwrap();
-    let layout = fixture("facecap_jawmocap_layout.toml");
-    let out = dir.join("out.fbk");
     bad_input(
-        &bounded(&["bake", "--mesh", s(&mesh), "--layout", s(&layout), "-o", s(&out)]),
+        &bake(&dir, &mesh, &[]),
         &[
             "float_indices.gltf",
             "meshes[0].primitives[0].indices: accessors[1] must be SCALAR of an unsigned integer type",
@@ -232,26 +242,14 @@ fn glb_19b_length0_underflow() {
 
 /// `bake --masks` with `png` as both mask images.
 fn bake_mask_image(png: &str) -> Output {
-    let dir = TempDir::new(png);
-    let mesh = fixture("FaceCapHeadGeneric.glb");
-    let layout = fixture("facecap_jawmocap_layout.toml");
     let mouth = format!("mouth={}", s(&repro(png)));
     let eyes = format!("eyes={}", s(&repro(png)));
-    let out = dir.join("out.fbk");
-    bounded(&[
-        "bake",
-        "--mesh",
-        s(&mesh),
-        "--layout",
-        s(&layout),
-        "--masks",
-        "--mask-image",
-        &mouth,
-        "--mask-image",
-        &eyes,
-        "-o",
-        s(&out),
-    ])
+    let extra = ["--masks", "--mask-image", &mouth, "--mask-image", &eyes];
+    bake(
+        &TempDir::new(png),
+        &fixture("FaceCapHeadGeneric.glb"),
+        &extra,
+    )
 }
 
 #[test]
@@ -289,25 +287,12 @@ const HEAD: &str = "ForeHead_M,ForeHead_L,ForeHead_R,NoseTop";
 
 /// `bake --capture` of the JawMoCap layout from `capture` with `extra` arguments.
 fn bake_capture(dir: &TempDir, capture: &Path, extra: &[&str]) -> Output {
-    let mesh = fixture("FaceCapHeadGeneric.glb");
-    let layout = fixture("facecap_jawmocap_layout.toml");
-    let out = dir.join("rig.fbk");
-    let mut args = vec![
-        "bake",
-        "--mesh",
-        s(&mesh),
-        "--layout",
-        s(&layout),
-        "--capture",
-        s(capture),
-        "-o",
-        s(&out),
-    ];
+    let mut args = vec!["--capture", s(capture)];
     if !extra.contains(&"--head-markers") {
         args.extend(["--head-markers", HEAD]);
     }
     args.extend_from_slice(extra);
-    bounded(&args)
+    bake(dir, &fixture("FaceCapHeadGeneric.glb"), &args)
 }
 
 #[test]
@@ -340,11 +325,7 @@ fn bake_capture_ghost_neutral_marker() {
     );
     // The clean take bakes.
     let out = bake_capture(&dir, &fixture("JawMoCap.trc"), &[]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
 }
 
 #[test]
@@ -380,17 +361,6 @@ fn cli_neutral_usize_max_overflow() {
 fn bad_numbers_and_duplicate_head_markers_are_bad_arguments() {
     let dir = TempDir::new("numbers");
     let mesh = fixture("FaceCapHeadGeneric.glb");
-    let layout = fixture("facecap_jawmocap_layout.toml");
-    let out = dir.join("o.fbk");
-    let base = [
-        "bake",
-        "--mesh",
-        s(&mesh),
-        "--layout",
-        s(&layout),
-        "-o",
-        s(&out),
-    ];
     for (flag, value) in [
         ("--width", "nan"),
         ("--width", "0"),
@@ -399,9 +369,10 @@ fn bad_numbers_and_duplicate_head_markers_are_bad_arguments() {
         ("--planar-radius", "0"),
         ("--width-factor", "0"),
     ] {
-        let mut args = base.to_vec();
-        args.extend([flag, value]);
-        bad_input(&bounded(&args), &[flag, "must be a positive finite number"]);
+        bad_input(
+            &bake(&dir, &mesh, &[flag, value]),
+            &[flag, "must be a positive finite number"],
+        );
     }
     bad_input(
         &bake_capture(
@@ -425,11 +396,7 @@ fn compensate_auto_head_bounded() {
         let start = Instant::now();
         let run = bounded(&["compensate", s(&capture), "-o", s(&out)]);
         seconds.push(start.elapsed().as_secs_f64());
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        succeeded(&run);
         assert!(out.exists());
     }
     eprintln!(
@@ -444,11 +411,7 @@ fn compensate_auto_head_bounded() {
 fn blob_marker_name_terminal_escape() {
     let blob = repro("blob_marker_name_terminal_escape.fbk");
     let out = bounded(&["inspect", s(&blob)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     assert!(!out.stdout.contains(&0x1b), "raw ESC printed");
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("\\u{1b}[2J"), "{text}");
@@ -523,11 +486,7 @@ fn play_with_wrong_units_is_an_error() {
         &["JawMoCap.trc", "samples were rejected", "--capture-units"],
     );
     let ok = play(&dir, &rig, &fixture("JawMoCap.trc"), &[]);
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
+    succeeded(&ok);
 }
 
 #[test]
@@ -546,33 +505,15 @@ fn play_with_a_misspelt_marker_is_an_error() {
         ],
     );
     let allowed = play(&dir, &rig, &renamed, &["--allow-missing", "Mouth_Up"]);
-    assert!(
-        allowed.status.success(),
-        "{}",
-        String::from_utf8_lossy(&allowed.stderr)
-    );
+    succeeded(&allowed);
 }
 
 #[test]
 fn raw_take_on_a_rig_without_stages_is_an_error() {
     let dir = TempDir::new("raw");
-    let mesh = fixture("FaceCapHeadGeneric.glb");
-    let layout = fixture("facecap_jawmocap_layout.toml");
-    let rig = dir.join("plain.fbk");
-    let baked = bounded(&[
-        "bake",
-        "--mesh",
-        s(&mesh),
-        "--layout",
-        s(&layout),
-        "-o",
-        s(&rig),
-    ]);
-    assert!(
-        baked.status.success(),
-        "{}",
-        String::from_utf8_lossy(&baked.stderr)
-    );
+    let baked = bake(&dir, &fixture("FaceCapHeadGeneric.glb"), &[]);
+    let rig = dir.join("out.fbk");
+    succeeded(&baked);
     bad_input(
         &play(&dir, &rig, &fixture("JawMoCap.trc"), &[]),
         &[

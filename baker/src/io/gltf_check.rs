@@ -818,6 +818,21 @@ fn typed_accessor(
     Ok(Some(info))
 }
 
+/// An attribute's accessor must have one element per vertex.
+fn same_count(place: &str, info: &AccessorInfo, vertex_count: u64) -> Result<()> {
+    if info.count == vertex_count {
+        Ok(())
+    } else {
+        Err(invalid(
+            place,
+            format!(
+                "count {} differs from POSITION's {vertex_count}",
+                info.count
+            ),
+        ))
+    }
+}
+
 fn check_primitive(
     place: &str,
     prim: &Map<String, Value>,
@@ -829,7 +844,7 @@ fn check_primitive(
         .and_then(Value::as_object)
         .ok_or_else(|| invalid(place, "missing attributes object"))?;
     let attr_place = format!("{place}.attributes");
-    let mut vertex_count = None;
+    let mut read = Vec::new();
     let mut decoded = 0u64;
     for key in attributes.keys() {
         let want = match key.as_str() {
@@ -837,26 +852,19 @@ fn check_primitive(
             "TANGENT" => Some(4),
             _ => None,
         };
-        let info = typed_accessor(&attr_place, attributes, key, accessors, false, want)?
-            .expect("the key is present");
-        if key == "POSITION" {
-            vertex_count = Some(info.count);
+        if let Some(info) = typed_accessor(&attr_place, attributes, key, accessors, false, want)? {
+            // The loader stores positions and normals as f64 triples, `_` attributes as f32.
+            decoded = decoded.saturating_add(info.count.saturating_mul(info.element * 2));
+            read.push((format!("{attr_place}.{key}"), key == "POSITION", info));
         }
-        // The loader stores positions and normals as f64 triples, `_` attributes as f32.
-        decoded = decoded.saturating_add(info.count.saturating_mul(info.element * 2));
     }
-    let vertex_count = vertex_count.ok_or_else(|| invalid(&attr_place, "no POSITION"))?;
-    for key in attributes.keys() {
-        let info = accessors[attributes[key].as_u64().unwrap_or(0) as usize];
-        if info.count != vertex_count {
-            return Err(invalid(
-                format!("{attr_place}.{key}"),
-                format!(
-                    "count {} differs from POSITION's {vertex_count}",
-                    info.count
-                ),
-            ));
-        }
+    let vertex_count = read
+        .iter()
+        .find(|r| r.1)
+        .map(|r| r.2.count)
+        .ok_or_else(|| invalid(&attr_place, "no POSITION"))?;
+    for (place, _, info) in &read {
+        same_count(place, info, vertex_count)?;
     }
     if let Some(info) = typed_accessor(place, prim, "indices", accessors, true, None)? {
         decoded = decoded.saturating_add(info.count.saturating_mul(4));
@@ -878,16 +886,8 @@ fn check_primitive(
             if !matches!(key.as_str(), "POSITION" | "NORMAL" | "TANGENT") {
                 continue;
             }
-            let info = typed_accessor(&tplace, target, key, accessors, false, Some(3))?
-                .expect("the key is present");
-            if info.count != vertex_count {
-                return Err(invalid(
-                    format!("{tplace}.{key}"),
-                    format!(
-                        "count {} differs from POSITION's {vertex_count}",
-                        info.count
-                    ),
-                ));
+            if let Some(info) = typed_accessor(&tplace, target, key, accessors, false, Some(3))? {
+                same_count(&format!("{tplace}.{key}"), &info, vertex_count)?;
             }
         }
         // Each target is stored as one f64 triple per vertex, whatever it carries.
