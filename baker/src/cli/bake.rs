@@ -557,8 +557,12 @@ fn attach_stages(
         virtual_markers: args.virtual_markers.clone(),
         anchor_markers: args.anchor_markers.clone(),
     };
-    let stages = bake_stages(&capture, &names, &character, &space, &config)
-        .map_err(|e| CliError::input(path, e.to_string()))?;
+    let stages = bake_stages(&capture, &names, &character, &space, &config).map_err(|e| {
+        // Most stage errors name the capture already; the CLI error names it once.
+        let message = e.to_string();
+        let prefix = format!("{}: ", capture.source.display());
+        CliError::input(path, message.strip_prefix(&prefix).unwrap_or(&message))
+    })?;
     let blob = crate::blob::with_stages(blob, &stages.bytes)
         .map_err(|e| CliError::input(path, e.to_string()))?;
     Ok((blob, Some(stages.report)))
