@@ -270,7 +270,7 @@ fn mask_png_264kb_16000_squared() {
         &[
             "mask_png_264KB_2.2GB.png",
             "the header says 16000 × 16000 pixels",
-            "up to 8192 pixels a side",
+            "read up to 8192 × 8192 pixels",
         ],
     );
 }

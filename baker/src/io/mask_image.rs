@@ -23,13 +23,11 @@ use crate::surface::masks::Side;
 /// surface at its pixel is hidden from the image.
 pub const HIDDEN_FRACTION: f64 = 0.01;
 
-/// Largest width or height of a mask image read, pixels. Checked from the PNG header before any
-/// buffer is allocated, as the header alone sizes the buffers.
+/// Largest width or height of a mask image read, pixels (the largest `facebake mask-images`
+/// writes). Checked from the PNG header before any buffer is allocated, as the header alone
+/// sizes the buffers: reading costs 9 to 12 bytes a pixel (the decoded image, one to four bytes,
+/// and an f64 depth buffer), so at most about 800 MB.
 pub const MAX_SIDE: u32 = 8192;
-/// Largest number of pixels of a mask image read (4096²): reading costs about 13 bytes a pixel
-/// (the decoded image and a depth buffer), so at most about 220 MB. A mask needs far fewer
-/// pixels than that: a few per mesh vertex.
-pub const MAX_PIXELS: u64 = 4096 * 4096;
 
 /// Grey level written for the upper side.
 pub const UPPER: u8 = 255;
@@ -136,12 +134,12 @@ pub fn read_sides(
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = decoder.read_info().map_err(|e| decode(e.to_string()))?;
     let (w, h) = (reader.info().width, reader.info().height);
-    if w > MAX_SIDE || h > MAX_SIDE || u64::from(w) * u64::from(h) > MAX_PIXELS {
+    if w > MAX_SIDE || h > MAX_SIDE {
         return Err(MaskImageError::Content {
             path: path.to_path_buf(),
             message: format!(
-                "the header says {w} × {h} pixels; mask images are read up to {MAX_SIDE} pixels a \
-                 side and {MAX_PIXELS} pixels in all (4096 × 4096)"
+                "the header says {w} × {h} pixels; mask images are read up to {MAX_SIDE} × \
+                 {MAX_SIDE} pixels"
             ),
         });
     }
