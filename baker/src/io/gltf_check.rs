@@ -29,7 +29,6 @@
 //! Every problem is a [`GltfCheckError`] naming the place in the file (`accessors[3]`,
 //! `meshes[0].primitives[0].attributes.POSITION`, `GLB header`).
 
-use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
 use serde_json::{Map, Value};
@@ -60,10 +59,10 @@ pub enum GltfCheckError {
     /// The file itself could not be opened or read.
     #[error("cannot read the file: {0}")]
     Read(#[source] std::io::Error),
-    /// A file or buffer is larger than the reader accepts.
+    /// A buffer is declared larger than the reader accepts.
     #[error("{what} is {bytes} bytes, more than the {limit} bytes accepted")]
     TooLarge {
-        /// Which file or buffer.
+        /// Which buffer.
         what: String,
         /// Its size.
         bytes: u64,
@@ -128,10 +127,8 @@ pub fn import(
     path: &Path,
     access: BufferAccess,
 ) -> Result<(gltf::Document, Vec<gltf::buffer::Data>)> {
-    let bytes = read_bounded(path, "the file").map_err(|e| match e {
-        Bounded::Io(e) => GltfCheckError::Read(e),
-        Bounded::Checked(e) => e,
-    })?;
+    let bytes = crate::io::read_regular(path, MAX_FILE_BYTES, MAX_FILE_BYTES)
+        .map_err(GltfCheckError::Read)?;
     let (json, bin) = split_glb(&bytes)?;
     let root: Value = serde_json::from_slice(json).map_err(GltfCheckError::Json)?;
     let root = root
@@ -148,42 +145,6 @@ pub fn import(
         .map_err(|e| GltfCheckError::Document(gltf::Error::Deserialize(e)))?;
     let document = gltf::Document::from_json(json_root).map_err(GltfCheckError::Document)?;
     Ok((document, data.into_iter().map(gltf::buffer::Data).collect()))
-}
-
-enum Bounded {
-    Io(std::io::Error),
-    Checked(GltfCheckError),
-}
-
-/// Reads a regular file of at most [`MAX_FILE_BYTES`] (or `limit`, if smaller) in full.
-fn read_bounded_limit(
-    path: &Path,
-    what: &str,
-    limit: u64,
-) -> std::result::Result<Vec<u8>, Bounded> {
-    let file = std::fs::File::open(path).map_err(Bounded::Io)?;
-    let meta = file.metadata().map_err(Bounded::Io)?;
-    if !meta.is_file() {
-        return Err(Bounded::Io(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file",
-        )));
-    }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(Bounded::Checked(GltfCheckError::TooLarge {
-            what: what.to_owned(),
-            bytes: meta.len(),
-            limit: MAX_FILE_BYTES,
-        }));
-    }
-    let take = limit.min(meta.len());
-    let mut out = Vec::with_capacity(take as usize);
-    file.take(take).read_to_end(&mut out).map_err(Bounded::Io)?;
-    Ok(out)
-}
-
-fn read_bounded(path: &Path, what: &str) -> std::result::Result<Vec<u8>, Bounded> {
-    read_bounded_limit(path, what, MAX_FILE_BYTES)
 }
 
 fn le_u32(b: &[u8], at: usize) -> u32 {
@@ -371,15 +332,14 @@ fn load_buffers(
                     decode_data_uri(rest, &uri_place)?
                 } else {
                     let file = resolve_uri(uri, folder, access, &uri_place)?;
-                    let data =
-                        read_bounded_limit(&file, &uri_place, length).map_err(|e| match e {
-                            Bounded::Io(source) => GltfCheckError::Buffer {
-                                place: uri_place.clone(),
-                                file: file.clone(),
-                                source,
-                            },
-                            Bounded::Checked(e) => e,
-                        })?;
+                    // Only the declared bytes: a longer file is not read to its end.
+                    let data = crate::io::read_regular(&file, MAX_FILE_BYTES, length).map_err(
+                        |source| GltfCheckError::Buffer {
+                            place: uri_place.clone(),
+                            file: file.clone(),
+                            source,
+                        },
+                    )?;
                     external += data.len() as u64;
                     data
                 }

@@ -35,25 +35,35 @@ pub const MAX_INPUT_BYTES: u64 = 1 << 30;
 /// Reads a whole regular file of at most [`MAX_INPUT_BYTES`]: not a device (`/dev/zero`), a
 /// pipe, or a file that would exhaust memory.
 pub fn read_bounded(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
+    read_regular(path, MAX_INPUT_BYTES, MAX_INPUT_BYTES)
+}
+
+/// Reads the first `take` bytes of a regular file of at most `max_len` bytes (an
+/// `InvalidInput` error for anything else that is not a regular file, `InvalidData` for a
+/// longer file), allocating no more than it reads.
+pub fn read_regular(path: &std::path::Path, max_len: u64, take: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let not_regular = || Error::new(ErrorKind::InvalidInput, "not a regular file");
+    // Checked before opening too: opening a pipe would block.
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(not_regular());
+    }
     let file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
     if !meta.is_file() {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file",
-        ));
+        return Err(not_regular());
     }
-    if meta.len() > MAX_INPUT_BYTES {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
+    if meta.len() > max_len {
+        return Err(Error::new(
+            ErrorKind::InvalidData,
             format!(
-                "the file is {} bytes, more than the {MAX_INPUT_BYTES} bytes read",
+                "the file is {} bytes, more than the {max_len} bytes read",
                 meta.len()
             ),
         ));
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(MAX_INPUT_BYTES).read_to_end(&mut bytes)?;
+    let take = take.min(meta.len());
+    let mut bytes = Vec::with_capacity(take as usize);
+    file.take(take).read_to_end(&mut bytes)?;
     Ok(bytes)
 }
