@@ -16,7 +16,14 @@ fuzz_target!(|data: &[u8]| {
     if rig.vertex_count() > 1 << 16 || rig.marker_count() > 1 << 10 {
         return;
     }
-    let value = |i: usize| i32::from_le_bytes([seed[i % 8], seed[(i + 1) % 8], seed[(i + 2) % 8], seed[(i + 3) % 8]]);
+    let value = |i: usize| {
+        i32::from_le_bytes([
+            seed[i % 8],
+            seed[(i + 1) % 8],
+            seed[(i + 2) % 8],
+            seed[(i + 3) % 8],
+        ])
+    };
     let markers: Vec<[i32; 3]> = (0..rig.marker_count())
         .map(|m| [value(3 * m), value(3 * m + 1), value(3 * m + 2)])
         .collect();

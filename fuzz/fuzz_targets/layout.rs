@@ -10,7 +10,11 @@ fuzz_target!(|data: &[u8]| {
     let Some((&which, body)) = data.split_first() else {
         return;
     };
-    let name = if which % 2 == 0 { "layout.toml" } else { "layout.json" };
+    let name = if which % 2 == 0 {
+        "layout.toml"
+    } else {
+        "layout.json"
+    };
     let path = common::scratch(name, body);
     if let Ok(layout) = read_layout(&path) {
         let out = common::scratch(name.replace("layout", "back").as_str(), b"");
