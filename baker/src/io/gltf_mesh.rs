@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use gltf::mesh::Mode;
 use thiserror::Error;
 
+use crate::io::gltf_check::{self, BufferAccess, GltfCheckError};
 use crate::model::{weld_positions, FaceMesh, MorphTarget};
 
 /// Failure to load a mesh: the file and what is wrong with it.
@@ -31,9 +32,9 @@ pub struct MeshLoadError {
 /// The problems [`load_mesh`] reports.
 #[derive(Debug, Error)]
 pub enum MeshLoadErrorKind {
-    /// The file could not be read or is not valid glTF.
-    #[error("cannot read glTF: {0}")]
-    Gltf(#[from] gltf::Error),
+    /// The file failed the checks made before the glTF crate reads it (see `gltf_check`).
+    #[error(transparent)]
+    Check(#[from] GltfCheckError),
     /// The file contains no mesh at all.
     #[error("the file contains no meshes")]
     NoMeshes,
@@ -167,7 +168,17 @@ pub fn load_mesh(
     mesh: Option<&str>,
     primitive: Option<usize>,
 ) -> Result<FaceMesh, MeshLoadError> {
-    load(path, mesh, primitive).map_err(|kind| MeshLoadError {
+    load_mesh_with(path, mesh, primitive, BufferAccess::AssetFolder)
+}
+
+/// [`load_mesh`], choosing where a `.gltf`'s external buffers may be read from.
+pub fn load_mesh_with(
+    path: &Path,
+    mesh: Option<&str>,
+    primitive: Option<usize>,
+    access: BufferAccess,
+) -> Result<FaceMesh, MeshLoadError> {
+    load(path, mesh, primitive, access).map_err(|kind| MeshLoadError {
         path: path.to_path_buf(),
         kind,
     })
@@ -177,9 +188,10 @@ fn load(
     path: &Path,
     mesh_name: Option<&str>,
     primitive_index: Option<usize>,
+    access: BufferAccess,
 ) -> Result<FaceMesh, MeshLoadErrorKind> {
-    let gltf::Gltf { document, blob } = gltf::Gltf::open(path)?;
-    let buffers = gltf::import_buffers(&document, path.parent(), blob)?;
+    // Checked first: the gltf crate trusts the file (see `gltf_check`).
+    let (document, buffers) = gltf_check::import(path, access)?;
 
     let display_name = |m: &gltf::Mesh| {
         m.name()
@@ -601,7 +613,10 @@ pub(crate) mod tests {
             "{e}"
         );
         let e = load_mesh(Path::new("/nonexistent/face.glb"), None, None).unwrap_err();
-        assert!(matches!(e.kind, MeshLoadErrorKind::Gltf(_)), "{e}");
+        assert!(
+            matches!(e.kind, MeshLoadErrorKind::Check(GltfCheckError::Read(_))),
+            "{e}"
+        );
         assert!(e.to_string().contains("/nonexistent/face.glb"));
     }
 

@@ -140,10 +140,15 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
 /// names, stiffness range, finite points, groups and triangles naming the layout's markers.
 pub fn read_layout(path: &Path) -> Result<MarkerLayout, LayoutError> {
     let format = format_of(path)?;
-    let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::io::read_bounded(path)
+        .and_then(|b| {
+            String::from_utf8(b)
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+        })
+        .map_err(|source| LayoutError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let parse_error = |line, column, message: &str| LayoutError::Parse {
         path: path.to_path_buf(),
         line,

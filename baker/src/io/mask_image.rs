@@ -23,6 +23,12 @@ use crate::model::Side;
 /// surface at its pixel is hidden from the image.
 pub const HIDDEN_FRACTION: f64 = 0.01;
 
+/// Largest width or height of a mask image read, pixels (the largest `facebake mask-images`
+/// writes). Checked from the PNG header before any buffer is allocated, as the header alone
+/// sizes the buffers: reading costs 9 to 12 bytes a pixel (the decoded image, one to four bytes,
+/// and an f64 depth buffer), so at most about 800 MB.
+pub const MAX_SIDE: u32 = 8192;
+
 /// Grey level written for the upper side.
 pub const UPPER: u8 = 255;
 /// Grey level written for the lower side.
@@ -127,6 +133,16 @@ pub fn read_sides(
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = decoder.read_info().map_err(|e| decode(e.to_string()))?;
+    let (w, h) = (reader.info().width, reader.info().height);
+    if w > MAX_SIDE || h > MAX_SIDE {
+        return Err(MaskImageError::Content {
+            path: path.to_path_buf(),
+            message: format!(
+                "the header says {w} × {h} pixels; mask images are read up to {MAX_SIDE} × \
+                 {MAX_SIDE} pixels"
+            ),
+        });
+    }
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| decode("the image is too large".into()))?;

@@ -126,6 +126,38 @@ pub enum StagesError {
         /// The frame (0-based).
         frame: usize,
     },
+    /// A marker in a neutral frame is far from all the others: a ghost sample or a mislabel.
+    #[error(
+        "{file}: marker {name:?} in neutral frame {frame} is {distance_mm:.1} mm from its nearest \
+         neighbour, more than {NEUTRAL_OUTLIER_FACTOR} × the median nearest-neighbour distance \
+         ({median_mm:.1} mm): a ghost sample? (choose another neutral range with --neutral)"
+    )]
+    NeutralOutlier {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+        /// The frame (0-based).
+        frame: usize,
+        /// Its distance to the nearest other marker, mm.
+        distance_mm: f64,
+        /// The median of all markers' nearest-neighbour distances, mm.
+        median_mm: f64,
+    },
+    /// The neutral face, in the capture's units, is not the size of a face.
+    #[error(
+        "{file}: the actor's neutral markers span {half_extent_m:.4} m from their centre (read as \
+         {units}), not a face's {ACTOR_HALF_EXTENT_MIN_M}–{ACTOR_HALF_EXTENT_MAX_M} m: are the \
+         capture's units right? (--capture-units)"
+    )]
+    ActorScale {
+        /// The capture file.
+        file: String,
+        /// Half the largest side of the neutral markers' bounds, metres.
+        half_extent_m: f64,
+        /// The units the numbers were read in.
+        units: String,
+    },
     /// A named head marker is not a rig marker the capture has.
     #[error("head marker {0:?} is not one of the rig's markers in the capture")]
     UnknownHeadMarker(String),
@@ -299,11 +331,30 @@ pub fn bake_stages(
                 .collect()
         })
         .collect::<Result<_, _>>()?;
+    for (frame, markers) in range.clone().zip(&neutral_frames) {
+        check_neutral_frame(markers).map_err(|(i, distance, median)| {
+            StagesError::NeutralOutlier {
+                file: file.clone(),
+                name: marker_names[real[i]].clone(),
+                frame,
+                distance_mm: distance * 1000.0,
+                median_mm: median * 1000.0,
+            }
+        })?;
+    }
     let count = neutral_frames.len() as f64;
     let real_neutral: Vec<[f64; 3]> = (0..real.len())
         .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
         .collect();
     let actor_space = space_for(&real_neutral);
+    let half_extent = f64::from(actor_space.half_extent);
+    if !(ACTOR_HALF_EXTENT_MIN_M..=ACTOR_HALF_EXTENT_MAX_M).contains(&half_extent) {
+        return Err(StagesError::ActorScale {
+            file,
+            half_extent_m: half_extent,
+            units: original_units.symbol().to_string(),
+        });
+    }
     let real_units: Vec<[f64; 3]> = real_neutral
         .iter()
         .map(|p| to_rig_units(&actor_space, p))
@@ -454,6 +505,47 @@ pub fn bake_stages(
         reference,
         report,
     })
+}
+
+/// A neutral marker whose nearest neighbour is further than this many times the median of all
+/// markers' nearest-neighbour distances is refused as a ghost. On JawMoCap the largest ratio is
+/// about 2.
+pub const NEUTRAL_OUTLIER_FACTOR: f64 = 10.0;
+/// Smallest actor half extent (half the largest side of the neutral markers' bounds) accepted,
+/// metres: a face's markers span more than 2 cm.
+pub const ACTOR_HALF_EXTENT_MIN_M: f64 = 0.01;
+/// Largest actor half extent accepted, metres.
+pub const ACTOR_HALF_EXTENT_MAX_M: f64 = 1.0;
+
+/// Checks one neutral frame by robust statistics: `Err((marker, its nearest-neighbour distance,
+/// the median of those distances))` for the first marker further than [`NEUTRAL_OUTLIER_FACTOR`]
+/// × the median from every other marker. Quadratic in the markers (a face has at most 255).
+fn check_neutral_frame(markers: &[[f64; 3]]) -> Result<(), (usize, f64, f64)> {
+    if markers.len() < 3 {
+        return Ok(());
+    }
+    let nearest: Vec<f64> = markers
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            markers
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, q)| distance(p, q))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let mut sorted = nearest.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    match nearest
+        .iter()
+        .position(|&d| d > NEUTRAL_OUTLIER_FACTOR * median)
+    {
+        Some(i) => Err((i, nearest[i], median)),
+        None => Ok(()),
+    }
 }
 
 /// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in

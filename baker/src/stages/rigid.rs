@@ -158,9 +158,25 @@ pub fn three_point(from: &[[f64; 3]; 3], to: &[[f64; 3]; 3]) -> Result<RigidTran
     })
 }
 
+/// Captures with more markers than this have their head-marker candidates pre-selected (see
+/// [`most_rigid_subset`]); the exact search then looks at this many.
+pub const RIGID_CANDIDATES: usize = 48;
+/// Neighbours (nearest in the first frame) each marker's pre-selection score looks at.
+pub const RIGID_NEIGHBOURS: usize = 12;
+
 /// The `size` markers whose pairwise distances vary least (standard deviation over `frames`):
 /// the best-scoring triple, then greedily the marker adding the least variation. Returns marker
 /// indices in ascending order and the mean standard deviation of their pairwise distances.
+///
+/// The exact search is cubic in the markers, so with more than [`RIGID_CANDIDATES`] markers it
+/// runs on that many candidates only: the markers with the smallest sum of their two least
+/// varying distances to their [`RIGID_NEIGHBOURS`] nearest neighbours (a marker of a rigid
+/// group has at least two rigid partners close by, as head markers on the forehead, the nose
+/// bridge or a headband have; a group spread so thinly that each marker's nearest neighbours
+/// all move may be missed), the neighbours found on a uniform grid. The
+/// pre-selection costs O(n · [`RIGID_NEIGHBOURS`] · frames) plus the grid's cells visited,
+/// linear for markers filling their box, more for markers bunched in a few cells; up to
+/// [`RIGID_CANDIDATES`] markers the result is the exact search's.
 pub fn most_rigid_subset(
     frames: &[Vec<[f64; 3]>],
     size: usize,
@@ -169,17 +185,138 @@ pub fn most_rigid_subset(
     if size < 3 || n < size {
         return Err(RigidError::TooFewPoints(n.min(size)));
     }
+    let candidates: Vec<usize> = if n <= RIGID_CANDIDATES.max(size) {
+        (0..n).collect()
+    } else {
+        rigid_candidates(frames, RIGID_CANDIDATES.max(size))
+    };
+    let (chosen, spread) = exact_most_rigid(frames, &candidates, size)?;
+    let mut chosen: Vec<usize> = chosen.iter().map(|&c| candidates[c]).collect();
+    chosen.sort_unstable();
+    Ok((chosen, spread))
+}
+
+/// Standard deviation over `frames` of the distance between markers `i` and `j`.
+fn distance_spread(frames: &[Vec<[f64; 3]>], i: usize, j: usize) -> f64 {
+    let d: Vec<f64> = frames
+        .iter()
+        .map(|f| crate::mesh::distance(&f[i], &f[j]))
+        .collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64;
+    var.sqrt()
+}
+
+/// The `count` markers most likely to belong to a rigid group (see [`most_rigid_subset`]), in
+/// ascending score.
+fn rigid_candidates(frames: &[Vec<[f64; 3]>], count: usize) -> Vec<usize> {
+    let first = &frames[0];
+    let grid = Grid::new(first);
+    let mut score: Vec<(f64, usize)> = (0..first.len())
+        .map(|i| {
+            let mut spreads: Vec<f64> = grid
+                .nearest(first, i, RIGID_NEIGHBOURS)
+                .into_iter()
+                .map(|j| distance_spread(frames, i, j))
+                .collect();
+            spreads.sort_by(f64::total_cmp);
+            (spreads.iter().take(2).sum(), i)
+        })
+        .collect();
+    score.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    score.truncate(count);
+    score.into_iter().map(|(_, i)| i).collect()
+}
+
+/// A uniform grid over points' bounding box, about [`RIGID_NEIGHBOURS`] points a cell when they
+/// fill the box, for nearest-neighbour queries that visit the cells in shells around the query.
+struct Grid {
+    lo: [f64; 3],
+    cell: [f64; 3],
+    side: usize,
+    /// Point indices per cell, cells in x-major order.
+    cells: Vec<Vec<usize>>,
+}
+
+impl Grid {
+    fn new(points: &[[f64; 3]]) -> Self {
+        let (lo, hi) = crate::model::bounds(points.iter().copied());
+        let side = ((points.len() / RIGID_NEIGHBOURS).max(1) as f64)
+            .cbrt()
+            .ceil() as usize;
+        let cell = [0, 1, 2].map(|k| ((hi[k] - lo[k]) / side as f64).max(f64::MIN_POSITIVE));
+        let mut grid = Self {
+            lo,
+            cell,
+            side,
+            cells: vec![Vec::new(); side * side * side],
+        };
+        for (i, p) in points.iter().enumerate() {
+            let c = grid.cell_of(p);
+            grid.cells[(c[0] * side + c[1]) * side + c[2]].push(i);
+        }
+        grid
+    }
+
+    fn cell_of(&self, p: &[f64; 3]) -> [usize; 3] {
+        [0, 1, 2].map(|k| (((p[k] - self.lo[k]) / self.cell[k]) as usize).min(self.side - 1))
+    }
+
+    /// The `m` points nearest to `points[i]` (itself excluded).
+    fn nearest(&self, points: &[[f64; 3]], i: usize, m: usize) -> Vec<usize> {
+        let centre = self.cell_of(&points[i]);
+        let min_cell = self.cell.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut near: Vec<(f64, usize)> = Vec::with_capacity(m + 1);
+        for r in 0..self.side {
+            let range = |k: usize| centre[k].saturating_sub(r)..=(centre[k] + r).min(self.side - 1);
+            for x in range(0) {
+                for y in range(1) {
+                    for z in range(2) {
+                        let ring = [x, y, z]
+                            .iter()
+                            .zip(centre)
+                            .map(|(&a, c)| a.abs_diff(c))
+                            .max()
+                            .unwrap_or(0);
+                        if ring != r {
+                            continue;
+                        }
+                        for &j in &self.cells[(x * self.side + y) * self.side + z] {
+                            if j == i {
+                                continue;
+                            }
+                            let d = crate::mesh::distance(&points[i], &points[j]);
+                            if near.len() < m || d < near[near.len() - 1].0 {
+                                let at = near.partition_point(|e| e.0 <= d);
+                                near.insert(at, (d, j));
+                                near.truncate(m);
+                            }
+                        }
+                    }
+                }
+            }
+            // Points in further shells are at least r cells away.
+            if near.len() == m && near[m - 1].0 <= r as f64 * min_cell {
+                break;
+            }
+        }
+        near.into_iter().map(|(_, j)| j).collect()
+    }
+}
+
+/// The exact search over the markers `among`; indices into `among`.
+fn exact_most_rigid(
+    frames: &[Vec<[f64; 3]>],
+    among: &[usize],
+    size: usize,
+) -> Result<(Vec<usize>, f64), RigidError> {
+    let n = among.len();
     let mut spread = vec![vec![0.0f64; n]; n];
     for i in 0..n {
         for j in i + 1..n {
-            let d: Vec<f64> = frames
-                .iter()
-                .map(|f| crate::mesh::distance(&f[i], &f[j]))
-                .collect();
-            let mean = d.iter().sum::<f64>() / d.len() as f64;
-            let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64;
-            spread[i][j] = var.sqrt();
-            spread[j][i] = var.sqrt();
+            let s = distance_spread(frames, among[i], among[j]);
+            spread[i][j] = s;
+            spread[j][i] = s;
         }
     }
     let mut best = (f64::INFINITY, [0, 1, 2]);
@@ -204,7 +341,6 @@ pub fn most_rigid_subset(
             .ok_or(RigidError::TooFewPoints(chosen.len()))?;
         chosen.push(next);
     }
-    chosen.sort_unstable();
     let pairs = chosen.len() * (chosen.len() - 1) / 2;
     let total: f64 = chosen
         .iter()
@@ -324,6 +460,66 @@ mod tests {
             max < 0.3,
             "residual {max} cm: the head markers should fit within 3 mm"
         );
+    }
+
+    #[test]
+    fn most_rigid_subset_finds_a_rigid_group_among_many_markers() {
+        // 400 markers jittering at random (a small LCG), 4 of them a rigid group turning with
+        // the head: more than RIGID_CANDIDATES, so the pre-selection runs.
+        let mut seed = 12345u64;
+        let mut random = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 400;
+        let rigid = [17, 123, 250, 399];
+        // The group is close together (a headband's markers), the others fill a 100-unit box.
+        let base: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let (origin, size) = if rigid.contains(&i) {
+                    (50.0, 5.0)
+                } else {
+                    (0.0, 100.0)
+                };
+                [0, 1, 2].map(|_| origin + random() * size)
+            })
+            .collect();
+        let frames: Vec<Vec<[f64; 3]>> = (0..20)
+            .map(|f| {
+                let turn = Rotation3::from_euler_angles(0.02 * f as f64, 0.01 * f as f64, 0.0);
+                base.iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        if rigid.contains(&i) {
+                            let q = turn * Vector3::new(p[0], p[1], p[2]);
+                            [q.x + f as f64, q.y, q.z]
+                        } else {
+                            [0, 1, 2].map(|k| p[k] + 3.0 * (random() - 0.5))
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let (chosen, spread) = most_rigid_subset(&frames, 4).unwrap();
+        assert_eq!(chosen, rigid);
+        assert!(spread < 1e-9, "{spread}");
+        // The grid's neighbours are the brute-force ones.
+        let grid = Grid::new(&frames[0]);
+        for i in [0, 17, 200, 399] {
+            let mut brute: Vec<(f64, usize)> = (0..n)
+                .filter(|&j| j != i)
+                .map(|j| (crate::mesh::distance(&frames[0][i], &frames[0][j]), j))
+                .collect();
+            brute.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let want: Vec<usize> = brute[..RIGID_NEIGHBOURS].iter().map(|e| e.1).collect();
+            assert_eq!(
+                grid.nearest(&frames[0], i, RIGID_NEIGHBOURS),
+                want,
+                "marker {i}"
+            );
+        }
     }
 
     #[test]

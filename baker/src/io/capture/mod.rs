@@ -122,15 +122,20 @@ impl Capture {
         })
     }
 
-    /// Checks what the writers rely on: a positive finite rate, unique marker names and one
+    /// Checks what the writers rely on: a rate in [`RATE_RANGE_HZ`], unique marker names and one
     /// sample per marker in every frame.
     fn check_writable(&self, path: &Path) -> Result<(), CaptureError> {
         let err = |message: String| CaptureError::File {
             path: path.to_path_buf(),
             message,
         };
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
-            return Err(err(format!("cannot write a rate of {} Hz", self.rate_hz)));
+        if !valid_rate(self.rate_hz) {
+            return Err(err(format!(
+                "cannot write a rate of {} Hz (the readers take {} to {} Hz)",
+                self.rate_hz,
+                RATE_RANGE_HZ.start(),
+                RATE_RANGE_HZ.end()
+            )));
         }
         if let Some(name) = first_duplicate(&self.marker_names) {
             return Err(err(format!("duplicate marker name {name:?}")));
@@ -166,12 +171,22 @@ pub fn read_capture(path: &Path) -> Result<Capture, CaptureError> {
     read_capture_with_units(path, None)
 }
 
+/// Capture rates the readers accept and the writers write, Hz. Bounded away from zero (a
+/// subnormal rate makes the written times `frame / rate` infinite, which no reader takes back)
+/// and from infinity.
+pub const RATE_RANGE_HZ: std::ops::RangeInclusive<f64> = 1e-3..=1e6;
+
+/// Whether `rate_hz` is in [`RATE_RANGE_HZ`] (so neither NaN, infinite, zero nor subnormal).
+pub fn valid_rate(rate_hz: f64) -> bool {
+    RATE_RANGE_HZ.contains(&rate_hz)
+}
+
 /// Reads a capture like [`read_capture`]; `units`, when given, is an explicit override that
 /// replaces whatever units the file states (positions are not rescaled: the override says what
 /// unit the numbers are in). It is the way to read a CSV file that has no units line.
 pub fn read_capture_with_units(path: &Path, units: Option<Units>) -> Result<Capture, CaptureError> {
     let format = Format::of(path)?;
-    let bytes = std::fs::read(path).map_err(|source| CaptureError::Io {
+    let bytes = crate::io::read_bounded(path).map_err(|source| CaptureError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -316,15 +331,17 @@ mod text {
             Ok(complete.then_some(p))
         }
 
-        /// A sampling rate: a positive finite number of Hz.
+        /// A sampling rate: a number of Hz in [`RATE_RANGE_HZ`](super::RATE_RANGE_HZ).
         pub(super) fn rate(&self, line: usize, text: &str) -> Result<f64, CaptureError> {
             match text.trim().parse::<f64>() {
-                Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+                Ok(r) if super::valid_rate(r) => Ok(r),
                 _ => Err(self.at(
                     line,
                     format!(
-                        "invalid rate {:?} (expected a positive number of Hz)",
-                        text.trim()
+                        "invalid rate {:?} (expected {} to {} Hz)",
+                        text.trim(),
+                        super::RATE_RANGE_HZ.start(),
+                        super::RATE_RANGE_HZ.end()
                     ),
                 )),
             }

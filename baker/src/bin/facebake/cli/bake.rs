@@ -10,7 +10,8 @@ use serde::Serialize;
 use super::values::{deformer_parser, MethodArg, RadialArg, RefitArg, RetargetArg};
 use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
 use facebake::io::capture::read_capture_with_units;
-use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::gltf_check::BufferAccess;
+use facebake::io::gltf_mesh::load_mesh_with;
 use facebake::io::layout::read_layout;
 use facebake::io::mask_sides::read_vertex_sides;
 use facebake::model::{
@@ -37,6 +38,10 @@ pub struct BakeArgs {
     /// The marker layout (.toml or .json).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
+    /// Let a `.gltf` read its buffers from anywhere (absolute paths, `file:` URIs, `..`);
+    /// by default only files inside the mesh's folder are read.
+    #[arg(long)]
+    pub allow_outside_asset: bool,
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
@@ -80,11 +85,11 @@ pub struct BakeArgs {
     pub radial: Option<RadialArg>,
     /// Radial width in mesh units (default: --width-factor × the mean nearest-marker distance;
     /// the inverse multiquadric uses per-marker radii and ignores it).
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", value_parser = parse_positive)]
     pub width: Option<f64>,
     /// Width as a multiple of the mean nearest-marker distance, when --width is not given
     /// (default: 0.75 for euclidean, 1 for geodesic and hybrid).
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", value_parser = parse_positive)]
     pub width_factor: Option<f64>,
     /// Leave out the affine term of the RBF system.
     #[arg(long)]
@@ -97,7 +102,7 @@ pub struct BakeArgs {
     pub refit: RefitArg,
     /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
     /// (default: 1% of the mesh's bounding-box diagonal).
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", value_parser = parse_positive)]
     pub max_snap: Option<f64>,
     /// The actor's capture (.c3d, .trc or .csv): also bake the capture stages (head-motion
     /// compensation, fill, retargeting onto the layout's markers) from it, so that `play`
@@ -116,14 +121,14 @@ pub struct BakeArgs {
     pub head_markers: HeadMarkers,
     /// A compensated marker further than this from its neutral position is rejected and
     /// rebuilt, as a fraction of the actor's half extent.
-    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, requires = "capture")]
+    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, value_parser = parse_positive, requires = "capture")]
     pub max_displacement: f64,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
     #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
     pub retarget: RetargetArg,
     /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
-    #[arg(long, value_name = "F", default_value_t = BakeOptions::default().planar_radius)]
+    #[arg(long, value_name = "F", default_value_t = BakeOptions::default().planar_radius, value_parser = parse_positive)]
     pub planar_radius: f64,
     /// Layout markers the capture never has (e.g. inner lips), comma-separated: rebuilt from
     /// their nearest captured markers every frame (paper 000 §5.2). Any other layout marker
@@ -287,7 +292,17 @@ fn attribute_sides(name: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> 
 
 /// Run `facebake bake`.
 pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
-    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
+    let access = if args.allow_outside_asset {
+        BufferAccess::Anywhere
+    } else {
+        BufferAccess::AssetFolder
+    };
+    let mesh = load_mesh_with(
+        &args.mesh,
+        args.mesh_name.as_deref(),
+        args.primitive,
+        access,
+    )?;
     let layout = read_layout(&args.layout)?;
     let max_snap = args
         .max_snap
@@ -339,7 +354,12 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
 /// stages, the sides file for masks with given sides, else the layout.
 fn bake_error(args: &BakeArgs, e: BakeError) -> CliError {
     match (&e, &args.capture, &args.mask_sides) {
-        (BakeError::Stages(_), Some(capture), _) => CliError::input(capture, e.to_string()),
+        (BakeError::Stages(_), Some(capture), _) => {
+            // Most stage errors name the capture already; the CLI error names it once.
+            let message = e.to_string();
+            let prefix = format!("{}: ", capture.display());
+            CliError::input(capture, message.strip_prefix(&prefix).unwrap_or(&message))
+        }
         (BakeError::Surface(facebake::surface::SurfaceError::Mask(_)), _, Some(sides)) => {
             CliError::input(sides, e.to_string())
         }
@@ -540,7 +560,13 @@ pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
                 Err(format!("{s}: an empty range of frames"))
             }
         }
-        None => num(s).map(|n| n..n + 1),
+        None => {
+            let n = num(s)?;
+            let end = n
+                .checked_add(1)
+                .ok_or_else(|| format!("{s}: frame number too large"))?;
+            Ok(n..end)
+        }
     }
 }
 
@@ -554,12 +580,44 @@ pub fn parse_head(s: &str) -> Result<HeadMarkers, String> {
                 .parse()
                 .map(HeadMarkers::MostRigid)
                 .map_err(|_| format!("{n:?} is not a number of head markers")),
-            None => Ok(HeadMarkers::Named(
-                t.split(',')
+            None => {
+                let names: Vec<String> = t
+                    .split(',')
                     .map(|n| n.trim().to_string())
                     .filter(|n| !n.is_empty())
-                    .collect(),
-            )),
+                    .collect();
+                if let Some((_, n)) = names
+                    .iter()
+                    .enumerate()
+                    .find(|(i, n)| names[..*i].contains(n))
+                {
+                    return Err(format!("head marker {n:?} is named twice"));
+                }
+                Ok(HeadMarkers::Named(names))
+            }
         },
+    }
+}
+
+/// Parse a number that must be positive and finite (widths, radii, fractions): `nan`, `inf`,
+/// zero, negatives and subnormals are refused as bad arguments.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if x.is_normal() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s:?} must be a positive finite number"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn neutral_frame_numbers_never_overflow() {
+        assert!(super::parse_frames("18446744073709551615").is_err());
+        assert_eq!(super::parse_frames("7"), Ok(7..8));
     }
 }

@@ -335,7 +335,12 @@ fn print_text(s: &InspectSummary) {
         s.influences,
         s.mean_influences_per_vertex
     );
-    outln!(out, "  markers       {}", s.marker_names.join(" "));
+    // Names come from the blob: escaped, so terminal escapes in them are shown, not obeyed.
+    outln!(
+        out,
+        "  markers       {}",
+        facebake::io::escape_control(&s.marker_names.join(" "))
+    );
     let sec = &s.sections;
     outln!(
         out,
@@ -369,7 +374,7 @@ fn print_text(s: &InspectSummary) {
         outln!(
             out,
             "  capture       head markers {}; actor half extent {:.1} mm; rejects displacements over {:.1} mm; stages {} bytes",
-            if c.head_markers.is_empty() { "none".to_string() } else { c.head_markers.join(", ") },
+            if c.head_markers.is_empty() { "none".to_string() } else { facebake::io::escape_control(&c.head_markers.join(", ")).into_owned() },
             c.actor_half_extent_m * 1000.0,
             c.max_displacement_m * 1000.0,
             sec.stages

@@ -198,7 +198,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
 
 /// Read a whole file.
 pub fn read_file(path: &Path) -> Result<Vec<u8>, CliError> {
-    std::fs::read(path).map_err(|e| CliError::io(path, e))
+    facebake::io::read_bounded(path).map_err(|e| CliError::io(path, e))
 }
 
 /// Load a rig from blob bytes read from `path`.
@@ -277,7 +277,7 @@ pub fn markers_to_rig(
         .enumerate()
         .map(|(m, p)| {
             space.to_rig_f64(*p).map_err(|e| {
-                let name = rig.marker_names().nth(m).unwrap_or("?");
+                let name = facebake::io::escape_control(rig.marker_names().nth(m).unwrap_or("?"));
                 CliError::input(
                     path,
                     format!("frame {frame} (counting from 0), marker \"{name}\" at {p:?}: {e}"),
@@ -349,7 +349,8 @@ pub fn marker_vertices(
                     format!(
                         "the rig's marker \"{}\" is {d:.3e} from the nearest vertex of mesh \"{}\"; \
                          a ground-truth check needs markers at vertices",
-                        names[m], mesh.mesh_name
+                        facebake::io::escape_control(&names[m]),
+                        mesh.mesh_name
                     ),
                 ))
             }

@@ -54,9 +54,128 @@ pub struct PlayArgs {
     /// Frames (0-based, comma-separated) to put in the .glb (default: 10 evenly spaced).
     #[arg(long, value_name = "F,F,...", value_delimiter = ',', requires = "glb")]
     pub frames: Option<Vec<usize>>,
+    /// Rig markers the capture may lack, comma-separated (rebuilt or held every frame). Any
+    /// other rig marker missing from the capture is an error, except the rig's virtual markers
+    /// and anchors.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub allow_missing: Vec<String>,
     /// Print a JSON summary on stdout instead of text (and no progress bar).
     #[arg(long)]
     pub json: bool,
+}
+
+/// A raw take is refused on a rig without capture stages when its markers sit, at the median
+/// frame, further than this fraction of the rig's marker extent (bounding-box diagonal) from the
+/// rig's rest markers after the best rigid fit, or the best fit turns them by more than
+/// [`RAW_TAKE_TURN_DEGREES`].
+pub const RAW_TAKE_RESIDUAL_FRACTION: f64 = 0.03;
+/// See [`RAW_TAKE_RESIDUAL_FRACTION`].
+pub const RAW_TAKE_TURN_DEGREES: f64 = 3.0;
+
+/// Rig markers a rig's capture stages never expect in a take: its anchors (samples ignored) and
+/// its virtual markers, recognised as the markers no other marker is filled from (the baker
+/// fills only from markers the actor's capture had).
+fn never_captured(stages: &facebake_runtime::stages::Stages<'_>, markers: usize) -> Vec<bool> {
+    let mut referenced = vec![false; markers];
+    for w in stages.fill.0.chunks_exact(4) {
+        let (k, weight) =
+            facebake_runtime::fixed::unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        if weight > 0 {
+            if let Some(r) = referenced.get_mut(usize::from(k)) {
+                *r = true;
+            }
+        }
+    }
+    let mut out: Vec<bool> = referenced.iter().map(|r| !r).collect();
+    for &a in stages.anchors.0 {
+        if let Some(o) = out.get_mut(usize::from(a)) {
+            *o = true;
+        }
+    }
+    out
+}
+
+/// Levenshtein distance between two names, by characters.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let next = (diagonal + usize::from(ca != cb))
+                .min(row[j] + 1)
+                .min(row[j + 1] + 1);
+            diagonal = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// Up to three of `candidates` nearest to `name` by edit distance, quoted and escaped.
+pub fn nearest_names(name: &str, candidates: &[&str]) -> String {
+    let mut scored: Vec<(usize, &str)> = candidates
+        .iter()
+        .map(|c| (edit_distance(&name.to_lowercase(), &c.to_lowercase()), *c))
+        .collect();
+    scored.sort();
+    scored
+        .iter()
+        .take(3)
+        .map(|(_, c)| format!("\"{}\"", facebake::io::escape_control(c)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Refuses a take that looks like an actor's raw capture (head motion, another face) on a rig
+/// without capture stages, which plays character-space markers as they are.
+fn check_character_space(
+    rig: &facebake_runtime::Rig<'_>,
+    path: &Path,
+    frames: &[Vec<[f64; 3]>],
+) -> Result<(), CliError> {
+    let space = rig.space();
+    let rest: Vec<[f64; 3]> = (0..rig.marker_count())
+        .filter_map(|i| rig.marker_rest(i))
+        .map(|q| space.to_asset_f64(q))
+        .collect();
+    if frames.is_empty() || rest.len() < 3 || frames[0].len() != rest.len() {
+        return Ok(());
+    }
+    let (lo, hi) = facebake::model::bounds(rest.iter().copied());
+    let extent = facebake::mesh::distance(&lo, &hi).max(f64::MIN_POSITIVE);
+    // At most 200 frames evenly spread: the median frame decides.
+    let mut fits: Vec<(f64, f64)> = evenly_spaced(frames.len(), 200)
+        .into_iter()
+        .filter_map(|f| {
+            let fit = facebake::stages::rigid::kabsch(&frames[f], &rest).ok()?;
+            let residual = fit.rms_residual(&frames[f], &rest);
+            let cos = ((fit.rotation.trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
+            Some((residual / extent, cos.acos().to_degrees()))
+        })
+        .collect();
+    if fits.is_empty() {
+        return Ok(());
+    }
+    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let residual = fits[fits.len() / 2].0;
+    fits.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let turn = fits[fits.len() / 2].1;
+    if residual > RAW_TAKE_RESIDUAL_FRACTION || turn > RAW_TAKE_TURN_DEGREES {
+        return Err(CliError::input(
+            path,
+            format!(
+                "the markers do not look like the character's: at the median frame they are {:.1}% \
+                 of the rig's marker extent off its rest markers after the best rigid fit, turned by \
+                 {turn:.1}°. A rig without capture stages plays markers already in the character's \
+                 space; for an actor's raw take bake the rig with `bake --capture <a take of this \
+                 actor>` (or check --capture-units / --units)",
+                100.0 * residual
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// What `play` reports.
@@ -183,7 +302,7 @@ pub fn capture_frames(
                             format!(
                                 "frame {f} (counting from 0): marker \"{}\" has no sample ({missing} missing samples \
                                  in all; filling gaps is not supported yet)",
-                                capture.marker_names[m]
+                                facebake::io::escape_control(&capture.marker_names[m])
                             ),
                         )
                     })
@@ -237,6 +356,52 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         .copied()
         .filter(|n| full.marker_index(n).is_none())
         .collect();
+    if let Some(stages) = rig.stages() {
+        let never = never_captured(stages, name_refs.len());
+        let unexpected: Vec<&str> = absent
+            .iter()
+            .copied()
+            .filter(|n| {
+                let j = name_refs.iter().position(|r| r == n).unwrap_or(0);
+                !never[j] && !args.allow_missing.iter().any(|a| a == n)
+            })
+            .collect();
+        if !unexpected.is_empty() && absent.len() < name_refs.len() {
+            let others: Vec<&str> = full
+                .marker_names
+                .iter()
+                .map(String::as_str)
+                .filter(|c| !name_refs.contains(c))
+                .collect();
+            let list = unexpected
+                .iter()
+                .map(|n| {
+                    format!(
+                        "\"{}\" (nearest names in the capture: {})",
+                        facebake::io::escape_control(n),
+                        nearest_names(
+                            n,
+                            if others.is_empty() {
+                                &name_refs
+                            } else {
+                                &others
+                            }
+                        )
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join("; ");
+            return Err(CliError::input(
+                &args.markers,
+                format!(
+                    "the capture lacks {} of the rig's markers: {list}. Rename them in the \
+                     capture, or pass --allow-missing {} to rebuild them every frame",
+                    unexpected.len(),
+                    unexpected.join(",")
+                ),
+            ));
+        }
+    }
     let capture = if rig.stages().is_some() && absent.len() < name_refs.len() {
         let present: Vec<&str> = name_refs
             .iter()
@@ -263,6 +428,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         Some(_) => Vec::new(),
         None => capture_frames(&capture, args.units)?,
     };
+    check_character_space(&rig, &args.markers, &frames)?;
     let frame_count = capture.frame_count();
     let n = rig.vertex_count();
     // Check everything the .glb needs before the long part.
@@ -298,6 +464,19 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             data.extend(positions.iter().flatten().map(|&x| x as f32));
             bar.inc(1);
         })?;
+        let given =
+            frame_count * names.len() - summary.missing_samples.min(frame_count * names.len());
+        if given > 0 && 2 * summary.rejected_samples > given {
+            return Err(CliError::input(
+                &args.markers,
+                format!(
+                    "{} of the capture's {given} samples were rejected as outside the rig's \
+                     plausible range: is the capture in {} (the units it was read in)? \
+                     (--capture-units)",
+                    summary.rejected_samples, capture.units
+                ),
+            ));
+        }
         Some(summary)
     } else {
         for (f, markers) in frames.iter().enumerate() {
@@ -367,7 +546,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             outln!(
                 out,
                 "not in the capture, rebuilt or held every frame: {}",
-                absent.join(", ")
+                facebake::io::escape_control(&absent.join(", "))
             );
         }
         if let Some(st) = &summary.stages {
