@@ -1,16 +1,13 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
-use facebake_runtime::deformer::linear::LinearDeformer;
-use facebake_runtime::deformer::planar::{self, PlanarDeformer, PlanarInfluence};
-use facebake_runtime::deformer::rbf::RbfDeformer;
-use facebake_runtime::deformer::Deformer;
 use facebake_runtime::format::header::header_for;
-use facebake_runtime::format::records::{Bytes, MAX_MARKERS, PLANAR_INFLUENCE_BYTES};
+use facebake_runtime::format::records::{Bytes, MAX_MARKERS};
 use facebake_runtime::format::{self, RigData};
 use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Retarget};
 use facebake_runtime::stages::Stages;
 use facebake_runtime::Space;
 
+use crate::deformer::DeformerBytes;
 use crate::stages::StagesBytes;
 
 /// The blob could not be written.
@@ -40,59 +37,6 @@ pub enum BlobError {
     Encode(#[from] postcard::Error),
 }
 
-/// The rig space for a mesh: centre of its bounds and half its largest side, enlarged by 2⁻¹⁰
-/// so every vertex fits Q0.15 after rounding to f32.
-pub fn space_for(positions: &[[f64; 3]]) -> Space {
-    let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
-    let centre = [0, 1, 2].map(|c| (0.5 * (lo[c] + hi[c])) as f32);
-    let half = (0..3)
-        .map(|c| 0.5 * (hi[c] - lo[c]))
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    Space {
-        centre,
-        half_extent: (half * (1.0 + 1.0 / 1024.0)) as f32,
-    }
-}
-
-/// A point in rig units (f64, unquantised): `(p − centre) / half_extent`.
-pub fn to_rig_units(space: &Space, p: &[f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|c| (p[c] - f64::from(space.centre[c])) / f64::from(space.half_extent))
-}
-
-/// The deformer's sections, already encoded as bytes.
-pub enum DeformerBytes {
-    /// Linear weights: per-vertex counts and packed influences.
-    Linear {
-        /// Fractional weight bits.
-        weight_frac_bits: u8,
-        /// Per vertex, its packed influences.
-        rows: Vec<Vec<u32>>,
-    },
-    /// RBF coefficients.
-    Rbf {
-        /// Fractional bits of φ.
-        weight_frac_bits: u8,
-        /// Influences per vertex.
-        k: u8,
-        /// Affine rows present.
-        affine: bool,
-        /// Per coefficient row: shift.
-        row_shifts: Vec<u8>,
-        /// Rows × markers entries.
-        matrix: Vec<i16>,
-        /// Per vertex, exactly `k` packed influences.
-        rows: Vec<Vec<u32>>,
-    },
-    /// Planar bones.
-    Planar {
-        /// Control triangles (marker indices).
-        triangles: Vec<[u8; 3]>,
-        /// Per vertex, its influence records (1 to 64).
-        rows: Vec<Vec<PlanarInfluence>>,
-    },
-}
-
 /// Everything the blob holds, in asset units.
 pub struct BlobContents<'a> {
     /// Rig space.
@@ -105,6 +49,8 @@ pub struct BlobContents<'a> {
     pub marker_rest: &'a [[f64; 3]],
     /// The deformer.
     pub deformer: &'a DeformerBytes,
+    /// The capture stages, if any.
+    pub stages: Option<&'a StagesBytes>,
 }
 
 /// Sizes of a written blob.
@@ -118,13 +64,6 @@ pub struct BlobSizes {
     pub influences: usize,
     /// Bytes per vertex of everything but the influences.
     pub other_bytes_per_vertex: f64,
-}
-
-fn le_words(rows: &[Vec<u32>]) -> Vec<u8> {
-    rows.iter()
-        .flatten()
-        .flat_map(|w| w.to_le_bytes())
-        .collect()
 }
 
 /// Encode and seal a rig.
@@ -161,77 +100,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         q.iter()
             .for_each(|x| vertex_rest.extend_from_slice(&x.to_le_bytes()));
     }
-    let too_many = |n: usize| BlobError::Limits(format!("a vertex has {n} influences; at most 64"));
-    let (counts, words, shifts, matrix, tris);
-    let mut record_bytes = 4;
-    let deformer = match c.deformer {
-        DeformerBytes::Linear {
-            weight_frac_bits,
-            rows,
-        } => {
-            counts = rows
-                .iter()
-                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
-                .collect::<Result<Vec<u8>, _>>()?;
-            words = le_words(rows);
-            Deformer::Linear(LinearDeformer {
-                weight_frac_bits: *weight_frac_bits,
-                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
-                influence_counts: Bytes(&counts),
-                influences: Bytes(&words),
-            })
-        }
-        DeformerBytes::Rbf {
-            weight_frac_bits,
-            k,
-            affine,
-            row_shifts,
-            matrix: m,
-            rows,
-        } => {
-            if let Some(r) = rows.iter().find(|r| r.len() != usize::from(*k)) {
-                return Err(BlobError::Limits(format!(
-                    "a vertex has {} kernel terms, the rig has K = {k}",
-                    r.len()
-                )));
-            }
-            words = le_words(rows);
-            shifts = row_shifts.clone();
-            matrix = m.iter().flat_map(|q| q.to_le_bytes()).collect::<Vec<u8>>();
-            Deformer::Rbf(RbfDeformer {
-                influences_per_vertex: *k,
-                weight_frac_bits: *weight_frac_bits,
-                affine: *affine,
-                row_shifts: Bytes(&shifts),
-                matrix: Bytes(&matrix),
-                influences: Bytes(&words),
-            })
-        }
-        DeformerBytes::Planar { triangles, rows } => {
-            counts = rows
-                .iter()
-                .map(|r| u8::try_from(r.len()).map_err(|_| too_many(r.len())))
-                .collect::<Result<Vec<u8>, _>>()?;
-            let mut w = Vec::new();
-            for r in rows.iter().flatten() {
-                let b = planar::write_planar_influence(r).ok_or_else(|| {
-                    BlobError::Limits(format!("control triangle {} out of range", r.triangle))
-                })?;
-                w.extend_from_slice(&b);
-            }
-            words = w;
-            record_bytes = PLANAR_INFLUENCE_BYTES;
-            tris = triangles.iter().flatten().copied().collect::<Vec<u8>>();
-            Deformer::Planar(PlanarDeformer {
-                max_influences: counts.iter().copied().max().unwrap_or(0).max(1),
-                triangle_count: u16::try_from(triangles.len())
-                    .map_err(|_| BlobError::Limits("too many control triangles".into()))?,
-                triangles: Bytes(&tris),
-                influence_counts: Bytes(&counts),
-                influences: Bytes(&words),
-            })
-        }
-    };
+    let section = c.deformer.section();
     let data = RigData {
         space: c.space,
         marker_count: c.marker_names.len() as u16,
@@ -240,31 +109,23 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         marker_names: Bytes(&names),
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
-        deformer,
-        stages: None,
+        deformer: section.deformer,
+        stages: c.stages.map(stages_section),
     };
-    let payload = postcard::to_allocvec(&data)?;
-    let header =
-        header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
-    let mut blob = header.to_vec();
-    blob.extend_from_slice(&payload);
+    let blob = seal(&data, c.stages.is_some())?;
     let sizes = BlobSizes {
         total: blob.len(),
-        influence_bytes: words.len(),
-        influences: words.len() / record_bytes,
-        other_bytes_per_vertex: (blob.len() - words.len()) as f64 / c.vertices.len().max(1) as f64,
+        influence_bytes: section.influence_bytes,
+        influences: section.influences,
+        other_bytes_per_vertex: (blob.len() - section.influence_bytes) as f64
+            / c.vertices.len().max(1) as f64,
     };
     Ok((blob, sizes))
 }
 
-/// A sealed blob with the capture stages `stages` added (or replaced): the rig is decoded through
-/// the runtime's own loader, so `blob` must be a valid rig.
-pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
-    let payload = format::header::open(blob)
-        .map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
-    let mut data =
-        format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
-    data.stages = Some(Stages {
+/// The stages' section over `stages`' bytes.
+fn stages_section(stages: &StagesBytes) -> Stages<'_> {
+    Stages {
         actor_space: stages.actor_space,
         actor_neutral: Bytes(&stages.actor_neutral),
         head_markers: Bytes(&stages.head_markers),
@@ -286,14 +147,32 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
                 offset: stages.offset,
             }),
         },
-    });
-    let payload = postcard::to_allocvec(&data)?;
+    }
+}
+
+/// A sealed blob with its capture stages replaced by `stages`: the rig is decoded through the
+/// runtime's own loader, so `blob` must be a valid rig. [`crate::bake()`] writes its blob once
+/// with the stages in it; this is for tools and tests that put other stages on a baked rig.
+pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobError> {
+    let payload = format::header::open(blob)
+        .map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    let mut data =
+        format::decode(payload).map_err(|e| BlobError::Limits(format!("not a valid rig: {e}")))?;
+    data.stages = Some(stages_section(stages));
+    seal(&data, true)
+}
+
+/// Encode `data` behind its header; with `check_stages`, load the result through the runtime so
+/// the stages pass its own checks too.
+fn seal(data: &RigData<'_>, check_stages: bool) -> Result<Vec<u8>, BlobError> {
+    let payload = postcard::to_allocvec(data)?;
     let header =
         header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
-    let mut out = header.to_vec();
-    out.extend_from_slice(&payload);
-    // The stages must pass the runtime's own checks too.
-    facebake_runtime::Rig::from_bytes(&out)
-        .map_err(|e| BlobError::Limits(format!("the capture stages do not load: {e}")))?;
-    Ok(out)
+    let mut blob = header.to_vec();
+    blob.extend_from_slice(&payload);
+    if check_stages {
+        facebake_runtime::Rig::from_bytes(&blob)
+            .map_err(|e| BlobError::Limits(format!("the capture stages do not load: {e}")))?;
+    }
+    Ok(blob)
 }

@@ -7,13 +7,12 @@
 //! the head, neck), which pin it like paper 003's static points. The sequence blends several
 //! targets at once: named expressions first, then deterministic pseudo-random blends.
 
-use crate::io::gltf_mesh::FaceMesh;
-use crate::io::layout::{LayoutMarker, MarkerAnchor, MarkerLayout};
 use crate::mesh::{farthest_point_sampling, MeshError};
+use crate::model::{FaceMesh, LayoutMarker, MarkerAnchor, MarkerLayout};
 
 /// A vertex counts as moving if some morph target moves it further than this (asset units
 /// relative to the bounding-box diagonal).
-const MOVING_FRACTION_OF_DIAGONAL: f64 = 2e-4;
+pub const MOVING_FRACTION_OF_DIAGONAL: f64 = 2e-4;
 
 /// Named expressions of the FaceCap sequence: (name, [(target, weight)]).
 const EXPRESSIONS: &[(&str, &[(&str, f64)])] = &[
@@ -284,6 +283,8 @@ impl GroundTruth {
                     stiffness: 1.0,
                 })
                 .collect(),
+            groups: Vec::new(),
+            triangles: None,
         }
     }
 

@@ -1,19 +1,33 @@
 //! facebake baker library: everything expensive, solved once in f64, written as a rig blob for
 //! the `facebake-runtime` crate.
+//!
+//! One entry: [`bake()`] turns a [`Scene`] (mesh, placed markers, their groups, control
+//! triangles, optionally the actor's capture) and [`BakeOptions`] into a [`Baked`] rig: the blob,
+//! its rig space, a report and the f64 references the runtime is tested against.
 pub mod bake;
 pub mod blob;
-pub mod cli;
+pub mod deformer;
+pub mod demo;
 pub mod geodesic;
 pub mod ground_truth;
 pub mod io;
 pub mod mesh;
+pub mod metrics;
+pub mod model;
+mod options;
 pub mod pivot;
 pub mod placement;
 pub mod planar;
-pub mod rbf;
-pub mod reference;
-pub mod retarget;
-pub mod rigid;
-pub mod sparsify;
+mod rbf;
+pub mod render;
+mod space;
+mod sparsify;
 pub mod stages;
 pub mod surface;
+
+pub use bake::{bake, BakeError, BakeReport, Baked, Reference, Scene};
+pub use deformer::DeformerKind;
+pub use options::{BakeOptions, Method, SurfaceOptions};
+pub use rbf::{RadialFunction, SolveError};
+pub use sparsify::{Refit, SparsifyError};
+pub use stages::{HeadMarkers, RetargetKind, StagesConfig};

@@ -22,6 +22,15 @@ pub fn norm(a: &[f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
+/// Cross product `a × b`.
+pub fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
 /// Euclidean distance between two points.
 pub fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     norm(&sub(a, b))

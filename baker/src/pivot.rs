@@ -9,7 +9,7 @@
 //! directions, move to the best if it improves, and grow the step by ρ after a success or shrink
 //! it by σ after a failure (the "bold driver").
 //!
-//! The least-squares fit ([`crate::rigid::kabsch`]) does not need the pivot; it is reported for
+//! The least-squares fit ([`crate::stages::rigid::kabsch`]) does not need the pivot; it is reported for
 //! users who drive a neck joint, and to say how much of the head's motion is a turn about it.
 
 use crate::mesh::distance;

@@ -10,10 +10,10 @@
 //! landmarks: FaceCap's lips are closed (the opening's top and bottom are 4 mm apart) while the
 //! capture's sit on the outer lips, 30 mm apart.
 
-use crate::io::gltf_mesh::FaceMesh;
-use crate::io::layout::{LayoutMarker, MarkerAnchor, MarkerLayout};
 use crate::mesh::closest_point;
-use crate::retarget::RetargetMap;
+use crate::model::FaceMesh;
+use crate::model::{LayoutMarker, MarkerAnchor, MarkerLayout};
+use crate::stages::retarget::RetargetMap;
 
 /// Placement failed.
 #[derive(Debug, thiserror::Error)]
@@ -102,6 +102,8 @@ pub fn place_from_landmarks(
     Ok(MarkerLayout {
         source: landmarks.source.clone(),
         markers,
+        groups: Vec::new(),
+        triangles: None,
     })
 }
 
@@ -327,6 +329,8 @@ pub fn facecap_landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError
                 stiffness: 1.0,
             })
             .collect(),
+        groups: Vec::new(),
+        triangles: None,
     })
 }
 
@@ -335,8 +339,9 @@ mod tests {
     use super::*;
     use crate::io::capture::read_capture;
     use crate::io::gltf_mesh::load_mesh;
-    use crate::io::layout::{place_markers, read_layout};
+    use crate::io::layout::read_layout;
     use crate::mesh::distance;
+    use crate::model::place_markers;
     use std::path::Path;
 
     fn fixture(name: &str) -> std::path::PathBuf {

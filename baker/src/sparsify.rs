@@ -12,14 +12,14 @@
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::rbf::kernel::distance;
+use crate::rbf::radial::distance;
 use facebake_runtime::fixed::{
     pack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS, LINEAR_WEIGHT_ABS_SUM_MAX, MAX_WEIGHT_FRAC_BITS,
     MIN_WEIGHT_FRAC_BITS, WEIGHT_INT_MAX,
 };
 
 /// How the kept weights are re-fitted after dropping all but the K largest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Refit {
     /// Spread the dropped mass evenly over the kept weights.
@@ -125,7 +125,7 @@ pub enum QuantiseFor {
     /// Σ|q| within [`LINEAR_WEIGHT_ABS_SUM_MAX`] (F ≤ [`LINEAR_MAX_WEIGHT_FRAC_BITS`]), what the
     /// runtime's 16-bit linear kernel needs and its loader checks.
     LinearWeights,
-    /// Kernel values φ of the RBF-coefficient form: plain rounding, the finest F that holds every
+    /// Radial values φ of the RBF deformer: plain rounding, the finest F that holds every
     /// value in 24 bits.
     KernelValues,
 }

@@ -5,9 +5,10 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use facebake::ground_truth::GroundTruth;
-use facebake::io::capture::{write_csv, Capture, Units};
+use facebake::io::capture::write_csv;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::npy::read_npy_f32;
+use facebake::model::{Capture, Units};
 use facebake_runtime::Rig;
 use serde_json::Value;
 
@@ -111,6 +112,11 @@ fn demo_writes_its_files() {
         "facecap_frames.npy",
         "facecap_capture.csv",
         "facecap_demo.glb",
+        "facecap_truth.npy",
+        "facecap_sheet.png",
+        "facecap_markers.png",
+        "jawmocap_sheet.png",
+        "jawmocap_markers.png",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
     }
@@ -130,7 +136,86 @@ fn demo_writes_its_files() {
     // The rig loads and the text output names every file.
     let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
-    assert_eq!(summary["files"].as_array().unwrap().len(), 5);
+    assert_eq!(summary["files"].as_array().unwrap().len(), 8);
+    // The structure metrics of the ground truth: the default bake keeps the lips sealed.
+    let take = &summary["structure"]["take"];
+    assert_eq!(take["frames"], frames);
+    assert!(take["lips_mm"][0].as_f64().unwrap() > 10.0, "{take}");
+}
+
+/// Width and height of a PNG file.
+fn png_size(path: &Path) -> (u32, u32) {
+    let file = std::fs::File::open(path).expect("the PNG opens");
+    let reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let info = reader.info();
+    (info.width, info.height)
+}
+
+#[test]
+fn render_draws_the_demo_frames_and_measures_them() {
+    let (demo_dir, _) = demo();
+    let dir = temp_dir("render");
+    let (sheet, markers) = (dir.join("sheet.png"), dir.join("markers.png"));
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("facecap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--truth",
+        s(&demo_dir.join("facecap_truth.npy")),
+        "--rig",
+        s(&demo_dir.join("facecap.fbk")),
+        "--frames",
+        "0,2",
+        "--panel",
+        "128",
+        "-o",
+        s(&sheet),
+        "--marker-sheet",
+        s(&markers),
+        "--json",
+    ]);
+    let summary = json_ok(&out);
+    // Truth, result and error, front and side: six panels and the colour bar; two rows.
+    let (w, h) = png_size(&sheet);
+    assert_eq!(w, 6 * 128 + 120);
+    assert!(h > 2 * 128 && h < 2 * 128 + 120, "{h}");
+    assert!(png_size(&markers).0 > 2 * 256);
+    assert_eq!(summary["frames"], serde_json::json!([0, 2]));
+    let take = &summary["structure"]["take"];
+    assert_eq!(take["against_truth"], true);
+    let drift = take["static_drift_mm"][0].as_f64().unwrap();
+    assert!((drift - 12.63).abs() < 0.01, "{take}");
+    // Without a truth: result and displacement only.
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("jawmocap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--frames",
+        "388",
+        "--panel",
+        "128",
+        "-o",
+        s(&sheet),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(png_size(&sheet).0, 4 * 128 + 120);
+    // A frame the file does not have is bad input, named.
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("facecap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--frames",
+        "99",
+        "-o",
+        s(&sheet),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("frame 99"), "{}", stderr(&out));
 }
 
 #[test]
@@ -342,7 +427,7 @@ fn help_documents_the_exit_codes() {
     assert_eq!(out.status.code(), Some(0));
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("Exit codes:") && help.contains("verification failed"));
-    for command in ["bake", "play", "inspect", "verify", "demo"] {
+    for command in ["bake", "play", "inspect", "verify", "demo", "render"] {
         assert!(help.contains(command), "{command} missing from --help");
     }
 }
@@ -398,7 +483,10 @@ fn bake_with_a_capture_then_play_a_take_with_gaps() {
         ],
     );
     let summary = json_ok(&out);
-    assert_eq!(summary["stages"]["head_markers"][3], "NoseTop", "{summary}");
+    assert_eq!(
+        summary["report"]["stages"]["head_markers"][3], "NoseTop",
+        "{summary}"
+    );
     // The same take with marker 7's sample blanked in frames 3 to 5.
     let text = std::fs::read_to_string(&trc).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
@@ -493,11 +581,11 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     );
     let j = json_ok(&out);
     assert_eq!(j["report"]["method"], "geodesic");
-    assert_eq!(j["report"]["kernel"], "exponential");
-    assert_eq!(j["report"]["form"], "coefficients");
-    assert_eq!(j["report"]["openings"], 3);
-    assert_eq!(j["report"]["unreachable_vertices"], 740);
-    assert!(j["report"]["min_eigenvalue"].as_f64().unwrap() > 0.0);
+    assert_eq!(j["report"]["radial"], "exponential");
+    assert_eq!(j["report"]["deformer"], "rbf");
+    assert_eq!(j["report"]["surface"]["openings"], 3);
+    assert_eq!(j["report"]["surface"]["unreachable_vertices"], 740);
+    assert!(j["report"]["surface"]["min_eigenvalue"].as_f64().unwrap() > 0.0);
     let blob = std::fs::read(&rig).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
 
@@ -510,11 +598,14 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     );
     let j = json_ok(&out);
     assert_eq!(
-        j["report"]["form"], "weights",
-        "masks pick the weights form"
+        j["report"]["deformer"], "linear",
+        "masks pick the linear deformer"
     );
-    assert_eq!(j["masks"], serde_json::json!(["mouth", "eyes"]));
-    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0);
+    assert_eq!(
+        j["report"]["surface"]["masks"],
+        serde_json::json!(["mouth", "eyes"])
+    );
+    assert!(j["report"]["surface"]["masked_vertices"].as_u64().unwrap() > 0);
     assert!(Rig::from_bytes(&std::fs::read(&masked).unwrap()).is_ok());
 
     let out = bake(
@@ -523,17 +614,17 @@ fn surface_aware_bakes_report_their_method_and_masks() {
         &dir.join("pbw.fbk"),
         &["--method", "pbw", "--json"],
     );
-    assert_eq!(json_ok(&out)["report"]["kernel"], "multiquadric");
+    assert_eq!(json_ok(&out)["report"]["radial"], "multiquadric");
 
-    // Masks in the coefficient form, or without groups: bad input naming the layout.
+    // Masks with the RBF deformer, or without groups: bad input naming the layout.
     let out = bake(
         &mesh_path(),
         &layout,
         &dir.join("x.fbk"),
-        &["--masks", "--form", "coefficients"],
+        &["--masks", "--deformer", "rbf"],
     );
     assert_bad_input(&out, "facecap_jawmocap_layout.toml");
-    assert!(stderr(&out).contains("weights form"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("linear deformer"), "{}", stderr(&out));
     let plain = dir.join("plain.toml");
     let text = std::fs::read_to_string(&layout).unwrap();
     std::fs::write(&plain, text.split("[groups]").next().unwrap()).unwrap();
@@ -560,7 +651,10 @@ fn masks_take_vertex_sides_from_a_file() {
         &["--json"],
     );
     let j = json_ok(&out);
-    assert!(j["report"]["masked_vertices"].as_u64().unwrap() > 0, "{j}");
+    assert!(
+        j["report"]["surface"]["masked_vertices"].as_u64().unwrap() > 0,
+        "{j}"
+    );
     let out = bake_with(
         "mouth = { upper = [9999999], lower = [1] }\neyes = { upper = [1], lower = [2] }\n",
         &[],
@@ -607,7 +701,10 @@ fn mask_images_render_and_bake_back() {
     ];
     let summary = json_ok(&bake(&mesh_path(), &layout, &rig, &extra));
     assert!(
-        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        summary["report"]["surface"]["masked_vertices"]
+            .as_u64()
+            .unwrap()
+            > 0,
         "{summary}"
     );
     // A mask the layout does not have, and a file that is not a PNG, are bad input.
@@ -692,7 +789,10 @@ fn masks_from_gltf_vertex_attributes() {
     ];
     let summary = json_ok(&bake(&glb, &layout, &rig, &args));
     assert!(
-        summary["report"]["masked_vertices"].as_u64().unwrap() > 0,
+        summary["report"]["surface"]["masked_vertices"]
+            .as_u64()
+            .unwrap()
+            > 0,
         "{summary}"
     );
     let missing = [
@@ -719,7 +819,7 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
             &mesh_path(),
             &layout,
             &dir.join("planar.fbk"),
-            &["--form", "planar", "--json"],
+            &["--deformer", "planar", "--json"],
         )
     };
     let out = with(
@@ -727,7 +827,7 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
             ["Mouth_Up", "Mouth_UpL1", "NoseHead_L"], ["Mouth_Down", "Mouth_DownL", "Chin"]]"#,
     );
     let j = json_ok(&out);
-    assert_eq!(j["report"]["form"], "planar");
+    assert_eq!(j["report"]["deformer"], "planar");
     assert_eq!(
         j["report"]["planar"]["triangles"],
         serde_json::json!([[0, 1, 3], [0, 3, 6], [28, 30, 12], [29, 34, 36]]),
@@ -741,7 +841,7 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         &mesh_path(),
         &fixture("facecap_jawmocap_layout.toml"),
         &dir.join("auto.fbk"),
-        &["--form", "planar", "--json"],
+        &["--deformer", "planar", "--json"],
     );
     let auto = json_ok(&out)["report"]["planar"]["triangles"]
         .as_array()
@@ -763,10 +863,10 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         &mesh_path(),
         &fixture("facecap_jawmocap_layout.toml"),
         &masked,
-        &["--form", "planar", "--masks", "--json"],
+        &["--deformer", "planar", "--masks", "--json"],
     );
     let j = json_ok(&out);
-    assert_eq!(j["report"]["form"], "planar");
+    assert_eq!(j["report"]["deformer"], "planar");
     assert_eq!(
         j["report"]["planar"]["triangles"].as_array().unwrap().len(),
         auto
@@ -781,7 +881,7 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         &mesh_path(),
         &fixture("facecap_jawmocap_layout.toml"),
         &dir.join("geodesic.fbk"),
-        &["--form", "planar", "--method", "geodesic", "--masks"],
+        &["--deformer", "planar", "--method", "geodesic", "--masks"],
     );
     assert_bad_input(&out, "facecap_jawmocap_layout.toml");
     assert!(

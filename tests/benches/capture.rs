@@ -11,14 +11,12 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use facebake::bake::{bake, BakeConfig, BakeInput};
-use facebake::blob::with_stages;
 use facebake::ground_truth::GroundTruth;
-use facebake::io::capture::{Capture, Units};
 use facebake::io::gltf_mesh::load_mesh;
-use facebake::stages::{bake_stages, HeadMarkers, StagesConfig};
+use facebake::model::{Capture, Units};
+use facebake::{bake, BakeOptions, HeadMarkers, Scene, StagesConfig};
 use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{fixture, jawmocap_rig};
+use facebake_tests::{fixture, jawmocap_rig, truth_markers};
 
 /// A rig with stages and the actor frames (Q8.24 actor units) that drive it.
 struct Case {
@@ -41,11 +39,11 @@ fn quantise(rig: &Rig<'_>, frames: &[Vec<Option<[f64; 3]>>]) -> Vec<Vec<Option<[
 
 fn jawmocap() -> Case {
     let j = jawmocap_rig(&StagesConfig::default());
-    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     let frames = quantise(&rig, &j.frames);
     Case {
         name: "capture_41".into(),
-        blob: j.blob.clone(),
+        blob: j.baked.blob.clone(),
         frames,
     }
 }
@@ -55,19 +53,6 @@ fn hundred() -> Case {
     let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None).unwrap();
     let truth = GroundTruth::new(mesh, 100, 6).unwrap();
     let names = truth.marker_names();
-    let rest = truth.marker_rest();
-    let baked = bake(
-        &BakeInput {
-            vertices: &truth.mesh.positions,
-            marker_names: &names,
-            marker_rest: &rest,
-            stiffness: &vec![1.0; names.len()],
-            triangles: &truth.mesh.triangles,
-            planar_masks: None,
-        },
-        &BakeConfig::default(),
-    )
-    .unwrap();
     let frames: Vec<Vec<Option<[f64; 3]>>> = (0..truth.frames.len())
         .map(|f| {
             let (s, c) = (0.05 * f as f64).sin_cos();
@@ -92,13 +77,16 @@ fn hundred() -> Case {
         marker_names: names.clone(),
         frames: frames.clone(),
     };
-    let space = Rig::from_bytes(&baked.blob).unwrap().space();
-    let config = StagesConfig {
-        head: HeadMarkers::MostRigid(4),
-        ..StagesConfig::default()
+    let mut scene = Scene::new(&truth.mesh, truth_markers(&truth));
+    scene.capture = Some(&capture);
+    let options = BakeOptions {
+        stages: StagesConfig {
+            head: HeadMarkers::MostRigid(4),
+            ..StagesConfig::default()
+        },
+        ..BakeOptions::default()
     };
-    let stages = bake_stages(&capture, &names, &rest, &space, &config).unwrap();
-    let blob = with_stages(&baked.blob, &stages.bytes).unwrap();
+    let blob = bake(&scene, &options).unwrap().blob;
     let rig = Rig::from_bytes(&blob).unwrap();
     let frames = quantise(&rig, &frames);
     Case {

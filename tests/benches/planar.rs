@@ -1,8 +1,8 @@
 //! Per-frame cost of the planar-bones kernel against the linear kernel at the same K.
 //!
 //! The FaceCap ground-truth head (2694 vertices, 40 markers) baked three ways at K = 8: planar
-//! bones, the weights form (the linear kernel; IMQ as [`facebake_tests::weights_config`]) and
-//! the default coefficients form, all fed the "jaw open" frame's markers. One criterion group,
+//! bones, the linear deformer (IMQ as [`facebake_tests::weights_config`]) and
+//! the default RBF deformer, all fed the "jaw open" frame's markers. One criterion group,
 //! then a same-run table: the three paths timed in interleaved rounds of equal duration after
 //! a warm-up, each ratio the median of per-round ratios, so machine noise hits both sides alike.
 //!
@@ -12,7 +12,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use facebake::bake::{BakeConfig, Baked};
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, planar_config, weights_config};
 
@@ -58,14 +58,14 @@ impl<'a> Case<'a> {
 fn bakes() -> (Vec<(&'static str, Baked)>, Vec<[f64; 3]>) {
     let truth = facecap_truth();
     let markers = truth.markers_of(&truth.positions(facebake_tests::jaw_open_frame(&truth)));
-    let configs: [(&str, BakeConfig); 3] = [
+    let configs: [(&str, BakeOptions); 3] = [
         ("planar_k8", planar_config(8)),
         ("weights_k8", weights_config()),
         (
             "coefficients_k8",
-            BakeConfig {
+            BakeOptions {
                 k: 8,
-                ..BakeConfig::default()
+                ..BakeOptions::default()
             },
         ),
     ];

@@ -14,13 +14,13 @@
 //! Paths:
 //!
 //! * `fixed`: [`Rig::deform`], the no_std Q8.24 runtime;
-//! * `f32` (weights form): [`F32Rig`], the same sparse rig decoded once from the blob's own
+//! * `f32` (linear deformer): [`F32Rig`], the same sparse rig decoded once from the blob's own
 //!   quantised numbers into f32 and evaluated with the same per-vertex gather, as a float
 //!   linear-blend-skinning library's positions-only path would; on x86-64 hand-vectorised with
 //!   SSE like the fixed-point kernel (one `[x, y, z, 0]` vector per marker, `mulps` + `addps` per
 //!   influence), so the two are equally optimised;
 //! * `dense_f64` (FaceCap): the papers' per-frame RBF of the same configuration
-//!   ([`facebake::reference::DenseRbf::frame`]: solve, then evaluate every vertex against every
+//!   ([`facebake::deformer::rbf::DenseRbf::frame`]: solve, then evaluate every vertex against every
 //!   marker).
 //!
 //! Every benchmark's throughput is the sparse rig's influence count (Σ per-vertex counts), so
@@ -37,9 +37,12 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput};
-use facebake::bake::{bake, BakeConfig, BakeInput, Baked, RigForm};
+use facebake::geodesic::Source;
 use facebake::ground_truth::SplitMix64;
 use facebake::mesh::farthest_point_sampling;
+use facebake::model::FaceMesh;
+use facebake::surface::SurfaceMarker;
+use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
 use facebake_runtime::format::records::MAX_MARKERS;
@@ -283,7 +286,7 @@ impl<'a> Prepared<'a> {
         black_box(&self.out_q);
     }
 
-    /// One f32 frame (weights form only; a no-op otherwise).
+    /// One f32 frame (linear deformer only; a no-op otherwise).
     fn float(&mut self) {
         if let Some(f) = &self.f32_rig {
             f.deform(black_box(&self.case.markers_f32), &mut self.out_f32);
@@ -291,7 +294,7 @@ impl<'a> Prepared<'a> {
         black_box(&self.out_f32);
     }
 
-    /// One f32 frame of the plain-Rust evaluation (weights form only; a no-op otherwise).
+    /// One f32 frame of the plain-Rust evaluation (linear deformer only; a no-op otherwise).
     fn float_plain(&mut self) {
         if let Some(f) = &self.f32_rig {
             f.deform_portable(black_box(&self.case.markers_f32), &mut self.out_f32);
@@ -304,7 +307,8 @@ impl<'a> Prepared<'a> {
         black_box(
             self.case
                 .baked
-                .dense
+                .reference
+                .deformer
                 .frame(black_box(&self.case.markers_f64)),
         );
     }
@@ -316,27 +320,27 @@ impl<'a> Prepared<'a> {
 }
 
 /// The weights-form configuration at `k`.
-fn weights_at(k: usize) -> BakeConfig {
-    BakeConfig {
+fn weights_at(k: usize) -> BakeOptions {
+    BakeOptions {
         k,
         ..weights_config()
     }
 }
 
 /// The default (coefficients-form) configuration at `k`.
-fn coefficients_at(k: usize) -> BakeConfig {
-    BakeConfig {
+fn coefficients_at(k: usize) -> BakeOptions {
+    BakeOptions {
         k,
-        ..BakeConfig::default()
+        ..BakeOptions::default()
     }
 }
 
 /// Short name of a form, for ids.
-fn form_name(form: RigForm) -> &'static str {
+fn form_name(form: DeformerKind) -> &'static str {
     match form {
-        RigForm::Weights => "weights",
-        RigForm::Coefficients => "coefficients",
-        RigForm::Planar => "planar",
+        DeformerKind::Linear => "weights",
+        DeformerKind::Rbf => "coefficients",
+        DeformerKind::Planar => "planar",
     }
 }
 
@@ -349,7 +353,7 @@ fn facecap_cases() -> Vec<Case> {
         .flat_map(|k| [weights_at(k), coefficients_at(k)]);
     configs
         .map(|config| {
-            let name = format!("facecap_{}_k{}", form_name(config.form), config.k);
+            let name = format!("facecap_{}_k{}", form_name(config.deformer), config.k);
             Case::new(name, bake_truth(&truth, &config), markers.clone(), true)
         })
         .collect()
@@ -378,33 +382,38 @@ fn synthetic_cases() -> Vec<Case> {
     let picks = farthest_point_sampling(&vertices, &all, SYNTH_MARKERS, 0).expect("markers");
     let marker_rest: Vec<[f64; 3]> = picks.iter().map(|&v| vertices[v as usize]).collect();
     let names: Vec<String> = (0..picks.len()).map(|i| format!("S{i:02}")).collect();
-    let stiffness = vec![1.0; picks.len()];
     let mut rng = SplitMix64(0x5EED_50CA);
     let markers: Vec<[f64; 3]> = marker_rest
         .iter()
         .map(|p| p.map(|c| c + 0.005 * (2.0 * rng.unit() - 1.0)))
         .collect();
-    let input = BakeInput {
-        vertices: &vertices,
-        marker_names: &names,
-        marker_rest: &marker_rest,
-        stiffness: &stiffness,
-        triangles: &[],
-        planar_masks: None,
-    };
+    let mesh = FaceMesh::from_triangles("synthetic", vertices, Vec::new());
+    let scene = Scene::new(
+        &mesh,
+        names
+            .into_iter()
+            .zip(&picks)
+            .map(|(name, &v)| SurfaceMarker {
+                name,
+                rest: mesh.positions[v as usize],
+                source: Source::Vertex(mesh.weld[v as usize]),
+                stiffness: 1.0,
+            })
+            .collect(),
+    );
     let configs = [4, 8]
         .into_iter()
         .flat_map(|k| [weights_at(k), coefficients_at(k)]);
     configs
         .map(|config| {
-            let name = format!("synthetic50k_{}_k{}", form_name(config.form), config.k);
-            let baked = bake(&input, &config).expect("the synthetic head bakes");
+            let name = format!("synthetic50k_{}_k{}", form_name(config.deformer), config.k);
+            let baked = bake(&scene, &config).expect("the synthetic head bakes");
             Case::new(name, baked, markers.clone(), false)
         })
         .collect()
 }
 
-/// One criterion group per rig: fixed, f32 (weights form) and dense f64 (FaceCap).
+/// One criterion group per rig: fixed, f32 (linear deformer) and dense f64 (FaceCap).
 fn bench_case(c: &mut Criterion, case: &Case) {
     let mut p = Prepared::new(case);
     let mut group = c.benchmark_group(&case.name);

@@ -4,9 +4,9 @@
 //!
 //! Run: `cargo run --release -p facebake-tests --example planar_sweep`.
 
-use facebake::bake::{BakeConfig, Baked};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::mesh::distance;
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, lip_vertices, planar_config, weights_config};
 
@@ -37,10 +37,10 @@ fn scores(truth: &GroundTruth, lips: &[bool], baked: &Baked) -> (ErrorStats, Err
 fn main() {
     let truth = facecap_truth();
     let lips = lip_vertices(&truth);
-    let mut rows: Vec<(String, BakeConfig)> = vec![
+    let mut rows: Vec<(String, BakeOptions)> = vec![
         (
             "coefficients (default), K = 8".into(),
-            BakeConfig::default(),
+            BakeOptions::default(),
         ),
         ("weights, IMQ, K = 8".into(), weights_config()),
     ];
@@ -48,7 +48,7 @@ fn main() {
         for radius in [0.5, 1.0, 1.5, 2.0] {
             rows.push((
                 format!("planar, radius {radius} × closest connected marker, K = {k}"),
-                BakeConfig {
+                BakeOptions {
                     planar_radius: radius,
                     ..planar_config(k)
                 },

@@ -7,9 +7,7 @@
 //! layout), `MASK_PLATEAU`, `MASK_DECAY`, `REGION`, `DECAY` (× mean marker spacing), `ALPHA` (PBW), `RIDGE`,
 //! `VERBOSE` (warnings), `DIAG` (worst lip vertices on "jaw open").
 
-use facebake::bake::RigForm;
-use facebake::rbf::KernelKind;
-use facebake::surface::{Method, SurfaceConfig};
+use facebake::{BakeOptions, DeformerKind, Method, RadialFunction};
 use facebake_tests::bake_scene;
 
 fn main() {
@@ -29,56 +27,53 @@ fn main() {
             .map(|b| b.iter().filter(|s| s.is_some()).count())
             .collect::<Vec<_>>()
     );
-    let kernels: Vec<(KernelKind, f64)> = std::env::args()
+    let kernels: Vec<(RadialFunction, f64)> = std::env::args()
         .nth(1)
         .map(|_| {
             vec![
-                (KernelKind::Gaussian, 0.75),
-                (KernelKind::Gaussian, 1.0),
-                (KernelKind::InverseMultiquadric, 1.0),
-                (KernelKind::Exponential, 1.0),
+                (RadialFunction::Gaussian, 0.75),
+                (RadialFunction::Gaussian, 1.0),
+                (RadialFunction::InverseMultiquadric, 1.0),
+                (RadialFunction::Exponential, 1.0),
             ]
         })
         .unwrap_or(vec![
-            (KernelKind::Gaussian, 0.75),
-            (KernelKind::Exponential, 1.0),
+            (RadialFunction::Gaussian, 0.75),
+            (RadialFunction::Exponential, 1.0),
         ]);
     println!(
-        "| method | masks | form | kernel | face mean | face p99 | face max | lips mean | lips p99 | lips max | eyelids mean | eyelids p99 | eyelids max | lips crossed | eyelids crossed | λmin/mean φ |"
+        "| method | masks | deformer | radial | face mean | face p99 | face max | lips mean | lips p99 | lips max | eyelids mean | eyelids p99 | eyelids max | lips crossed | eyelids crossed | λmin/mean φ |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &(kernel, width_factor) in &kernels {
         for method in Method::ALL {
             for (masks, form) in [
-                (false, RigForm::Coefficients),
-                (false, RigForm::Weights),
-                (true, RigForm::Weights),
+                (false, DeformerKind::Rbf),
+                (false, DeformerKind::Linear),
+                (true, DeformerKind::Linear),
             ] {
-                if method == Method::Pbw && form == RigForm::Coefficients {
+                if method == Method::Pbw && form == DeformerKind::Rbf {
                     continue;
                 }
-                let mut config = SurfaceConfig {
-                    method,
-                    masks,
-                    ..SurfaceConfig::default()
-                };
+                let mut config = BakeOptions::for_method(method, masks);
                 let env = |name: &str, default: f64| {
                     std::env::var(name)
                         .ok()
                         .and_then(|v| v.parse().ok())
                         .unwrap_or(default)
                 };
-                config.mask_decay_factor = env("MASK_DECAY", config.mask_decay_factor);
-                config.mask_plateau_factor = env("MASK_PLATEAU", config.mask_plateau_factor);
-                config.region_factor = env("REGION", config.region_factor);
-                config.decay_factor = env("DECAY", config.decay_factor);
-                config.pbw_alpha = env("ALPHA", config.pbw_alpha);
+                let surface = &mut config.surface;
+                surface.mask_decay_factor = env("MASK_DECAY", surface.mask_decay_factor);
+                surface.mask_plateau_factor = env("MASK_PLATEAU", surface.mask_plateau_factor);
+                surface.region_factor = env("REGION", surface.region_factor);
+                surface.decay_factor = env("DECAY", surface.decay_factor);
+                surface.pbw_alpha = env("ALPHA", surface.pbw_alpha);
                 if let Ok(r) = std::env::var("RIDGE") {
-                    config.ridge = r.parse().ok();
+                    surface.ridge = r.parse().ok();
                 }
-                config.bake.form = form;
-                config.bake.kernel = kernel;
-                config.bake.width_factor = width_factor;
+                config.deformer = form;
+                config.radial = kernel;
+                config.width_factor = width_factor;
                 let t = std::time::Instant::now();
                 let baked = bake_scene(&scene, &config);
                 let bake_s = t.elapsed().as_secs_f64();
@@ -101,7 +96,7 @@ fn main() {
                     s.bands[1].max_mm,
                     100.0 * s.crossed[0],
                     100.0 * s.crossed[1],
-                    r.min_eigenvalue,
+                    r.surface.as_ref().map_or(f64::NAN, |f| f.min_eigenvalue),
                 );
                 if std::env::var("VERBOSE").is_ok() {
                     for w in &r.warnings {
@@ -120,7 +115,7 @@ fn main() {
 }
 
 /// The worst lip-band vertices of the "jaw open" frame: side, error, true displacement.
-fn diagnose(scene: &facebake::surface::evaluate::Scene, blob: &[u8]) {
+fn diagnose(scene: &facebake::surface::evaluate::Benchmark, blob: &[u8]) {
     let rig = facebake_runtime::Rig::from_bytes(blob).unwrap();
     let space = rig.space();
     let f = facebake_tests::jaw_open_frame(&scene.truth);

@@ -1,8 +1,7 @@
-//! Ground-truth sweep over forms, kernels, widths and K: the figures behind the README's table.
-//! `cargo run --release -p facebake-tests --example sweep [-- kernel…]`
-use facebake::bake::{BakeConfig, RigForm};
+//! Ground-truth sweep over deformers, radial functions, widths and K: the figures behind the README's table.
+//! `cargo run --release -p facebake-tests --example sweep [-- radial…]`
 use facebake::ground_truth::stats;
-use facebake::rbf::KernelKind;
+use facebake::{BakeOptions, DeformerKind, RadialFunction};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth};
 
@@ -11,22 +10,22 @@ fn main() {
     let truths: Vec<_> = (0..truth.frames.len())
         .map(|f| truth.positions(f))
         .collect();
-    let kernels: Vec<KernelKind> = std::env::args()
+    let kernels: Vec<RadialFunction> = std::env::args()
         .skip(1)
-        .filter_map(|a| <KernelKind as clap::ValueEnum>::from_str(&a, true).ok())
+        .filter_map(|a| RadialFunction::ALL.into_iter().find(|r| r.name() == a))
         .collect();
     let kernels = if kernels.is_empty() {
-        KernelKind::ALL.to_vec()
+        RadialFunction::ALL.to_vec()
     } else {
         kernels
     };
-    for form in [RigForm::Coefficients, RigForm::Weights] {
+    for form in [DeformerKind::Rbf, DeformerKind::Linear] {
         for &kernel in &kernels {
             for width_factor in [0.6, 0.75, 1.0, 2.0] {
                 for k in [4, 8, 16] {
-                    let cfg = BakeConfig {
-                        form,
-                        kernel,
+                    let cfg = BakeOptions {
+                        deformer: form,
+                        radial: kernel,
                         k,
                         width_factor,
                         ..Default::default()
@@ -44,7 +43,7 @@ fn main() {
                         rig.deform(&q, &mut out).unwrap();
                         let got: Vec<_> = out.iter().map(|p| space.to_asset_f64(*p)).collect();
                         truth.skin_errors(&got, t, &mut e_truth);
-                        truth.skin_errors(&got, &baked.dense.frame(&m), &mut e_dense);
+                        truth.skin_errors(&got, &baked.reference.deformer.frame(&m), &mut e_dense);
                     }
                     println!(
                         "{form:?} {:20} width {width_factor:4} K={k:2} | vs truth: {} | vs dense: {}",

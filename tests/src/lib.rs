@@ -2,9 +2,12 @@
 
 use std::path::PathBuf;
 
-use facebake::bake::{bake, BakeConfig, BakeInput, Baked};
+use facebake::geodesic::Source;
 use facebake::ground_truth::GroundTruth;
 use facebake::io::gltf_mesh::load_mesh;
+use facebake::surface::evaluate::Benchmark;
+use facebake::surface::SurfaceMarker;
+use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
 
 /// Path of a file in `fixtures/`.
 pub fn fixture(name: &str) -> PathBuf {
@@ -23,23 +26,24 @@ pub fn facecap_truth() -> GroundTruth {
     GroundTruth::new(mesh, FACECAP_MARKERS, FACECAP_STATIC_MARKERS).expect("ground truth builds")
 }
 
-/// Bake the ground truth's markers with `config`.
-pub fn bake_truth(truth: &GroundTruth, config: &BakeConfig) -> Baked {
-    let names = truth.marker_names();
-    let rest = truth.marker_rest();
-    let stiffness = vec![1.0; names.len()];
-    bake(
-        &BakeInput {
-            vertices: &truth.mesh.positions,
-            marker_names: &names,
-            marker_rest: &rest,
-            stiffness: &stiffness,
-            triangles: &truth.mesh.triangles,
-            planar_masks: None,
-        },
-        config,
-    )
-    .expect("bake succeeds")
+/// The ground truth's markers, at their vertices, stiffness 1.
+pub fn truth_markers(truth: &GroundTruth) -> Vec<SurfaceMarker> {
+    truth
+        .marker_names()
+        .into_iter()
+        .zip(&truth.marker_vertices)
+        .map(|(name, &v)| SurfaceMarker {
+            name,
+            rest: truth.mesh.positions[v as usize],
+            source: Source::Vertex(truth.mesh.weld[v as usize]),
+            stiffness: 1.0,
+        })
+        .collect()
+}
+
+/// Bake the ground truth's markers with `options`.
+pub fn bake_truth(truth: &GroundTruth, options: &BakeOptions) -> Baked {
+    bake(&Scene::new(&truth.mesh, truth_markers(truth)), options).expect("bake succeeds")
 }
 
 /// Index of the ground truth's "jaw open" frame, the frame the benches feed their rigs.
@@ -56,24 +60,24 @@ pub fn facecap_default() -> &'static (GroundTruth, Baked) {
     static CELL: std::sync::OnceLock<(GroundTruth, Baked)> = std::sync::OnceLock::new();
     CELL.get_or_init(|| {
         let truth = facecap_truth();
-        let baked = bake_truth(&truth, &BakeConfig::default());
+        let baked = bake_truth(&truth, &BakeOptions::default());
         (truth, baked)
     })
 }
 
-/// The FaceCap truth baked in the weights form (IMQ, K = 8), built once per test binary.
+/// The FaceCap truth baked with the linear deformer (IMQ, K = 8), built once per test binary.
 pub fn facecap_weights() -> &'static Baked {
     static CELL: std::sync::OnceLock<Baked> = std::sync::OnceLock::new();
     CELL.get_or_init(|| bake_truth(&facecap_default().0, &weights_config()))
 }
 
-/// The weights-form configuration the tests use: paper 000's inverse multiquadric, K = 8.
-pub fn weights_config() -> BakeConfig {
-    BakeConfig {
-        form: facebake::bake::RigForm::Weights,
-        kernel: facebake::rbf::KernelKind::InverseMultiquadric,
+/// The linear-deformer options the tests use: paper 000's inverse multiquadric, K = 8.
+pub fn weights_config() -> BakeOptions {
+    BakeOptions {
+        deformer: DeformerKind::Linear,
+        radial: facebake::RadialFunction::InverseMultiquadric,
         width_factor: 2.0,
-        ..BakeConfig::default()
+        ..BakeOptions::default()
     }
 }
 
@@ -102,45 +106,73 @@ pub fn reseal(blob: &mut [u8]) {
 /// The JawMoCap capture on the FaceCap head: everything the capture tests and benches need.
 pub struct JawMoCapRig {
     /// The FaceCap head.
-    pub mesh: facebake::io::gltf_mesh::FaceMesh,
+    pub mesh: facebake::model::FaceMesh,
+    /// The layout's 41 markers placed on it.
+    pub placed: Vec<facebake::model::PlacedMarker>,
     /// The capture (JawMoCap.trc, centimetres).
-    pub capture: facebake::io::capture::Capture,
+    pub capture: facebake::model::Capture,
     /// The capture's frames in rig marker order, metres.
     pub frames: Vec<Vec<Option<[f64; 3]>>>,
-    /// The deformation bake (default configuration, the layout's 41 markers).
+    /// The bake with the capture stages (`baked.blob` holds both).
     pub baked: Baked,
-    /// The capture stages and their f64 reference.
-    pub stages: facebake::stages::BakedStages,
-    /// The blob with the stages.
-    pub blob: Vec<u8>,
+}
+
+impl JawMoCapRig {
+    /// The capture stages' f64 reference.
+    pub fn stages(&self) -> &facebake::stages::reference::StagesF64 {
+        self.baked
+            .reference
+            .stages
+            .as_ref()
+            .expect("a bake with a capture has stages")
+    }
+
+    /// The capture stages' report.
+    pub fn stages_report(&self) -> &facebake::stages::StagesReport {
+        self.baked
+            .report
+            .stages
+            .as_ref()
+            .expect("a bake with a capture has stages")
+    }
+
+    /// Bake the same scene again with `options` (stages included).
+    pub fn rebake(&self, options: &BakeOptions) -> Result<Baked, facebake::BakeError> {
+        let mut scene = Scene::placed(&self.mesh, &self.placed);
+        scene.capture = Some(&self.capture);
+        bake(&scene, options)
+    }
 }
 
 /// Bake FaceCap with `fixtures/facecap_jawmocap_layout.toml` and the JawMoCap capture's stages
-/// (neutral frame 0, the baker's own choice of head markers).
-pub fn jawmocap_rig(stages: &facebake::stages::StagesConfig) -> JawMoCapRig {
-    jawmocap_rig_with(&BakeConfig::default(), stages)
+/// (neutral frame 0, the baker's own choice of head markers unless `stages` names them).
+pub fn jawmocap_rig(stages: &facebake::StagesConfig) -> JawMoCapRig {
+    jawmocap_rig_with(&BakeOptions::default(), stages)
 }
 
-/// [`jawmocap_rig`] with the deformation baked by `bake` (any form, planar bones included).
-pub fn jawmocap_rig_with(
-    bake: &BakeConfig,
-    stages: &facebake::stages::StagesConfig,
-) -> JawMoCapRig {
-    use facebake::cli::bake::bake_layout;
+/// [`jawmocap_rig`] with the deformation baked with `options` (any deformer, planar bones
+/// included); `stages` replaces its stages options.
+pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig) -> JawMoCapRig {
     let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
         .expect("FaceCap head loads");
     let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
         .expect("layout reads");
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let (baked, placed) = bake_layout(&mesh, &layout, bake, None, None).expect("FaceCap bakes");
+    let placed = facebake::model::place_markers(
+        &layout,
+        &mesh,
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+    )
+    .expect("layout places");
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
-    let character: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
-    let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("rig loads");
-    let space = rig.space();
-    let stages = facebake::stages::bake_stages(&capture, &names, &character, &space, stages)
-        .expect("stages bake");
-    let blob = facebake::blob::with_stages(&baked.blob, &stages.bytes).expect("stages attach");
+    let options = BakeOptions {
+        stages: stages.clone(),
+        ..options.clone()
+    };
+    let mut scene = Scene::placed(&mesh, &placed);
+    scene.capture = Some(&capture);
+    let baked = bake(&scene, &options).expect("FaceCap bakes with the stages");
     let columns: Vec<usize> = names
         .iter()
         .map(|n| capture.marker_index(n).expect("capture has the marker"))
@@ -153,19 +185,19 @@ pub fn jawmocap_rig_with(
         .collect();
     JawMoCapRig {
         mesh,
+        placed,
         capture,
         frames,
         baked,
-        stages,
-        blob,
     }
 }
+
 /// The planar-bones configuration the tests use at `k` (default bone radius).
-pub fn planar_config(k: usize) -> BakeConfig {
-    BakeConfig {
-        form: facebake::bake::RigForm::Planar,
+pub fn planar_config(k: usize) -> BakeOptions {
+    BakeOptions {
+        deformer: DeformerKind::Planar,
         k,
-        ..BakeConfig::default()
+        ..BakeOptions::default()
     }
 }
 
@@ -193,7 +225,7 @@ pub fn lip_vertices(truth: &GroundTruth) -> Vec<bool> {
 /// The layout's lip markers sit 13 mm above and 22 mm below the mouth line (Mouth_Down on the
 /// chin crease, where `jawOpen` moves it half as far as the lower lip), so no RBF can move the
 /// lip rims right; the proof moves them onto the lips ([`LIP_MARKER_OFFSET`]).
-pub fn facecap_scene() -> facebake::surface::evaluate::Scene {
+pub fn facecap_scene() -> Benchmark {
     facecap_scene_with(LIP_MARKER_OFFSET)
 }
 
@@ -202,12 +234,12 @@ pub const LIP_MARKER_OFFSET: f64 = 0.005;
 
 /// [`facecap_scene`] with the six lip markers moved `lip_offset` (metres) from the mouth's
 /// opening line (y = −43 mm on FaceCap) onto the lips, keeping their x; 0 keeps the layout.
-pub fn facecap_scene_with(lip_offset: f64) -> facebake::surface::evaluate::Scene {
+pub fn facecap_scene_with(lip_offset: f64) -> Benchmark {
     let truth = facecap_truth();
     let path = fixture("facecap_jawmocap_layout.toml");
     let mut layout = facebake::io::layout::read_layout(&path).expect("layout reads");
     if lip_offset > 0.0 {
-        use facebake::io::layout::MarkerAnchor;
+        use facebake::model::MarkerAnchor;
         for m in &mut layout.markers {
             let sign = match m.name.as_str() {
                 "Mouth_Up" | "Mouth_UpL1" | "Mouth_UpR1" => 1.0,
@@ -219,65 +251,33 @@ pub fn facecap_scene_with(lip_offset: f64) -> facebake::surface::evaluate::Scene
             }
         }
     }
-    let placed = facebake::io::layout::place_markers(&layout, &truth.mesh, 0.02)
+    let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02)
         .expect("layout places on the FaceCap head");
-    let names: Vec<String> = layout.markers.iter().map(|m| m.name.clone()).collect();
-    let groups = facebake::io::marker_groups::read_groups(&path, &names).expect("groups read");
-    facebake::surface::evaluate::Scene::new(truth, &placed, groups, FACECAP_STATIC_MARKERS)
-        .expect("scene builds")
+    let groups = layout.groups.clone();
+    Benchmark::new(truth, &placed, groups, FACECAP_STATIC_MARKERS).expect("benchmark builds")
 }
 
-/// Bake the scene's markers with a surface-aware configuration.
-pub fn bake_scene(
-    scene: &facebake::surface::evaluate::Scene,
-    config: &facebake::surface::SurfaceConfig,
-) -> facebake::surface::SurfaceBaked {
-    facebake::surface::bake_surface(
-        &facebake::surface::SurfaceInput {
-            mesh: &scene.truth.mesh,
-            markers: &scene.markers,
-            groups: &scene.groups,
-            sides: &facebake::surface::SideRule::Auto,
-            head: &[],
-        },
-        config,
-    )
-    .expect("surface bake succeeds")
+/// The benchmark's markers and groups on its mesh, ready to bake.
+pub fn benchmark_scene(bench: &Benchmark) -> Scene<'_> {
+    Scene {
+        groups: bench.groups.clone(),
+        ..Scene::new(&bench.truth.mesh, bench.markers.clone())
+    }
 }
 
-/// Bake planar bones (K = `k`, automatic control surface) on the scene's markers, with the
+/// Bake the benchmark's markers with `options`.
+pub fn bake_scene(bench: &Benchmark, options: &BakeOptions) -> Baked {
+    bake(&benchmark_scene(bench), options).expect("bake succeeds")
+}
+
+/// Bake planar bones (K = `k`, automatic control surface) on the benchmark's markers, with the
 /// layout's lip and eyelid masks (automatic sides, the surface-aware defaults) when `masked`.
-pub fn bake_scene_planar(
-    scene: &facebake::surface::evaluate::Scene,
-    k: usize,
-    masked: bool,
-) -> Baked {
-    let allowance = masked.then(|| {
-        facebake::surface::planar_allowance(
-            &facebake::surface::SurfaceInput {
-                mesh: &scene.truth.mesh,
-                markers: &scene.markers,
-                groups: &scene.groups,
-                sides: &facebake::surface::SideRule::Auto,
-                head: &[],
-            },
-            &facebake::surface::SurfaceConfig::default(),
-        )
-        .expect("planar masks build")
-    });
-    let names: Vec<String> = scene.markers.iter().map(|m| m.name.clone()).collect();
-    let rest: Vec<[f64; 3]> = scene.markers.iter().map(|m| m.rest).collect();
-    let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
-    bake(
-        &BakeInput {
-            vertices: &scene.truth.mesh.positions,
-            marker_names: &names,
-            marker_rest: &rest,
-            stiffness: &stiffness,
-            triangles: &scene.truth.mesh.triangles,
-            planar_masks: allowance.as_ref(),
+pub fn bake_scene_planar(bench: &Benchmark, k: usize, masked: bool) -> Baked {
+    bake_scene(
+        bench,
+        &BakeOptions {
+            masks: masked,
+            ..planar_config(k)
         },
-        &planar_config(k),
     )
-    .expect("planar bake succeeds")
 }

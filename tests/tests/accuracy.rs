@@ -4,9 +4,9 @@
 //! * sparse K = 8 vs the dense per-frame RBF of the papers (same kernel);
 //! * the default configuration against the truth, pinned so a regression fails.
 
-use facebake::bake::{BakeConfig, Baked};
+use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
-use facebake::reference::SparseF64;
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_blobs, facecap_default, facecap_weights};
 
@@ -33,7 +33,7 @@ fn run(truth: &GroundTruth, baked: &Baked) -> Run {
         for (g, r) in got.iter().zip(f64_rig.frame(&m)) {
             worst = worst.max(facebake::mesh::distance(g, &r));
         }
-        let dense = baked.dense.frame(&m);
+        let dense = baked.reference.deformer.frame(&m);
         truth.skin_errors(&got, &t, &mut e_truth);
         truth.skin_errors(&got, &dense, &mut e_dense);
         truth.skin_errors(&dense, &t, &mut e_dense_truth);
@@ -108,7 +108,7 @@ fn more_influences_approach_the_dense_reference() {
                 truth,
                 &bake_truth(
                     truth,
-                    &BakeConfig {
+                    &BakeOptions {
                         k,
                         ..Default::default()
                     },

@@ -166,7 +166,7 @@ fn every_payload_error_is_distinct() {
     let b = facecap_weights().blob.clone();
     let good = *Rig::from_bytes(&b).unwrap().data();
     let Deformer::Linear(lin) = good.deformer else {
-        panic!("weights form bakes a linear rig")
+        panic!("the linear deformer bakes a linear rig")
     };
 
     let mut extra = b.clone();
@@ -344,7 +344,7 @@ fn every_coefficient_error_is_distinct() {
     let b = blob();
     let good = *Rig::from_bytes(&b).unwrap().data();
     let Deformer::Rbf(rbf) = good.deformer else {
-        panic!("the default is the coefficient form")
+        panic!("the default is the RBF deformer")
     };
     let markers = usize::from(good.marker_count);
     let mut bad_shift = rbf.row_shifts.0.to_vec();

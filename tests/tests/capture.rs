@@ -2,8 +2,9 @@
 //! head) driving FaceCap through the runtime's compensation, fill and retargeting, compared with
 //! the baker's f64 reference.
 
-use facebake::reference::SparseF64;
-use facebake::stages::{StagesConfig, StateF64};
+use facebake::deformer::SparseF64;
+use facebake::stages::reference::StateF64;
+use facebake::StagesConfig;
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, JawMoCapRig};
 
@@ -17,6 +18,19 @@ fn proportional_rig() -> &'static JawMoCapRig {
     CELL.get_or_init(|| {
         jawmocap_rig(&StagesConfig {
             retarget: facebake::stages::RetargetKind::Proportional,
+            ..StagesConfig::default()
+        })
+    })
+}
+
+/// The static anchors the anchor tests declare: the jaw-side markers.
+const ANCHORS: [&str; 2] = ["Chin_L2", "Chin_R2"];
+
+fn anchored_rig() -> &'static JawMoCapRig {
+    static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        jawmocap_rig(&StagesConfig {
+            anchor_markers: ANCHORS.map(str::to_string).to_vec(),
             ..StagesConfig::default()
         })
     })
@@ -52,8 +66,16 @@ fn proportional_runtime_matches_the_f64_pipeline_on_jawmocap() {
     matches_the_f64_pipeline(proportional_rig());
 }
 
+/// The same with static anchors, whose samples (present in JawMoCap) both must ignore.
+#[test]
+fn anchored_runtime_matches_the_f64_pipeline_on_jawmocap() {
+    let j = anchored_rig();
+    assert_eq!(j.stages().anchors.len(), ANCHORS.len());
+    matches_the_f64_pipeline(j);
+}
+
 fn matches_the_f64_pipeline(j: &JawMoCapRig) {
-    let rig = Rig::from_bytes(&j.blob).expect("loads");
+    let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let sparse = SparseF64::from_rig(&rig);
     let mut state = PlayState::new();
     let mut ref_state = StateF64::default();
@@ -66,11 +88,12 @@ fn matches_the_f64_pipeline(j: &JawMoCapRig) {
         let report = rig
             .play(&mut state, &to_actor(&rig, frame), &mut out)
             .expect("plays");
-        let (markers_f64, ref_report) = j.stages.reference.solve(&mut ref_state, frame);
+        let (markers_f64, ref_report) = j.stages().solve(&mut ref_state, frame);
         assert_eq!(report.rejected.len(), ref_report.rejected.len());
         let residual = f64::from(report.rigid_residual) / f64::from(1u32 << 24);
         worst_residual = worst_residual.max((residual - ref_report.residual).abs());
         assert_eq!(report.rebuilt.len(), ref_report.rebuilt.len());
+        assert_eq!(report.held.len(), ref_report.held.len());
         let stages = rig.stages().expect("stages");
         stages.solve(
             &mut PlayState::new(),
@@ -140,7 +163,7 @@ fn rotate(axis: [f64; 3], angle: f64, p: [f64; 3]) -> [f64; 3] {
 #[test]
 fn compensation_recovers_known_head_motion() {
     let j = rig();
-    let rig = Rig::from_bytes(&j.blob).expect("loads");
+    let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let frames = &j.frames[..400];
     let (plain, _) = play_all(&rig, frames);
     let moved: Vec<Vec<Option<[f64; 3]>>> = frames
@@ -182,7 +205,7 @@ fn compensation_recovers_known_head_motion() {
 #[test]
 fn knocked_out_markers_are_rebuilt() {
     let j = rig();
-    let rig = Rig::from_bytes(&j.blob).expect("loads");
+    let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let (complete, _) = play_all(&rig, &j.frames);
     let mut seed = 0x005E_ED0F_FACE_u64;
     let mut next = || {
@@ -237,10 +260,10 @@ fn knocked_out_markers_are_rebuilt() {
 /// motion by 1.5: the runtime's character markers are the (scaled) compensated actor markers.
 #[test]
 fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
-    use facebake::rigid::kabsch;
+    use facebake::stages::rigid::kabsch;
     use facebake::stages::{bake_stages, HeadMarkers, RetargetKind};
     let j = rig();
-    let rig = Rig::from_bytes(&j.blob).expect("loads");
+    let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let space = rig.space();
     let names: Vec<String> = rig.marker_names().map(str::to_string).collect();
     let head = ["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"];
@@ -290,7 +313,7 @@ fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
 fn virtual_markers_are_rebuilt_every_frame() {
     use facebake::stages::{bake_stages, StagesError};
     let j = rig();
-    let complete = Rig::from_bytes(&j.blob).expect("loads");
+    let complete = Rig::from_bytes(&j.baked.blob).expect("loads");
     let names: Vec<String> = complete.marker_names().map(str::to_string).collect();
     let lost = names
         .iter()
@@ -358,15 +381,11 @@ fn virtual_markers_are_rebuilt_every_frame() {
 /// the skin around them; they are reported as held.
 #[test]
 fn anchor_markers_stay_at_rest() {
-    let config = StagesConfig {
-        anchor_markers: vec!["Chin_L2".to_string(), "Chin_R2".to_string()],
-        ..StagesConfig::default()
-    };
-    let j = facebake_tests::jawmocap_rig(&config);
-    assert_eq!(j.stages.report.anchor_markers, ["Chin_L2", "Chin_R2"]);
-    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let j = anchored_rig();
+    assert_eq!(j.stages_report().anchor_markers, ANCHORS);
+    let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     let stages = rig.stages().unwrap();
-    let anchors: Vec<usize> = ["Chin_L2", "Chin_R2"]
+    let anchors: Vec<usize> = ANCHORS
         .iter()
         .map(|n| rig.marker_index(n).unwrap())
         .collect();

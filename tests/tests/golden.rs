@@ -21,9 +21,9 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use facebake::bake::{BakeConfig, Baked};
-use facebake::cli::demo::JAWMOCAP_HEAD_MARKERS;
+use facebake::demo::JAWMOCAP_HEAD_MARKERS;
 use facebake::stages::{HeadMarkers, StagesConfig};
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::fixed::POS_ONE;
 use facebake_runtime::PlayState;
@@ -56,7 +56,7 @@ fn capture_rig() -> &'static JawMoCapRig {
 
 /// The actor frames of the capture golden (Q8.24 actor units, `None` = missing).
 fn actor_frames(j: &JawMoCapRig) -> Vec<Vec<Option<[i32; 3]>>> {
-    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     let stages = rig.stages().unwrap();
     let space = stages.actor_space;
     let head: Vec<usize> = stages
@@ -219,10 +219,10 @@ fn golden_dir() -> PathBuf {
 }
 
 /// The default configuration at K = 4.
-fn k4_config() -> BakeConfig {
-    BakeConfig {
+fn k4_config() -> BakeOptions {
+    BakeOptions {
         k: 4,
-        ..BakeConfig::default()
+        ..BakeOptions::default()
     }
 }
 
@@ -317,7 +317,7 @@ fn hashes_txt(rigs: &[(&str, &[u8])], frames: &[Vec<[i32; 3]>]) -> String {
 #[test]
 fn bake_is_deterministic() {
     let (truth, baked) = facecap_default();
-    let again = bake_truth(truth, &BakeConfig::default());
+    let again = bake_truth(truth, &BakeOptions::default());
     assert!(
         again.blob == baked.blob,
         "coefficients bake differs run to run"
@@ -369,14 +369,14 @@ fn golden_files_match_the_baker_byte_for_byte() {
     ];
     let capture = capture_rig();
     let actor = actor_frames(capture);
-    let hashes = hashes_txt(&rigs, &frames) + &capture_hashes(&capture.blob, &actor);
+    let hashes = hashes_txt(&rigs, &frames) + &capture_hashes(&capture.baked.blob, &actor);
     let files: [(&str, Vec<u8>); 9] = [
         ("facecap_coefficients.fbk", coefficients.to_vec()),
         ("facecap_weights.fbk", weights.to_vec()),
         ("facecap_coefficients_k4.fbk", k4.to_vec()),
         ("facecap_planar.fbk", planar.to_vec()),
         ("facecap_markers.bin", markers),
-        ("jawmocap_capture.fbk", capture.blob.clone()),
+        ("jawmocap_capture.fbk", capture.baked.blob.clone()),
         ("jawmocap_actor.bin", actor_bytes(&actor)),
         ("hashes.txt", hashes.into_bytes()),
         (
@@ -424,7 +424,7 @@ fn capture_edge_frames_do_what_they_say() {
     use facebake_runtime::{FitFailure, RigidStatus};
     let capture = capture_rig();
     let frames = actor_frames(capture);
-    let rig = Rig::from_bytes(&capture.blob).unwrap();
+    let rig = Rig::from_bytes(&capture.baked.blob).unwrap();
     let stages = rig.stages().unwrap();
     let mut state = PlayState::new();
     let mut markers = vec![[0i32; 3]; rig.marker_count()];

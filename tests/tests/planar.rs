@@ -9,9 +9,9 @@
 //! * the ground-truth figures beside the linear methods (printed with `--nocapture`, pinned).
 
 use facebake::bake::Baked;
+use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::mesh::distance;
-use facebake::reference::SparseF64;
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::Rig;
 use facebake_tests::{facecap_default, facecap_planar, facecap_weights, lip_vertices};
@@ -48,8 +48,9 @@ fn runtime_matches_the_f64_equations_on_every_ground_truth_frame() {
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     assert!(matches!(rig.deformer(), Deformer::Planar(_)));
     let exact = baked
-        .planar
-        .as_ref()
+        .reference
+        .deformer
+        .planar()
         .expect("the planar bake has its reference");
     let summary = baked
         .report
@@ -190,7 +191,7 @@ fn a_rigid_motion_of_the_markers_moves_the_mesh_rigidly() {
         // Fixed-point error only: unit vectors within 2 LSB of 2^-30, positions at 2^-24.
         assert!(p < 1e-6, "planar {p:.3e} at {degrees}°");
         // The linear kernel interpolates displacements: it shears and shrinks the head. (The
-        // coefficient form's affine rows reproduce any affine motion, a global rotation too.)
+        // RBF deformer's affine rows reproduce any affine motion, a global rotation too.)
         assert!(l > 1e-3, "linear {l:.3e}");
     }
 }
@@ -234,7 +235,7 @@ fn translation_is_exact_and_the_rest_pose_is_the_mesh() {
 fn degenerate_triangles_keep_their_rest_orientation_and_are_reported() {
     let baked = planar();
     let rig = Rig::from_bytes(&baked.blob).unwrap();
-    let exact = baked.planar.as_ref().unwrap();
+    let exact = baked.reference.deformer.planar().unwrap();
     let space = rig.space();
     let truth = truth();
     let Deformer::Planar(p) = rig.deformer() else {
@@ -317,20 +318,22 @@ fn the_automatic_control_surface_leaves_out_the_openings() {
 /// the bake's exact positions) within the same bar.
 #[test]
 fn runtime_matches_the_f64_equations_on_jawmocap() {
-    use facebake::planar::reference::PlanarReference;
-    use facebake::stages::{StagesConfig, StateF64};
+    use facebake::deformer::planar::reference::PlanarReference;
+    use facebake::stages::reference::StateF64;
+    use facebake::StagesConfig;
     use facebake_runtime::PlayState;
     let j = facebake_tests::jawmocap_rig_with(
         &facebake_tests::planar_config(8),
         &StagesConfig::default(),
     );
-    let rig = Rig::from_bytes(&j.blob).unwrap();
+    let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     assert!(matches!(rig.deformer(), Deformer::Planar(_)));
     let own = PlanarReference::from_rig(&rig).expect("a planar rig");
     let exact = j
         .baked
-        .planar
-        .as_ref()
+        .reference
+        .deformer
+        .planar()
         .expect("the planar bake has its reference");
     let stages = rig.stages().expect("stages");
     let space = rig.space();
@@ -354,7 +357,7 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         let runtime_markers: Vec<[f64; 3]> =
             markers.iter().map(|q| space.to_asset_f64(*q)).collect();
         let (want_own, _) = own.frame(&runtime_markers);
-        let (chain_markers, _) = j.stages.reference.solve(&mut ref_state, frame);
+        let (chain_markers, _) = j.stages().solve(&mut ref_state, frame);
         let chain_markers: Vec<[f64; 3]> = chain_markers.iter().map(to_asset).collect();
         let (want_chain, _) = exact.frame(&chain_markers);
         for ((g, o), c) in got.iter().zip(&want_own).zip(&want_chain) {
@@ -410,5 +413,25 @@ fn masks_keep_planar_lip_vertices_off_the_other_lips_triangles() {
     assert_eq!(
         masked_bake.report.planar.as_ref().unwrap().triangles,
         got[0].0.report.planar.as_ref().unwrap().triangles
+    );
+}
+
+/// A given control triangle whose markers are collinear is refused, named as the layout names
+/// it (its place in the list and its markers).
+#[test]
+fn a_degenerate_given_triangle_is_refused_by_name() {
+    let truth = truth();
+    let mut markers = facebake_tests::truth_markers(truth);
+    let (a, b) = (markers[0].rest, markers[1].rest);
+    markers[2].rest = [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]));
+    let mut scene = facebake::Scene::new(&truth.mesh, markers);
+    scene.control_triangles = Some(vec![[3, 4, 5], [0, 1, 2]]);
+    let err = facebake::bake(&scene, &facebake_tests::planar_config(8))
+        .err()
+        .expect("a collinear control triangle is refused")
+        .to_string();
+    assert!(
+        err.contains("triangles[1]") && err.contains("\"M02\"") && err.contains("degenerate"),
+        "{err}"
     );
 }

@@ -47,7 +47,7 @@ fn stages_error(data: &RigData<'_>) -> StagesLoadError {
 
 #[test]
 fn every_stages_error_is_distinct() {
-    let blob = &rig().blob;
+    let blob = &rig().baked.blob;
     let good = *Rig::from_bytes(blob).unwrap().data();
     let s = good.stages.expect("stages");
     let with = |f: &dyn Fn(&mut format::RigData<'_>)| {
@@ -147,7 +147,7 @@ fn every_stages_error_is_distinct() {
 /// panics, and whatever loads plays frames (complete, empty, extreme) without panicking.
 #[test]
 fn resealed_damage_to_the_stages_never_panics() {
-    let blob = &rig().blob;
+    let blob = &rig().baked.blob;
     let good = *Rig::from_bytes(blob).unwrap().data();
     let without = seal(&RigData {
         stages: None,

@@ -4,18 +4,35 @@
 //! Bar: the best surface-aware configuration at least halves Euclidean RBF's p99 error on the
 //! lip vertices, beats it on the eyelid vertices and does not worsen the whole-face mean.
 
-use facebake::bake::RigForm;
-use facebake::rbf::KernelKind;
-use facebake::surface::evaluate::{Scene, Scores};
-use facebake::surface::{Method, SurfaceConfig};
-use facebake_tests::{bake_scene, facecap_scene};
+use facebake::surface::evaluate::{Benchmark, Scores};
+use facebake::surface::{SideRule, SurfaceFigures};
+use facebake::{BakeOptions, BakeReport, DeformerKind, Method, RadialFunction};
+use facebake_tests::{bake_scene, benchmark_scene, facecap_scene};
 
-fn scene() -> &'static Scene {
-    static CELL: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+fn scene() -> &'static Benchmark {
+    static CELL: std::sync::OnceLock<Benchmark> = std::sync::OnceLock::new();
     CELL.get_or_init(facecap_scene)
 }
 
-fn run(label: &str, config: &SurfaceConfig) -> (Scores, facebake::surface::SurfaceReport) {
+/// The surface-aware figures of a report.
+fn figures(report: &BakeReport) -> &SurfaceFigures {
+    report
+        .surface
+        .as_ref()
+        .expect("a surface-aware bake reports its figures")
+}
+
+/// Bake the benchmark's markers with `options` and `sides` (masks with `options.masks`).
+fn bake_with_sides(
+    options: &BakeOptions,
+    sides: SideRule,
+) -> Result<facebake::Baked, facebake::BakeError> {
+    let mut s = benchmark_scene(scene());
+    s.sides = sides;
+    facebake::bake(&s, options)
+}
+
+fn run(label: &str, config: &BakeOptions) -> (Scores, BakeReport) {
     let baked = bake_scene(scene(), config);
     let s = scene().score(&baked.blob);
     println!(
@@ -25,25 +42,29 @@ fn run(label: &str, config: &SurfaceConfig) -> (Scores, facebake::surface::Surfa
         s.bands[1],
         100.0 * s.crossed[0],
         100.0 * s.crossed[1],
-        baked.report.min_eigenvalue
+        baked
+            .report
+            .surface
+            .as_ref()
+            .map_or(f64::NAN, |f| f.min_eigenvalue)
     );
     (s, baked.report)
 }
 
-/// Euclidean RBF in the default configuration of `bake` (Gaussian 0.75, coefficients).
-fn euclidean() -> SurfaceConfig {
-    let mut c = SurfaceConfig {
-        method: Method::Euclidean,
-        ..SurfaceConfig::default()
-    };
-    c.bake = facebake::bake::BakeConfig::default();
-    c
+/// Euclidean RBF in the default configuration of `bake` (Gaussian 0.75, RBF deformer).
+fn euclidean() -> BakeOptions {
+    BakeOptions::default()
+}
+
+/// The geodesic method's defaults (exponential, width factor 1, RBF deformer).
+fn geodesic() -> BakeOptions {
+    BakeOptions::for_method(Method::Geodesic, false)
 }
 
 #[test]
 fn geodesic_rbf_halves_the_lip_error_of_euclidean_rbf() {
     let (base, _) = run("euclidean gaussian", &euclidean());
-    let (best, report) = run("geodesic exponential (default)", &SurfaceConfig::default());
+    let (best, report) = run("geodesic exponential (default)", &geodesic());
     // Measured 2026-11-22: Euclidean lips p99 18.47 mm, eyelids p99 5.13 mm, face mean 1.353 mm;
     // geodesic lips p99 6.91 mm, eyelids p99 4.82 mm, face mean 1.126 mm.
     assert!(best.bands[0].p99_mm <= 0.5 * base.bands[0].p99_mm, "lips");
@@ -55,10 +76,11 @@ fn geodesic_rbf_halves_the_lip_error_of_euclidean_rbf() {
     assert!(best.whole.mean_mm <= 1.15, "{}", best.whole);
     assert!(best.whole.max_mm <= 12.0, "{}", best.whole);
     // The exponential kernel's geodesic matrix stays positive definite: no ridge.
-    assert!(report.min_eigenvalue > 0.0 && report.ridge == 0.0);
+    let f = figures(&report);
+    assert!(f.min_eigenvalue > 0.0 && f.ridge == 0.0);
     // The mouth interior, teeth and tongue are other pieces: reported, not dropped.
-    assert_eq!(report.openings, 3, "mouth and two eyes");
-    assert_eq!(report.unreachable_vertices, 740);
+    assert_eq!(f.openings, 3, "mouth and two eyes");
+    assert_eq!(f.unreachable_vertices, 740);
     assert!(report
         .warnings
         .iter()
@@ -68,14 +90,14 @@ fn geodesic_rbf_halves_the_lip_error_of_euclidean_rbf() {
 #[test]
 fn masks_part_the_lips_of_euclidean_rbf() {
     let mut unmasked = euclidean();
-    unmasked.bake.form = RigForm::Weights;
+    unmasked.deformer = DeformerKind::Linear;
     let mut masked = unmasked.clone();
     masked.masks = true;
     let (plain, _) = run("euclidean weights", &unmasked);
     let (with_masks, report) = run("euclidean weights + masks", &masked);
     // Measured 2026-11-22: lips p99 18.29 → 6.50 mm, lips crossed 19.0 → 4.4 %, face mean
     // 1.056 → 0.836 mm.
-    assert!(report.masked_vertices > 0);
+    assert!(figures(&report).masked_vertices > 0);
     assert!(with_masks.bands[0].p99_mm <= 0.5 * plain.bands[0].p99_mm);
     assert!(with_masks.crossed[0] < 0.5 * plain.crossed[0]);
     assert!(with_masks.whole.mean_mm < plain.whole.mean_mm);
@@ -84,52 +106,47 @@ fn masks_part_the_lips_of_euclidean_rbf() {
 
 #[test]
 fn gaussian_geodesic_kernel_is_indefinite_and_is_reported() {
-    let mut c = SurfaceConfig::default();
-    c.bake.kernel = KernelKind::Gaussian;
-    c.bake.width_factor = 0.75;
+    let mut c = geodesic();
+    c.radial = RadialFunction::Gaussian;
+    c.width_factor = 0.75;
     let baked = bake_scene(scene(), &c);
-    let r = &baked.report;
+    let f = figures(&baked.report);
     // Measured 2026-11-22: smallest eigenvalue −1.54 × mean |φ|, ridge 1.54.
-    assert!(r.min_eigenvalue < 0.0, "{}", r.min_eigenvalue);
-    assert!((r.ridge - (-r.min_eigenvalue + facebake::surface::RIDGE_MARGIN)).abs() < 1e-12);
-    assert!(r.warnings.iter().any(|w| w.contains("indefinite")));
+    assert!(f.min_eigenvalue < 0.0, "{}", f.min_eigenvalue);
+    assert!((f.ridge - (-f.min_eigenvalue + facebake::surface::RIDGE_MARGIN)).abs() < 1e-12);
+    assert!(baked
+        .report
+        .warnings
+        .iter()
+        .any(|w| w.contains("indefinite")));
 }
 
 #[test]
-fn masks_need_the_weights_form() {
-    let c = SurfaceConfig {
+fn masks_need_the_linear_deformer() {
+    let c = BakeOptions {
         masks: true,
-        ..SurfaceConfig::default()
+        ..geodesic()
     };
-    let err = facebake::surface::bake_surface(
-        &facebake::surface::SurfaceInput {
-            mesh: &scene().truth.mesh,
-            markers: &scene().markers,
-            groups: &scene().groups,
-            sides: &facebake::surface::SideRule::Auto,
-            head: &[],
-        },
-        &c,
-    )
-    .err()
-    .expect("masks with the coefficient form are refused");
-    assert!(err.to_string().contains("weights form"), "{err}");
+    let err = bake_with_sides(&c, SideRule::Auto)
+        .err()
+        .expect("masks with the RBF deformer are refused");
+    assert!(err.to_string().contains("linear deformer"), "{err}");
 }
 
 #[test]
 fn proximity_based_weighting_beats_euclidean_on_the_lips() {
     let (base, _) = run("euclidean gaussian", &euclidean());
-    let mut c = SurfaceConfig {
-        method: Method::Pbw,
-        ..SurfaceConfig::default()
-    };
-    c.bake.form = RigForm::Weights;
-    c.bake.width_factor = 0.75;
+    let mut c = BakeOptions::for_method(Method::Pbw, false);
+    c.width_factor = 0.75;
     let (pbw, report) = run("pbw α = 0.5", &c);
     // Measured 2026-11-22: lips p99 12.17 mm, face mean 0.888 mm, eyelids p99 5.28 mm (Euclidean
     // 18.47, 1.353, 5.13): better on the lips and the face, not on the eyelids.
-    assert_eq!(report.kernel, "multiquadric");
-    assert_eq!(report.ridge, 0.0, "the multiquadric needs no ridge");
+    assert_eq!(report.radial, Some("multiquadric"));
+    assert_eq!(
+        figures(&report).ridge,
+        0.0,
+        "the multiquadric needs no ridge"
+    );
     assert!(pbw.bands[0].p99_mm <= 12.5, "{}", pbw.bands[0]);
     assert!(pbw.whole.mean_mm <= 0.91, "{}", pbw.whole);
     assert!(pbw.bands[0].p99_mm < base.bands[0].p99_mm);
@@ -151,48 +168,27 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
                     .collect()
             };
             (
-                pick(facebake::surface::Side::Upper),
-                pick(facebake::surface::Side::Lower),
+                pick(facebake::model::Side::Upper),
+                pick(facebake::model::Side::Lower),
             )
         })
         .collect();
-    let mut c = euclidean();
-    c.bake.form = RigForm::Weights;
-    c.masks = true;
-    let baked = facebake::surface::bake_surface(
-        &facebake::surface::SurfaceInput {
-            mesh: &scene().truth.mesh,
-            markers: &scene().markers,
-            groups: &scene().groups,
-            sides: &facebake::surface::SideRule::VertexSets(sets),
-            head: &[],
-        },
-        &c,
-    )
-    .expect("bake with vertex sets");
+    let c = BakeOptions::for_method(Method::Euclidean, true);
+    let baked = bake_with_sides(&c, SideRule::VertexSets(sets)).expect("bake with vertex sets");
     let s = scene().score(&baked.blob);
     println!(
         "euclidean weights + masks from vertex sets: lips {}",
         s.bands[0]
     );
     // Measured 2026-11-22: lips p99 6.50 mm, as with the automatic sides (unmasked 18.29 mm).
-    assert!(baked.report.masked_vertices > 0);
+    assert!(figures(&baked.report).masked_vertices > 0);
     assert!(s.bands[0].p99_mm <= 6.7, "{}", s.bands[0]);
     // A set naming a vertex the mesh does not have is an error naming the mask.
-    let bad = facebake::surface::SideRule::VertexSets(vec![(vec![999_999], vec![0]); 2]);
-    let err = facebake::surface::bake_surface(
-        &facebake::surface::SurfaceInput {
-            mesh: &scene().truth.mesh,
-            markers: &scene().markers,
-            groups: &scene().groups,
-            sides: &bad,
-            head: &[],
-        },
-        &c,
-    )
-    .err()
-    .expect("out-of-range vertex refused")
-    .to_string();
+    let bad = SideRule::VertexSets(vec![(vec![999_999], vec![0]); 2]);
+    let err = bake_with_sides(&c, bad)
+        .err()
+        .expect("out-of-range vertex refused")
+        .to_string();
     assert!(err.contains("mouth") && err.contains("999999"), "{err}");
 }
 
@@ -202,7 +198,8 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
 #[test]
 fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
     use facebake::io::mask_image::{read_sides, write_sides};
-    use facebake::surface::{mask_sides, Side, SideRule, SurfaceInput};
+    use facebake::model::Side;
+    use facebake::surface::{mask_sides, SurfaceInput};
     let s = scene();
     let mesh = &s.truth.mesh;
     let input = |sides| SurfaceInput {
@@ -210,12 +207,9 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         markers: &s.markers,
         groups: &s.groups,
         sides,
-        head: &[],
     };
-    let mut c = euclidean();
-    c.bake.form = RigForm::Weights;
-    c.masks = true;
-    let auto = mask_sides(&input(&SideRule::Auto), &c).expect("automatic sides");
+    let c = BakeOptions::for_method(Method::Euclidean, true);
+    let auto = mask_sides(&input(&SideRule::Auto), &c.surface).expect("automatic sides");
     let dir = std::env::temp_dir().join(format!("facebake-mask-images-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut sets = Vec::new();
@@ -258,8 +252,7 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         );
         sets.push((upper, lower));
     }
-    let baked = facebake::surface::bake_surface(&input(&SideRule::VertexSets(sets)), &c)
-        .expect("bake with mask images");
+    let baked = bake_with_sides(&c, SideRule::VertexSets(sets)).expect("bake with mask images");
     let scores = s.score(&baked.blob);
     println!(
         "euclidean weights + masks from images: lips {}",

@@ -10,7 +10,7 @@
 //!   [`Geodesics::new`]; each source then costs three triangular solves (two on meshes without
 //!   a boundary) and a pass over the triangles.
 //!
-//! Use the welded mesh ([`FaceMesh::welded_positions`](crate::io::gltf_mesh::FaceMesh) and
+//! Use the welded mesh ([`FaceMesh::welded_positions`](crate::model::FaceMesh) and
 //! `welded_triangles`): the glTF vertex order splits the surface at UV seams.
 //!
 //! A mesh may have several connected pieces (a face and the inside of its mouth); a vertex in

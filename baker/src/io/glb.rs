@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 use thiserror::Error;
 
-use crate::io::gltf_mesh::{bounds, FaceMesh};
+use crate::model::{bounds, FaceMesh};
 
 /// A named frame: one position per glTF vertex of the mesh, in mesh units.
 pub type Frame = (String, Vec<[f32; 3]>);

@@ -11,51 +11,13 @@
 //! Node transforms are not applied: positions are in the mesh's own coordinate system.
 //! Images are never decoded.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use gltf::mesh::Mode;
 use thiserror::Error;
 
-use crate::mesh::Topology;
-
-/// One morph target (blend shape) of a [`FaceMesh`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct MorphTarget {
-    /// Name from `mesh.extras.targetNames`, or `target_<i>` when the file names none.
-    pub name: String,
-    /// Per-vertex position offsets, in glTF vertex order and asset units
-    /// (all zero when the target carries no `POSITION` attribute).
-    pub deltas: Vec<[f64; 3]>,
-}
-
-/// A triangle mesh read from glTF, with its morph targets and a welded copy of its topology.
-#[derive(Debug, Clone)]
-pub struct FaceMesh {
-    /// The file the mesh was read from.
-    pub source: PathBuf,
-    /// The mesh's name in the file (`#<index>` when it has none).
-    pub mesh_name: String,
-    /// Rest positions, in glTF vertex order and asset units.
-    pub positions: Vec<[f64; 3]>,
-    /// Vertex normals as stored in the file, if the primitive has `NORMAL`.
-    pub normals: Option<Vec<[f64; 3]>>,
-    /// Triangles in original glTF vertex indices, in file order.
-    pub triangles: Vec<[u32; 3]>,
-    /// For each original vertex, the id of its welded vertex (vertices with bit-identical
-    /// positions share one id; ids are numbered in order of first appearance).
-    pub weld: Vec<u32>,
-    /// Position of each welded vertex.
-    pub welded_positions: Vec<[f64; 3]>,
-    /// The same triangles as [`FaceMesh::triangles`] (same order, none dropped) in welded ids;
-    /// see [`FaceMesh::degenerate_welded_triangles`] for those that collapse.
-    pub welded_triangles: Vec<[u32; 3]>,
-    /// Morph targets in file order.
-    pub morph_targets: Vec<MorphTarget>,
-    /// Application-specific vertex attributes (glTF names starting with `_`) holding one float
-    /// per vertex, by name (e.g. `_MASK_MOUTH`); others are not read.
-    pub attributes: std::collections::BTreeMap<String, Vec<f32>>,
-}
+use crate::io::gltf_check::{self, BufferAccess, GltfCheckError};
+use crate::model::{weld_positions, FaceMesh, MorphTarget};
 
 /// Failure to load a mesh: the file and what is wrong with it.
 #[derive(Debug, Error)]
@@ -70,9 +32,9 @@ pub struct MeshLoadError {
 /// The problems [`load_mesh`] reports.
 #[derive(Debug, Error)]
 pub enum MeshLoadErrorKind {
-    /// The file could not be read or is not valid glTF.
-    #[error("cannot read glTF: {0}")]
-    Gltf(#[from] gltf::Error),
+    /// The file failed the checks made before the glTF crate reads it (see `gltf_check`).
+    #[error(transparent)]
+    Check(#[from] GltfCheckError),
     /// The file contains no mesh at all.
     #[error("the file contains no meshes")]
     NoMeshes,
@@ -206,7 +168,17 @@ pub fn load_mesh(
     mesh: Option<&str>,
     primitive: Option<usize>,
 ) -> Result<FaceMesh, MeshLoadError> {
-    load(path, mesh, primitive).map_err(|kind| MeshLoadError {
+    load_mesh_with(path, mesh, primitive, BufferAccess::AssetFolder)
+}
+
+/// [`load_mesh`], choosing where a `.gltf`'s external buffers may be read from.
+pub fn load_mesh_with(
+    path: &Path,
+    mesh: Option<&str>,
+    primitive: Option<usize>,
+    access: BufferAccess,
+) -> Result<FaceMesh, MeshLoadError> {
+    load(path, mesh, primitive, access).map_err(|kind| MeshLoadError {
         path: path.to_path_buf(),
         kind,
     })
@@ -216,9 +188,10 @@ fn load(
     path: &Path,
     mesh_name: Option<&str>,
     primitive_index: Option<usize>,
+    access: BufferAccess,
 ) -> Result<FaceMesh, MeshLoadErrorKind> {
-    let gltf::Gltf { document, blob } = gltf::Gltf::open(path)?;
-    let buffers = gltf::import_buffers(&document, path.parent(), blob)?;
+    // Checked first: the gltf crate trusts the file (see `gltf_check`).
+    let (document, buffers) = gltf_check::import(path, access)?;
 
     let display_name = |m: &gltf::Mesh| {
         m.name()
@@ -472,102 +445,6 @@ fn target_names(
     }
 }
 
-/// Welds vertices with bit-identical positions; returns (original -> welded id, welded positions).
-pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
-    let mut welded = Vec::new();
-    let weld = positions
-        .iter()
-        .map(|p| {
-            *ids.entry(p.map(f64::to_bits)).or_insert_with(|| {
-                welded.push(*p);
-                (welded.len() - 1) as u32
-            })
-        })
-        .collect();
-    (weld, welded)
-}
-
-impl FaceMesh {
-    /// Positions with morph targets applied: rest + Σ weight · delta, in glTF vertex order.
-    ///
-    /// `weights` pairs a morph target index with its weight.
-    ///
-    /// # Panics
-    /// If a target index is out of range (use [`FaceMesh::morph_index`] to look names up).
-    pub fn morphed(&self, weights: &[(usize, f64)]) -> Vec<[f64; 3]> {
-        let mut out = self.positions.clone();
-        for &(t, w) in weights {
-            let target = self.morph_targets.get(t).unwrap_or_else(|| {
-                panic!(
-                    "morph target {t} out of range: mesh \"{}\" has {}",
-                    self.mesh_name,
-                    self.morph_targets.len()
-                )
-            });
-            for (p, d) in out.iter_mut().zip(&target.deltas) {
-                for k in 0..3 {
-                    p[k] += w * d[k];
-                }
-            }
-        }
-        out
-    }
-
-    /// Index of the morph target with this exact name.
-    pub fn morph_index(&self, name: &str) -> Option<usize> {
-        self.morph_targets.iter().position(|t| t.name == name)
-    }
-
-    /// Axis-aligned bounds `(min, max)` of the rest positions.
-    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        bounds(self.positions.iter().copied())
-    }
-
-    /// Length of the bounding box diagonal of the rest positions (a scale for tolerances).
-    pub fn diagonal(&self) -> f64 {
-        let (lo, hi) = self.bounds();
-        crate::mesh::distance(&lo, &hi)
-    }
-
-    /// Indices of triangles whose welded vertices are not three distinct ids.
-    pub fn degenerate_welded_triangles(&self) -> Vec<usize> {
-        self.welded_triangles
-            .iter()
-            .enumerate()
-            .filter(|(_, [a, b, c])| a == b || b == c || a == c)
-            .map(|(i, _)| i)
-            .collect()
-    }
-
-    /// For each welded vertex, the first original glTF vertex that maps to it.
-    pub fn welded_to_original(&self) -> Vec<u32> {
-        let mut out = vec![u32::MAX; self.welded_positions.len()];
-        for (orig, &w) in self.weld.iter().enumerate().rev() {
-            out[w as usize] = orig as u32;
-        }
-        out
-    }
-
-    /// Topology (adjacency, edges, components, boundary loops) of the welded mesh.
-    pub fn welded_topology(&self) -> Topology {
-        Topology::new(&self.welded_positions, &self.welded_triangles)
-    }
-}
-
-/// Axis-aligned bounds `(min, max)` of a point set (`(+inf, -inf)` when empty).
-pub fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -736,7 +613,10 @@ pub(crate) mod tests {
             "{e}"
         );
         let e = load_mesh(Path::new("/nonexistent/face.glb"), None, None).unwrap_err();
-        assert!(matches!(e.kind, MeshLoadErrorKind::Gltf(_)), "{e}");
+        assert!(
+            matches!(e.kind, MeshLoadErrorKind::Check(GltfCheckError::Read(_))),
+            "{e}"
+        );
         assert!(e.to_string().contains("/nonexistent/face.glb"));
     }
 

@@ -17,208 +17,43 @@
 //! ```
 //!
 //! - `vertex`: a vertex index in the glTF file's own vertex order (before welding).
-//! - `point`: a position in the mesh's units; [`place_markers`] snaps it to the closest point
+//! - `point`: a position in the mesh's units; [`crate::model::place_markers`] snaps it to the closest point
 //!   on the surface, and refuses it if that is farther than the caller's `max_snap`.
 //! - `stiffness`: a number from 1 to 9 (default 1), how firmly the marker pins the surface.
 //!
-//! An optional `groups` table names the marker groups of discontinuity masks (see
-//! [`crate::io::marker_groups`]); `read_layout` skips it, and so the optional `triangles` list
-//! of planar bones' control triangles (see [`crate::io::control_triangles`]).
+//! An optional `groups` table names the marker groups of discontinuity masks: each entry is one
+//! mask, the markers on the upper side of an opening and those on the lower side (markers in
+//! neither list influence both sides):
+//!
+//! ```toml
+//! [groups]
+//! mouth = { upper = ["Mouth_Up", "Mouth_UpL1"], lower = ["Mouth_Down", "Chin"] }
+//! eyes = { upper = ["Leye_Up", "Reye_Up"], lower = ["Leye_Down", "Reye_Down"] }
+//! ```
+//!
+//! An optional `triangles` list gives planar bones' control triangles by marker names (a layout
+//! without it leaves the planar bake to build the control surface automatically). In TOML the
+//! key must come before the tables (a key after `[markers]` belongs to that table):
+//!
+//! ```toml
+//! triangles = [["Nose_Tip", "Mouth_UpL1", "Mouth_Up"], ["Mouth_Up", "Mouth_UpR1", "Nose_Tip"]]
+//! ```
+//!
+//! The JSON forms are the same object under `"groups"` and the same list under `"triangles"`.
 //!
 //! Each marker has exactly one of `vertex` and `point`; no other keys are allowed. Marker
 //! names must be unique, and no two markers may sit on the same (welded) vertex or point.
 //! Markers keep their file order.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::de::{Deserializer, MapAccess, Visitor};
 use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
-use crate::io::gltf_mesh::FaceMesh;
-use crate::mesh::{closest_point, distance, SurfacePoint};
-
-/// Where a marker is anchored on the mesh.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MarkerAnchor {
-    /// On this vertex (glTF vertex order, before welding).
-    Vertex(u32),
-    /// At the surface point closest to this position (mesh units).
-    Point([f64; 3]),
-}
-
-/// One marker of a layout.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LayoutMarker {
-    /// Marker name, as the capture files name it.
-    pub name: String,
-    /// Where it sits.
-    pub anchor: MarkerAnchor,
-    /// How firmly it pins the surface, 1 to 9.
-    pub stiffness: f64,
-}
-
-/// A marker layout, markers in file order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MarkerLayout {
-    /// The file it was read from (used in error messages).
-    pub source: PathBuf,
-    /// The markers, in file order.
-    pub markers: Vec<LayoutMarker>,
-}
-
-/// A marker placed on a mesh.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlacedMarker {
-    /// Marker name.
-    pub name: String,
-    /// Its rest position on the surface (mesh units).
-    pub position: [f64; 3],
-    /// Where on the surface it is, in the mesh's ORIGINAL glTF triangles and vertex indices,
-    /// so morph deltas interpolate directly with [`SurfacePoint::interpolate`]. `distance` is
-    /// how far a `point` anchor was snapped (0 for `vertex` anchors).
-    pub surface: SurfacePoint,
-    /// Stiffness, 1 to 9.
-    pub stiffness: f64,
-}
-
-/// A problem with a layout file or with placing it on a mesh; each names the file.
-#[derive(Debug, Error)]
-pub enum LayoutError {
-    /// The file could not be read or written.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The extension is neither `.toml` nor `.json`.
-    #[error("{}: a layout file must end in .toml or .json", path.display())]
-    UnknownFormat {
-        /// The file.
-        path: PathBuf,
-    },
-    /// Syntax or shape error in the file.
-    #[error("{}:{line}:{column}: {message}", path.display())]
-    Parse {
-        /// The file.
-        path: PathBuf,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// What the parser said.
-        message: String,
-    },
-    /// The layout has no markers.
-    #[error("{}: the layout has no markers", path.display())]
-    NoMarkers {
-        /// The file.
-        path: PathBuf,
-    },
-    /// A marker has both or neither of `vertex` and `point`.
-    #[error("{}: marker \"{marker}\" needs exactly one of `vertex` and `point`", path.display())]
-    AnchorMissing {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-    },
-    /// Two markers have the same name.
-    #[error("{}: marker name \"{marker}\" is used twice", path.display())]
-    DuplicateName {
-        /// The file.
-        path: PathBuf,
-        /// The name.
-        marker: String,
-    },
-    /// A stiffness outside 1..=9.
-    #[error("{}: marker \"{marker}\" has stiffness {value}; it must be from 1 to 9", path.display())]
-    Stiffness {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-        /// The value given.
-        value: f64,
-    },
-    /// A point with a NaN or infinite coordinate.
-    #[error("{}: marker \"{marker}\" has a non-finite point {point:?}", path.display())]
-    NotFinite {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-        /// The point.
-        point: [f64; 3],
-    },
-    /// A vertex index beyond the mesh.
-    #[error(
-        "{}: marker \"{marker}\" is on vertex {vertex}, but mesh \"{mesh}\" has only {vertex_count} vertices",
-        path.display()
-    )]
-    UnknownVertex {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-        /// The vertex given.
-        vertex: u32,
-        /// The mesh's name.
-        mesh: String,
-        /// The mesh's vertex count.
-        vertex_count: usize,
-    },
-    /// A vertex that no triangle uses, so the marker would not be on the surface.
-    #[error("{}: marker \"{marker}\" is on vertex {vertex}, which no triangle of mesh \"{mesh}\" uses", path.display())]
-    LooseVertex {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-        /// The vertex given.
-        vertex: u32,
-        /// The mesh's name.
-        mesh: String,
-    },
-    /// Two markers on the same spot.
-    #[error("{}: markers \"{other}\" and \"{marker}\" are on the same spot {position:?}{}", path.display(),
-        welded_vertex.map(|v| format!(" (welded vertex {v})")).unwrap_or_default())]
-    DuplicateAnchor {
-        /// The file.
-        path: PathBuf,
-        /// The later marker.
-        marker: String,
-        /// The earlier marker on the same spot.
-        other: String,
-        /// The shared position.
-        position: [f64; 3],
-        /// The shared welded vertex, when both are vertex anchors.
-        welded_vertex: Option<u32>,
-    },
-    /// A point farther from the surface than allowed.
-    #[error(
-        "{}: marker \"{marker}\" point {point:?} is {distance:.6} from the surface of mesh \"{mesh}\" (at most {max_snap:.6} allowed)",
-        path.display()
-    )]
-    TooFar {
-        /// The file.
-        path: PathBuf,
-        /// The marker.
-        marker: String,
-        /// The point given.
-        point: [f64; 3],
-        /// Its distance to the surface.
-        distance: f64,
-        /// The allowed distance.
-        max_snap: f64,
-        /// The mesh's name.
-        mesh: String,
-    },
-}
+use crate::model::layout::check;
+use crate::model::{LayoutError, LayoutMarker, MarkerAnchor, MarkerGroups, MarkerLayout};
 
 /// One marker as written in the file.
 #[derive(Deserialize)]
@@ -229,39 +64,47 @@ struct RawMarker {
     stiffness: Option<f64>,
 }
 
-/// The markers table, in file order (duplicates kept, so they can be reported by name).
-struct RawMarkers(Vec<(String, RawMarker)>);
+/// A table in file order (duplicates kept, so they can be reported by name).
+struct Ordered<T>(Vec<(String, T)>);
 
-impl<'de> Deserialize<'de> for RawMarkers {
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Ordered<T> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct Ordered;
-        impl<'de> Visitor<'de> for Ordered {
-            type Value = RawMarkers;
+        struct Entries<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for Entries<T> {
+            type Value = Ordered<T>;
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a table of markers, name = { vertex = N } or { point = [x, y, z] }")
+                f.write_str("a table of named entries")
             }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<RawMarkers, A::Error> {
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Ordered<T>, A::Error> {
                 let mut out = Vec::new();
                 while let Some(entry) = map.next_entry()? {
                     out.push(entry);
                 }
-                Ok(RawMarkers(out))
+                Ok(Ordered(out))
             }
         }
-        d.deserialize_map(Ordered)
+        d.deserialize_map(Entries(std::marker::PhantomData))
     }
+}
+
+/// One mask's groups as written in the file.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSides {
+    upper: Vec<String>,
+    lower: Vec<String>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLayout {
-    markers: RawMarkers,
-    /// Marker groups for discontinuity masks, read by [`crate::io::marker_groups`].
-    #[serde(default, rename = "groups")]
-    _groups: Option<serde::de::IgnoredAny>,
-    /// Control triangles of planar bones, read by [`crate::io::control_triangles`].
-    #[serde(default, rename = "triangles")]
-    _triangles: Option<serde::de::IgnoredAny>,
+    markers: Ordered<RawMarker>,
+    /// Marker groups for discontinuity masks.
+    #[serde(default)]
+    groups: Option<Ordered<RawSides>>,
+    /// Control triangles of planar bones.
+    #[serde(default)]
+    triangles: Option<Vec<[String; 3]>>,
 }
 
 #[derive(Clone, Copy)]
@@ -290,16 +133,22 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     )
 }
 
-/// Reads and checks a layout file (TOML or JSON by extension).
+/// Reads and checks a layout file (TOML or JSON by extension): markers, groups and control
+/// triangles in one parse.
 ///
 /// Checks everything that does not need the mesh: syntax, one anchor per marker, unique
-/// names, stiffness range, finite points.
+/// names, stiffness range, finite points, groups and triangles naming the layout's markers.
 pub fn read_layout(path: &Path) -> Result<MarkerLayout, LayoutError> {
     let format = format_of(path)?;
-    let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::io::read_bounded(path)
+        .and_then(|b| {
+            String::from_utf8(b)
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+        })
+        .map_err(|source| LayoutError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let parse_error = |line, column, message: &str| LayoutError::Parse {
         path: path.to_path_buf(),
         line,
@@ -336,46 +185,119 @@ pub fn read_layout(path: &Path) -> Result<MarkerLayout, LayoutError> {
             stiffness: m.stiffness.unwrap_or(1.0),
         });
     }
+    let names: Vec<&str> = markers.iter().map(|m| m.name.as_str()).collect();
+    let groups = raw.groups.map_or(Ok(Vec::new()), |g| {
+        g.0.into_iter()
+            .map(|(name, sides)| resolve_group(path, &names, name, sides))
+            .collect()
+    })?;
+    let triangles = raw
+        .triangles
+        .map(|t| resolve_triangles(path, &names, t))
+        .transpose()?;
     let layout = MarkerLayout {
         source: path.to_path_buf(),
         markers,
+        groups,
+        triangles,
     };
     check(&layout)?;
     Ok(layout)
 }
 
-/// The checks that need no mesh; errors name `layout.source`.
-fn check(layout: &MarkerLayout) -> Result<(), LayoutError> {
-    let path = || layout.source.clone();
-    if layout.markers.is_empty() {
-        return Err(LayoutError::NoMarkers { path: path() });
-    }
-    let mut names = std::collections::HashSet::new();
-    for m in &layout.markers {
-        if !names.insert(m.name.as_str()) {
-            return Err(LayoutError::DuplicateName {
-                path: path(),
-                marker: m.name.clone(),
+/// One mask's groups by marker index; errors name the file, the group and the marker.
+fn resolve_group(
+    path: &Path,
+    names: &[&str],
+    name: String,
+    sides: RawSides,
+) -> Result<MarkerGroups, LayoutError> {
+    let mut seen = std::collections::HashSet::new();
+    let mut index = |marker: &String| {
+        let i = names
+            .iter()
+            .position(|m| m == marker)
+            .ok_or_else(|| LayoutError::GroupMarker {
+                path: path.to_path_buf(),
+                group: name.clone(),
+                marker: marker.clone(),
+            })?;
+        if !seen.insert(i) {
+            return Err(LayoutError::GroupRepeated {
+                path: path.to_path_buf(),
+                group: name.clone(),
+                marker: marker.clone(),
             });
         }
-        if !(1.0..=9.0).contains(&m.stiffness) {
-            return Err(LayoutError::Stiffness {
-                path: path(),
-                marker: m.name.clone(),
-                value: m.stiffness,
+        Ok(i)
+    };
+    let upper = sides
+        .upper
+        .iter()
+        .map(&mut index)
+        .collect::<Result<Vec<_>, _>>()?;
+    let lower = sides
+        .lower
+        .iter()
+        .map(&mut index)
+        .collect::<Result<Vec<_>, _>>()?;
+    for (side, list) in [("upper", &upper), ("lower", &lower)] {
+        if list.is_empty() {
+            return Err(LayoutError::GroupEmptySide {
+                path: path.to_path_buf(),
+                group: name.clone(),
+                side,
             });
         }
-        if let MarkerAnchor::Point(point) = m.anchor {
-            if point.iter().any(|x| !x.is_finite()) {
-                return Err(LayoutError::NotFinite {
-                    path: path(),
-                    marker: m.name.clone(),
-                    point,
-                });
-            }
-        }
     }
-    Ok(())
+    Ok(MarkerGroups { name, upper, lower })
+}
+
+/// The control triangles by marker index; errors name the file and the triangle. Their shapes
+/// on the mesh are checked by the planar bake.
+fn resolve_triangles(
+    path: &Path,
+    names: &[&str],
+    raw: Vec<[String; 3]>,
+) -> Result<Vec<[usize; 3]>, LayoutError> {
+    if raw.is_empty() {
+        return Err(LayoutError::TrianglesEmpty {
+            path: path.to_path_buf(),
+        });
+    }
+    let mut seen = std::collections::HashMap::new();
+    let mut out = Vec::with_capacity(raw.len());
+    for (index, written) in raw.into_iter().enumerate() {
+        let mut tri = [0usize; 3];
+        for (slot, marker) in tri.iter_mut().zip(&written) {
+            *slot = names.iter().position(|m| m == marker).ok_or_else(|| {
+                LayoutError::TriangleMarker {
+                    path: path.to_path_buf(),
+                    index,
+                    names: format!("{written:?}"),
+                    marker: marker.clone(),
+                }
+            })?;
+        }
+        let repeated = |problem: String| LayoutError::TriangleRepeated {
+            path: path.to_path_buf(),
+            index,
+            names: format!("{written:?}"),
+            problem,
+        };
+        if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
+            return Err(repeated(
+                "names a marker twice (a triangle needs three distinct markers)".into(),
+            ));
+        }
+        let mut key = tri;
+        key.sort_unstable();
+        if let Some(first) = seen.insert(key, index) {
+            return Err(repeated(format!("repeats triangles[{first}]")));
+        }
+        out.push(tri);
+    }
+    Ok(out)
 }
 
 /// One marker's fields, for writing.
@@ -410,42 +332,91 @@ impl Serialize for MarkerMap<'_> {
 }
 
 /// Writes a layout as TOML or JSON (by `path`'s extension) that [`read_layout`] reads back
-/// to the same markers. Refuses layouts that [`read_layout`] would reject.
+/// to the same markers, groups and triangles. Refuses layouts that [`read_layout`] would
+/// reject.
 pub fn write_layout(path: &Path, layout: &MarkerLayout) -> Result<(), LayoutError> {
     let format = format_of(path)?;
     check(&MarkerLayout {
         source: path.to_path_buf(),
-        markers: layout.markers.clone(),
+        ..layout.clone()
     })?;
+    let name = |i: &usize| layout.markers.get(*i).map_or("?", |m| m.name.as_str());
+    let triangles: Option<Vec<[&str; 3]>> = layout
+        .triangles
+        .as_ref()
+        .map(|t| t.iter().map(|t| t.each_ref().map(name)).collect());
+    let groups: Vec<(&str, Vec<&str>, Vec<&str>)> = layout
+        .groups
+        .iter()
+        .map(|g| {
+            (
+                g.name.as_str(),
+                g.upper.iter().map(name).collect(),
+                g.lower.iter().map(name).collect(),
+            )
+        })
+        .collect();
     let text = match format {
         Format::Json => {
             #[derive(Serialize)]
+            struct Sides<'a> {
+                upper: &'a [&'a str],
+                lower: &'a [&'a str],
+            }
+            #[derive(Serialize)]
             struct Out<'a> {
                 markers: MarkerMap<'a>,
+                #[serde(skip_serializing_if = "serde_json::Map::is_empty")]
+                groups: serde_json::Map<String, serde_json::Value>,
+                #[serde(skip_serializing_if = "Option::is_none")]
+                triangles: Option<Vec<[&'a str; 3]>>,
             }
+            let groups = groups
+                .iter()
+                .map(|(n, upper, lower)| {
+                    let sides = serde_json::to_value(Sides { upper, lower })
+                        .expect("names always serialise");
+                    (n.to_string(), sides)
+                })
+                .collect();
             let mut text = serde_json::to_string_pretty(&Out {
                 markers: MarkerMap(&layout.markers),
+                groups,
+                triangles,
             })
             .expect("a layout of finite numbers and strings always serialises");
             text.push('\n');
             text
         }
         Format::Toml => {
-            // One inline table per marker, as in the module docs.
-            let mut text = String::from("[markers]\n");
+            // One inline table per marker and per group, as in the module docs; the triangles
+            // before the tables.
+            let mut text = String::new();
+            if let Some(t) = &triangles {
+                let list = toml::Value::try_from(t).expect("names always convert to TOML");
+                writeln!(text, "triangles = {list}").expect("writing to a String");
+            }
+            text.push_str("[markers]\n");
             for m in &layout.markers {
-                let bare = !m.name.is_empty()
-                    && m.name
-                        .chars()
-                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
-                let key = if bare {
-                    m.name.clone()
-                } else {
-                    toml::Value::String(m.name.clone()).to_string()
-                };
                 let fields = toml::Value::try_from(MarkerFields(m))
                     .expect("a marker of finite numbers always converts to TOML");
-                writeln!(text, "{key} = {fields}").expect("writing to a String");
+                writeln!(text, "{} = {fields}", toml_key(&m.name)).expect("writing to a String");
+            }
+            if !groups.is_empty() {
+                text.push_str("[groups]\n");
+                for (n, upper, lower) in &groups {
+                    let list = |l: &[&str]| {
+                        toml::Value::try_from(l).expect("names always convert to TOML")
+                    };
+                    writeln!(
+                        text,
+                        "{} = {{ upper = {}, lower = {} }}",
+                        toml_key(n),
+                        list(upper),
+                        list(lower)
+                    )
+                    .expect("writing to a String");
+                }
             }
             text
         }
@@ -456,103 +427,27 @@ pub fn write_layout(path: &Path, layout: &MarkerLayout) -> Result<(), LayoutErro
     })
 }
 
-/// Places a layout's markers on `mesh`.
-///
-/// `vertex` anchors sit exactly on their vertex; `point` anchors snap to the closest point
-/// of the surface, which must be within `max_snap` (mesh units). Surface points refer to the
-/// mesh's original triangles and vertex indices. Errors name the layout file and the marker.
-pub fn place_markers(
-    layout: &MarkerLayout,
-    mesh: &FaceMesh,
-    max_snap: f64,
-) -> Result<Vec<PlacedMarker>, LayoutError> {
-    check(layout)?;
-    let path = || layout.source.clone();
-    // A triangle and corner for each vertex that some triangle uses.
-    let mut corner_of: Vec<Option<(usize, usize)>> = vec![None; mesh.positions.len()];
-    for (t, tri) in mesh.triangles.iter().enumerate().rev() {
-        for (c, &v) in tri.iter().enumerate() {
-            corner_of[v as usize] = Some((t, c));
-        }
+/// `name` as a TOML key: bare when it can be, else quoted.
+fn toml_key(name: &str) -> String {
+    let bare = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if bare {
+        name.to_string()
+    } else {
+        toml::Value::String(name.to_string()).to_string()
     }
-    let mut placed: Vec<PlacedMarker> = Vec::with_capacity(layout.markers.len());
-    let tolerance = 1e-9 * mesh.diagonal();
-    for m in &layout.markers {
-        let surface = match m.anchor {
-            MarkerAnchor::Vertex(vertex) => {
-                let corner =
-                    corner_of
-                        .get(vertex as usize)
-                        .ok_or_else(|| LayoutError::UnknownVertex {
-                            path: path(),
-                            marker: m.name.clone(),
-                            vertex,
-                            mesh: mesh.mesh_name.clone(),
-                            vertex_count: mesh.positions.len(),
-                        })?;
-                let (t, c) = corner.ok_or_else(|| LayoutError::LooseVertex {
-                    path: path(),
-                    marker: m.name.clone(),
-                    vertex,
-                    mesh: mesh.mesh_name.clone(),
-                })?;
-                SurfacePoint::at_corner(&mesh.positions, &mesh.triangles, t, c)
-            }
-            MarkerAnchor::Point(point) => {
-                let sp = closest_point(&mesh.positions, &mesh.triangles, point);
-                match sp {
-                    Some(sp) if sp.distance <= max_snap => sp,
-                    _ => {
-                        return Err(LayoutError::TooFar {
-                            path: path(),
-                            marker: m.name.clone(),
-                            point,
-                            distance: sp.map_or(f64::INFINITY, |sp| sp.distance),
-                            max_snap,
-                            mesh: mesh.mesh_name.clone(),
-                        })
-                    }
-                }
-            }
-        };
-        if let Some(other) = placed
-            .iter()
-            .find(|o| distance(&o.position, &surface.point) <= tolerance)
-        {
-            let welded = |a: &MarkerAnchor| match a {
-                MarkerAnchor::Vertex(v) => Some(mesh.weld[*v as usize]),
-                MarkerAnchor::Point(_) => None,
-            };
-            let other_anchor = layout
-                .markers
-                .iter()
-                .find(|o| o.name == other.name)
-                .map(|o| o.anchor);
-            let welded_vertex =
-                welded(&m.anchor).filter(|&w| other_anchor.and_then(|a| welded(&a)) == Some(w));
-            return Err(LayoutError::DuplicateAnchor {
-                path: path(),
-                marker: m.name.clone(),
-                other: other.name.clone(),
-                position: surface.point,
-                welded_vertex,
-            });
-        }
-        placed.push(PlacedMarker {
-            name: m.name.clone(),
-            position: surface.point,
-            surface,
-            stiffness: m.stiffness,
-        });
-    }
-    Ok(placed)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::io::gltf_mesh::tests::{head, scratch};
+    use crate::mesh::distance;
     use crate::mesh::farthest_point_sampling;
+    use crate::model::place_markers;
+    use std::path::PathBuf;
 
     /// 40 skin markers by farthest-point sampling, as original glTF vertex indices.
     fn sampled_layout(path: &Path) -> MarkerLayout {
@@ -573,6 +468,12 @@ mod tests {
         MarkerLayout {
             source: path.to_path_buf(),
             markers,
+            groups: vec![MarkerGroups {
+                name: "mouth".into(),
+                upper: vec![0, 1],
+                lower: vec![2],
+            }],
+            triangles: Some(vec![[0, 1, 2], [3, 2, 1]]),
         }
     }
 
@@ -637,7 +538,11 @@ mod tests {
             assert_eq!(back, layout, "{name}");
         }
         let text = std::fs::read_to_string(scratch("rt.toml")).unwrap();
-        assert!(text.starts_with("[markers]\nM00 = { vertex = "), "{text}");
+        assert!(
+            text.starts_with("triangles = [[\"M00\", \"M01\", \"M02\"]"),
+            "{text}"
+        );
+        assert!(text.contains("\n[markers]\nM00 = { vertex = "), "{text}");
     }
 
     #[test]
@@ -696,6 +601,8 @@ mod tests {
                 anchor: MarkerAnchor::Point(p),
                 stiffness: 2.0,
             }],
+            groups: Vec::new(),
+            triangles: None,
         };
         let placed = place_markers(&layout, m, 0.002).unwrap();
         let s = &placed[0].surface;
@@ -730,6 +637,8 @@ mod tests {
         let layout = |markers| MarkerLayout {
             source: "place.json".into(),
             markers,
+            groups: Vec::new(),
+            triangles: None,
         };
         let e = place_markers(
             &layout(vec![marker("Far", MarkerAnchor::Vertex(9999))]),
@@ -863,5 +772,101 @@ mod tests {
         assert!(matches!(e, LayoutError::UnknownFormat { .. }), "{s}");
         let e = read_layout(&scratch("absent.toml")).unwrap_err();
         assert!(matches!(e, LayoutError::Io { .. }), "{e}");
+    }
+
+    #[test]
+    fn reads_groups_by_name_and_names_bad_ones() {
+        let t = write(
+            "g.toml",
+            "[markers]\nA = { vertex = 0 }\nB = { vertex = 1 }\nC = { vertex = 2 }\nD = { vertex = 3 }\n\
+             [groups]\nmouth = { upper = [\"A\"], lower = [\"C\", \"D\"] }\neyes = { upper = [\"B\"], lower = [\"A\"] }\n",
+        );
+        let g = read_layout(&t).unwrap().groups;
+        assert_eq!(
+            g[0],
+            MarkerGroups {
+                name: "mouth".into(),
+                upper: vec![0],
+                lower: vec![2, 3]
+            }
+        );
+        assert_eq!(g[1].name, "eyes", "file order");
+        let j = write(
+            "g.json",
+            r#"{"markers": {"A": {"vertex": 0}, "B": {"vertex": 1}},
+                "groups": {"eyes": {"upper": ["B"], "lower": ["A"]}}}"#,
+        );
+        assert_eq!(read_layout(&j).unwrap().groups[0].upper, vec![1]);
+        let markers = "[markers]\nA = { vertex = 0 }\nB = { vertex = 1 }\n";
+        assert!(read_layout(&write("n.toml", markers))
+            .unwrap()
+            .groups
+            .is_empty());
+        let (e, s) = read_err(
+            "b.toml",
+            &format!("{markers}[groups]\nmouth = {{ upper = [\"Z\"], lower = [\"A\"] }}\n"),
+        );
+        assert!(
+            matches!(e, LayoutError::GroupMarker { .. }) && s.contains("\"Z\""),
+            "{s}"
+        );
+        let (e, _) = read_err(
+            "t.toml",
+            &format!("{markers}[groups]\nm = {{ upper = [\"A\"], lower = [\"A\"] }}\n"),
+        );
+        assert!(matches!(e, LayoutError::GroupRepeated { .. }));
+        let (e, _) = read_err(
+            "e.toml",
+            &format!("{markers}[groups]\nm = {{ upper = [], lower = [\"A\"] }}\n"),
+        );
+        assert!(matches!(e, LayoutError::GroupEmptySide { .. }));
+    }
+
+    #[test]
+    fn reads_triangles_by_name_and_names_bad_ones() {
+        let markers = "[markers]\nA = { vertex = 0 }\nB = { vertex = 1 }\nC = { vertex = 2 }\nD = { vertex = 3 }\n";
+        let t = write(
+            "tri.toml",
+            &format!("triangles = [[\"A\", \"B\", \"C\"], [\"A\", \"C\", \"D\"]]\n{markers}"),
+        );
+        assert_eq!(
+            read_layout(&t).unwrap().triangles,
+            Some(vec![[0, 1, 2], [0, 2, 3]])
+        );
+        let j = write(
+            "tri.json",
+            r#"{"markers": {"A": {"vertex": 0}, "B": {"vertex": 1}, "D": {"vertex": 3}},
+                "triangles": [["D", "B", "A"]]}"#,
+        );
+        assert_eq!(read_layout(&j).unwrap().triangles, Some(vec![[2, 1, 0]]));
+        assert_eq!(
+            read_layout(&write("tn.toml", markers)).unwrap().triangles,
+            None
+        );
+        let (_, s) = read_err(
+            "u.toml",
+            &format!("triangles = [[\"A\", \"B\", \"C\"], [\"A\", \"Z\", \"C\"]]\n{markers}"),
+        );
+        assert!(s.contains("triangles[1]") && s.contains("\"Z\""), "{s}");
+        let (_, s) = read_err(
+            "r.toml",
+            &format!("triangles = [[\"A\", \"B\", \"A\"]]\n{markers}"),
+        );
+        assert!(s.contains("triangles[0]") && s.contains("twice"), "{s}");
+        let (_, s) = read_err(
+            "a.toml",
+            &format!("triangles = [[\"A\", \"B\", \"C\"], [\"C\", \"A\", \"B\"]]\n{markers}"),
+        );
+        assert!(
+            s.contains("triangles[1]") && s.contains("repeats triangles[0]"),
+            "{s}"
+        );
+        let (e, _) = read_err(
+            "s.toml",
+            &format!("triangles = [[\"A\", \"B\"]]\n{markers}"),
+        );
+        assert!(matches!(e, LayoutError::Parse { .. }));
+        let (e, _) = read_err("te.toml", &format!("triangles = []\n{markers}"));
+        assert!(matches!(e, LayoutError::TrianglesEmpty { .. }));
     }
 }

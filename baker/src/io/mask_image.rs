@@ -17,11 +17,17 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::surface::masks::Side;
+use crate::model::Side;
 
 /// A vertex further inside than this fraction of the bounding-box diagonal behind the outermost
 /// surface at its pixel is hidden from the image.
 pub const HIDDEN_FRACTION: f64 = 0.01;
+
+/// Largest width or height of a mask image read, pixels (the largest `facebake mask-images`
+/// writes). Checked from the PNG header before any buffer is allocated, as the header alone
+/// sizes the buffers: reading costs 9 to 12 bytes a pixel (the decoded image, one to four bytes,
+/// and an f64 depth buffer), so at most about 800 MB.
+pub const MAX_SIDE: u32 = 8192;
 
 /// Grey level written for the upper side.
 pub const UPPER: u8 = 255;
@@ -75,7 +81,7 @@ pub struct Cylinder {
 impl Cylinder {
     /// The projection around the vertical axis through the centre of `positions`' bounds.
     pub fn of(positions: &[[f64; 3]]) -> Self {
-        let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
+        let (lo, hi) = crate::model::bounds(positions.iter().copied());
         Self {
             centre_x: 0.5 * (lo[0] + hi[0]),
             centre_z: 0.5 * (lo[2] + hi[2]),
@@ -127,6 +133,16 @@ pub fn read_sides(
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = decoder.read_info().map_err(|e| decode(e.to_string()))?;
+    let (w, h) = (reader.info().width, reader.info().height);
+    if w > MAX_SIDE || h > MAX_SIDE {
+        return Err(MaskImageError::Content {
+            path: path.to_path_buf(),
+            message: format!(
+                "the header says {w} × {h} pixels; mask images are read up to {MAX_SIDE} × \
+                 {MAX_SIDE} pixels"
+            ),
+        });
+    }
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| decode("the image is too large".into()))?;
@@ -153,7 +169,7 @@ pub fn read_sides(
             .fold(f64::MIN, f64::max);
         fill_triangle(width, height, q, |at| depth[at] = depth[at].max(r));
     });
-    let (lo, hi) = crate::io::gltf_mesh::bounds(positions.iter().copied());
+    let (lo, hi) = crate::model::bounds(positions.iter().copied());
     let tolerance = HIDDEN_FRACTION * crate::mesh::distance(&lo, &hi);
     let (mut upper, mut lower) = (Vec::new(), Vec::new());
     for (v, p) in positions.iter().enumerate() {

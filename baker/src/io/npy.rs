@@ -92,7 +92,7 @@ pub enum NpyError {
 
 /// Reads a little-endian `float32`, C-order `.npy` file: returns `(shape, data)`.
 pub fn read_npy_f32(path: &Path) -> Result<(Vec<usize>, Vec<f32>), NpyError> {
-    let bytes = std::fs::read(path).map_err(|source| NpyError::Io {
+    let bytes = crate::io::read_bounded(path).map_err(|source| NpyError::Io {
         path: path.to_path_buf(),
         source,
     })?;

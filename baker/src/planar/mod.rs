@@ -9,7 +9,6 @@
 //! * [`reference`]: eqs 1–12 evaluated directly in f64, the specification the runtime's
 //!   fixed-point kernel is checked against.
 
-pub mod reference;
 pub mod region;
 pub mod triangulate;
 

@@ -145,7 +145,7 @@ pub fn skin_distances(
     triangles: &[[u32; 3]],
     markers: &[[f64; 3]],
 ) -> Result<Vec<Vec<f64>>, TriangulateError> {
-    let (map, welded) = crate::io::gltf_mesh::weld_positions(vertices);
+    let (map, welded) = crate::model::weld_positions(vertices);
     let faces: Vec<[u32; 3]> = triangles
         .iter()
         .map(|t| t.map(|v| map.get(v as usize).copied().unwrap_or(u32::MAX)))

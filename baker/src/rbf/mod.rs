@@ -7,8 +7,8 @@
 //! `g(v) = [φ_1(‖v − x_1‖) … φ_n(‖v − x_n‖), 1, v]`. The per-vertex weights are therefore the first
 //! `n` entries of `A⁻ᵀ g(v)`, computed once in f64 here.
 
-pub mod kernel;
+pub mod radial;
 pub mod system;
 
-pub use kernel::{Kernel, KernelKind};
+pub use radial::{Kernel, RadialFunction};
 pub use system::{RbfSystem, SolveError};

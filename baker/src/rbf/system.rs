@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::kernel::{distance, Kernel};
+use super::radial::{distance, Kernel};
 
 /// Diagonal regulariser for stiffness 9, as a fraction of the mean |φ| of the kernel block.
 /// Stiffness s ∈ [1, 9] adds `(s − 1)/8 × STIFFNESS_AT_9 × mean|Φ|` to centre i's diagonal:
@@ -227,7 +227,7 @@ impl RbfSystem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rbf::KernelKind;
+    use crate::rbf::RadialFunction;
 
     fn centres() -> Vec<[f64; 3]> {
         (0..12)
@@ -241,7 +241,7 @@ mod tests {
     #[test]
     fn interpolates_and_reproduces_affine_motion() {
         let c = centres();
-        for kind in KernelKind::ALL {
+        for kind in RadialFunction::ALL {
             let k = kind.resolve(&c, None, 1.0);
             let sys = RbfSystem::new(&c, k, true, &vec![1.0; c.len()]).unwrap();
             // Weights at a centre select that centre.
@@ -273,7 +273,7 @@ mod tests {
     #[test]
     fn stiffness_relaxes_interpolation_and_singular_is_an_error() {
         let c = centres();
-        let k = KernelKind::Gaussian.resolve(&c, None, 1.5);
+        let k = RadialFunction::Gaussian.resolve(&c, None, 1.5);
         let mut s = vec![1.0; c.len()];
         s[3] = 9.0;
         let sys = RbfSystem::new(&c, k.clone(), true, &s).unwrap();
@@ -287,7 +287,7 @@ mod tests {
             RbfSystem::new(&dup, k, true, &vec![1.0; c.len()]),
             Err(SolveError::Singular)
         ));
-        let tps = KernelKind::ThinPlate.resolve(&c, None, 1.0);
+        let tps = RadialFunction::ThinPlate.resolve(&c, None, 1.0);
         assert!(matches!(
             RbfSystem::new(&c, tps, false, &vec![1.0; c.len()]),
             Err(SolveError::NeedsAffine(_))

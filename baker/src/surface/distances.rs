@@ -9,9 +9,10 @@ use crate::mesh::distance;
 
 use super::geometry::SurfaceGeometry;
 
-/// Which distance an RBF uses.
+/// Which distance an RBF uses: the distance strategies the dense weights come from (PBW is a
+/// weighting on the geodesic one, [`crate::options::Method::Pbw`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum DistanceKind {
+pub enum Distance {
     /// Straight-line distance.
     Euclidean,
     /// Distance along the surface.
@@ -73,7 +74,7 @@ pub fn hybrid_weights(
 
 /// Distances of `kind` for markers at `markers` (rest positions) and glTF vertices `vertices`.
 pub fn marker_distances(
-    kind: DistanceKind,
+    kind: Distance,
     geometry: &SurfaceGeometry,
     welded: &[[f64; 3]],
     vertices: &[[f64; 3]],
@@ -81,9 +82,9 @@ pub fn marker_distances(
 ) -> MarkerDistances {
     let n = markers.len();
     let welded_weight = match kind {
-        DistanceKind::Euclidean => vec![0.0; welded.len()],
-        DistanceKind::Geodesic => vec![1.0; welded.len()],
-        DistanceKind::Hybrid { region, decay } => hybrid_weights(geometry, welded, region, decay),
+        Distance::Euclidean => vec![0.0; welded.len()],
+        Distance::Geodesic => vec![1.0; welded.len()],
+        Distance::Hybrid { region, decay } => hybrid_weights(geometry, welded, region, decay),
     };
     let blend = |w: f64, g: f64, e: f64| if w > 0.0 { w * g + (1.0 - w) * e } else { e };
     let mut fallback_pairs = 0;

@@ -7,19 +7,18 @@
 
 use crate::geodesic::{GeodesicMethod, Source};
 use crate::ground_truth::{stats, ErrorStats, GroundTruth, GroundTruthError};
-use crate::io::layout::PlacedMarker;
-use crate::io::marker_groups::MarkerGroups;
 use crate::mesh::{distance, SurfacePoint};
+use crate::model::{MarkerGroups, PlacedMarker, Side};
 
 use super::geometry::SurfaceGeometry;
-use super::masks::{vertex_sides, MaskError, Side, SideRule};
+use super::masks::{vertex_sides, MaskError, SideRule};
 use super::{SurfaceError, SurfaceMarker};
 
 /// Width of the lip and eyelid bands: skin within this edge distance of the opening, metres.
 pub const BAND: f64 = 0.008;
 
 /// A ground truth with layout markers, anchors and the lip / eyelid bands.
-pub struct Scene {
+pub struct Benchmark {
     /// The morph-target truth (mesh, frames, skin); its own markers are not used, except the
     /// static ones as anchors.
     pub truth: GroundTruth,
@@ -34,9 +33,9 @@ pub struct Scene {
     pub bands: Vec<Vec<Option<Side>>>,
 }
 
-/// A scene could not be set up.
+/// A benchmark could not be set up.
 #[derive(Debug, thiserror::Error)]
-pub enum SceneError {
+pub enum BenchmarkError {
     /// The ground truth.
     #[error(transparent)]
     Truth(#[from] GroundTruthError),
@@ -66,7 +65,7 @@ fn crossing_frame(truth: &GroundTruth, mask: &str) -> Option<usize> {
     truth.frames.iter().position(|f| f.name == want)
 }
 
-impl Scene {
+impl Benchmark {
     /// `truth` with `placed` layout markers (and their `groups`), plus the truth's
     /// `anchors` static markers.
     pub fn new(
@@ -74,7 +73,7 @@ impl Scene {
         placed: &[PlacedMarker],
         groups: Vec<MarkerGroups>,
         anchors: usize,
-    ) -> Result<Self, SceneError> {
+    ) -> Result<Self, BenchmarkError> {
         let mesh = &truth.mesh;
         let mut markers: Vec<SurfaceMarker> =
             placed.iter().map(SurfaceMarker::from_placed).collect();
@@ -143,10 +142,19 @@ impl Scene {
     /// # Panics
     /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
     pub fn score(&self, blob: &[u8]) -> Scores {
+        self.score_positions(&self.play(blob))
+    }
+
+    /// Run a rig through the runtime on every frame of the sequence: vertex positions per
+    /// frame.
+    ///
+    /// # Panics
+    /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
+    pub fn play(&self, blob: &[u8]) -> Vec<Vec<[f64; 3]>> {
         let rig = facebake_runtime::Rig::from_bytes(blob).expect("a rig this crate baked");
         let space = rig.space();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
-        let frames: Vec<Vec<[f64; 3]>> = (0..self.truth.frames.len())
+        (0..self.truth.frames.len())
             .map(|f| {
                 let t = self.truth.positions(f);
                 let q: Vec<[i32; 3]> = self
@@ -161,8 +169,7 @@ impl Scene {
                 rig.deform(&q, &mut out).expect("one position per marker");
                 out.iter().map(|p| space.to_asset_f64(*p)).collect()
             })
-            .collect();
-        self.score_positions(&frames)
+            .collect()
     }
 
     /// Score predicted positions, one `Vec` per frame of the sequence.

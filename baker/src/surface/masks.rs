@@ -14,22 +14,13 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use thiserror::Error;
 
-use crate::io::marker_groups::MarkerGroups;
+use crate::model::{MarkerGroups, Side};
 use crate::rbf::{Kernel, RbfSystem, SolveError};
 
 use super::geometry::SurfaceGeometry;
 
 /// Strengths below this leave a vertex unmasked.
 const MIN_STRENGTH: f64 = 1e-6;
-
-/// A side of an opening.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Side {
-    /// Upper lip / upper eyelid side.
-    Upper,
-    /// Lower lip / jaw / lower eyelid side.
-    Lower,
-}
 
 /// How vertex sides are found.
 #[derive(Debug, Clone, PartialEq, Default)]

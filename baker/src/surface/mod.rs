@@ -1,13 +1,13 @@
 //! Surface-aware deformation: RBFs on distances along the skin, so the lips and the eyelids can
-//! part, all baked into the runtime's existing forms.
+//! part, all baked into the runtime's RBF and linear deformers.
 //!
 //! * [`Method::Geodesic`] (thesis §5.2, paper 002 §2.1): the kernel of the geodesic distance.
 //! * [`Method::Hybrid`] (thesis §5.3): geodesic near the openings, Euclidean elsewhere, blended
 //!   by a Gaussian decay ([`distances`]).
-//! * [`Method::Euclidean`]: the straight-line RBF of [`crate::bake`], for comparison and masks.
+//! * [`Method::Euclidean`] with masks: the straight-line RBF in rig units.
 //! * Masks ([`masks`]) on any of them: marker groups either side of an opening that may move only
-//!   their own side. Masks need the `weights` form (one RBF per side; the coefficient form has
-//!   one coefficient map).
+//!   their own side. Masks need the linear deformer (one RBF per side; the RBF deformer has one
+//!   coefficient map).
 //!
 //! Static anchors (paper 003's back-of-head and neck points) are markers like any other whose
 //! captured position is their rest position: they pin their region through the RBF.
@@ -28,110 +28,19 @@ pub mod pbw;
 
 use nalgebra::DMatrix;
 
-use crate::bake::{self, BakeConfig, BakeError, RigForm};
-use crate::blob::{self, BlobContents, BlobSizes};
-use crate::geodesic::{GeodesicError, GeodesicMethod, Source};
-use crate::io::gltf_mesh::FaceMesh;
-use crate::io::marker_groups::MarkerGroups;
-use crate::rbf::{Kernel, KernelKind, RbfSystem};
-use crate::sparsify;
+use crate::deformer::{self, DeformerError, DeformerOutput};
+use crate::geodesic::{GeodesicError, Source};
+use crate::model::FaceMesh;
+use crate::model::MarkerGroups;
+use crate::options::{BakeOptions, Method, SurfaceOptions};
+use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 
-pub use distances::DistanceKind;
+pub use distances::Distance;
 pub use geometry::SurfaceGeometry;
-pub use masks::{MaskError, Side, SideRule};
+pub use masks::{MaskError, SideRule};
 
 /// Ridge margin (fraction of the mean |φ|) added beyond the most negative eigenvalue.
 pub const RIDGE_MARGIN: f64 = 1e-3;
-
-/// Which distance the RBF is built on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Straight-line distance.
-    Euclidean,
-    /// Distance along the surface.
-    Geodesic,
-    /// Geodesic near the mouth and eyes, Euclidean elsewhere.
-    Hybrid,
-    /// Proximity-based weighting on geodesics blended with a global multiquadric RBF
-    /// (paper 002 §2.2; weights form only).
-    Pbw,
-}
-
-impl Method {
-    /// Every method, for sweeps.
-    pub const ALL: [Method; 4] = [Self::Euclidean, Self::Geodesic, Self::Hybrid, Self::Pbw];
-
-    /// Name on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Euclidean => "euclidean",
-            Self::Geodesic => "geodesic",
-            Self::Hybrid => "hybrid",
-            Self::Pbw => "pbw",
-        }
-    }
-}
-
-/// How to bake a surface-aware rig.
-#[derive(Clone, Debug)]
-pub struct SurfaceConfig {
-    /// Distance function.
-    pub method: Method,
-    /// How geodesics are computed.
-    pub geodesic: GeodesicMethod,
-    /// Form, kernel, width, affine term, K and re-fit, as for [`crate::bake::bake`].
-    pub bake: BakeConfig,
-    /// Apply the marker groups' masks.
-    pub masks: bool,
-    /// Hybrid: radius of the geodesic region around the openings, × mean marker spacing.
-    pub region_factor: f64,
-    /// Hybrid: width of the Gaussian decay outside the region, × mean marker spacing.
-    pub decay_factor: f64,
-    /// Masks: distance from the openings within which a mask is at full strength, × mean
-    /// marker spacing.
-    pub mask_plateau_factor: f64,
-    /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
-    pub mask_decay_factor: f64,
-    /// PBW: α of paper 002's eq 11, the share of the local (proximity) weights; the rest is the
-    /// global multiquadric RBF.
-    pub pbw_alpha: f64,
-    /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
-    /// the kernel block positive semi-definite, plus [`RIDGE_MARGIN`] when it is not.
-    pub ridge: Option<f64>,
-    /// Static anchoring (weights form): the skin beyond the markers' hull follows the head
-    /// markers over this distance, × mean marker spacing ([`anchoring`]); `None`: off.
-    pub anchoring_margin_factor: Option<f64>,
-}
-
-impl Default for SurfaceConfig {
-    /// The bake's default: geodesic distances (heat method) with the exponential kernel
-    /// `exp(−r/c)` (the thesis' eq 2.3a; its geodesic kernel matrix stays positive definite on
-    /// FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing, affine term,
-    /// K = 8, in the weights form with static anchoring over 0.8 × spacing ([`anchoring`]); no
-    /// masks. Hybrid region and decay: 0.5 × spacing; masks at full strength within 0.5 ×
-    /// spacing of the opening, fading over 1 × spacing.
-    fn default() -> Self {
-        Self {
-            method: Method::Geodesic,
-            geodesic: GeodesicMethod::Heat,
-            bake: BakeConfig {
-                form: RigForm::Weights,
-                kernel: KernelKind::Exponential,
-                width_factor: 1.5,
-                ..BakeConfig::default()
-            },
-            masks: false,
-            region_factor: 0.5,
-            decay_factor: 0.5,
-            mask_plateau_factor: 0.5,
-            mask_decay_factor: 1.0,
-            pbw_alpha: 0.5,
-            ridge: None,
-            anchoring_margin_factor: Some(0.8),
-        }
-    }
-}
 
 /// A marker of a surface-aware bake.
 #[derive(Clone, Debug)]
@@ -148,7 +57,7 @@ pub struct SurfaceMarker {
 
 impl SurfaceMarker {
     /// A layout marker placed on the mesh.
-    pub fn from_placed(p: &crate::io::layout::PlacedMarker) -> Self {
+    pub fn from_placed(p: &crate::model::PlacedMarker) -> Self {
         Self {
             name: p.name.clone(),
             rest: p.position,
@@ -171,8 +80,6 @@ pub struct SurfaceInput<'a> {
     pub groups: &'a [MarkerGroups],
     /// How vertex sides are found.
     pub sides: &'a SideRule,
-    /// Head markers that anchored skin follows (empty: [`anchoring::skull_markers`]).
-    pub head: &'a [usize],
 }
 
 /// A surface-aware bake failed.
@@ -184,32 +91,27 @@ pub enum SurfaceError {
     /// Masks.
     #[error("masks: {0}")]
     Mask(#[from] MaskError),
-    /// The RBF, sparsification or blob.
+    /// The RBF system.
+    #[error("solving the RBF system: {0}")]
+    Solve(#[from] SolveError),
+    /// The deformer.
     #[error(transparent)]
-    Bake(#[from] BakeError),
+    Deformer(#[from] crate::deformer::DeformerError),
     /// Planar bones blend control-triangle frames, not RBF distances: no surface-aware method
     /// applies to them (masks do, through [`planar_allowance`]).
     #[error(
-        "planar bones take no surface-aware method: bake them with --method euclidean (masks apply with --form planar --masks)"
+        "planar bones take no surface-aware method: bake them with --method euclidean (masks apply with --deformer planar --masks)"
     )]
-    PlanarForm,
+    Planar,
 }
 
 /// What a surface-aware bake measured.
 #[derive(Clone, Debug, serde::Serialize)]
-pub struct SurfaceReport {
-    /// Distance function.
-    pub method: Method,
-    /// Runtime form.
-    pub form: RigForm,
-    /// Kernel.
-    pub kernel: &'static str,
+pub struct SurfaceFigures {
     /// Smallest eigenvalue of the symmetric part of the kernel block, over its mean |φ|.
     pub min_eigenvalue: f64,
     /// Ridge added (fraction of the mean |φ|).
     pub ridge: f64,
-    /// 1-norm condition estimate of the full system.
-    pub condition: f64,
     /// Largest relative asymmetry of the marker-to-marker geodesics.
     pub geodesic_asymmetry: f64,
     /// Openings found on the skin.
@@ -218,57 +120,62 @@ pub struct SurfaceReport {
     pub unreachable_vertices: usize,
     /// Vertices a mask touched.
     pub masked_vertices: usize,
-    /// Static anchoring: the head markers followed (names), vertices anchored at all and fully.
+    /// Masks applied (group names).
+    pub masks: Vec<String>,
+    /// Static anchoring, when applied.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub anchoring: Option<AnchoringReport>,
-    /// Fractional weight bits.
-    pub weight_frac_bits: u8,
-    /// Mean share of dense weight / kernel mass dropped by keeping K.
-    pub mean_dropped_mass: f64,
-    /// Blob sizes.
-    pub sizes: BlobSizes,
-    /// Warnings worth a user's attention.
-    pub warnings: Vec<String>,
+    pub anchoring: Option<AnchoringFigures>,
 }
 
 /// What static anchoring did.
 #[derive(Clone, Debug, serde::Serialize)]
-pub struct AnchoringReport {
-    /// The head markers anchored skin follows.
-    pub head_markers: Vec<String>,
+pub struct AnchoringFigures {
+    /// The skull markers anchored skin follows.
+    pub skull_markers: Vec<String>,
     /// glTF vertices with some anchoring.
     pub anchored_vertices: usize,
-    /// glTF vertices that follow the head markers alone.
+    /// glTF vertices that follow the skull markers alone.
     pub still_vertices: usize,
 }
 
-/// A finished surface-aware bake.
-pub struct SurfaceBaked {
-    /// The sealed blob.
-    pub blob: Vec<u8>,
-    /// Figures.
-    pub report: SurfaceReport,
+/// What the surface-aware strategies hand back to [`crate::bake()`]: the dense weights and the
+/// RBF system, in rig units, for the linear or the RBF deformer.
+pub(crate) struct SurfaceBake {
+    /// Marker-to-marker distances.
+    between: DMatrix<f64>,
+    /// Per vertex, its distances to the markers.
+    rows: Vec<Vec<f64>>,
+    kernel: Kernel,
+    system: RbfSystem,
+    pub(crate) figures: SurfaceFigures,
+    /// 1-norm condition estimate of the full system.
+    pub(crate) condition: f64,
+    /// The radial function actually used (PBW's global part is the multiquadric).
+    pub(crate) radial: RadialFunction,
     /// Per glTF vertex, its dense f64 weights on the marker displacements (masks applied): the
     /// reference the sparse rig approximates.
-    pub dense: Vec<Vec<f64>>,
-    /// Marker-to-marker distances under the method's distance (asset units): along the skin
-    /// for the geodesic methods.
-    pub marker_distances: Vec<Vec<f64>>,
+    pub(crate) dense: Vec<Vec<f64>>,
+    pub(crate) warnings: Vec<String>,
+    /// Marker-to-marker distances under the method's distance, asset units (rig marker order):
+    /// along the skin for the geodesic methods.
+    pub(crate) marker_distances: Vec<Vec<f64>>,
+    /// The markers that ride the skull ([`anchoring::skull_markers`]).
+    pub(crate) skull: Vec<usize>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
 /// nearest other marker under the method's distance (paper 002 §2.1).
 fn resolve_kernel(
-    config: &BakeConfig,
+    config: &BakeOptions,
     centres: &[[f64; 3]],
     between: &DMatrix<f64>,
     h: f64,
 ) -> Kernel {
     let kernel = config
-        .kernel
+        .radial
         .resolve(centres, config.width.map(|w| w / h), config.width_factor);
-    match config.kernel {
-        KernelKind::InverseMultiquadric => Kernel::InverseMultiquadric {
+    match config.radial {
+        RadialFunction::InverseMultiquadric => Kernel::InverseMultiquadric {
             radii: (0..centres.len())
                 .map(|i| {
                     (0..centres.len())
@@ -296,7 +203,7 @@ fn kernel_spectrum(kernel: &Kernel, between: &DMatrix<f64>) -> (f64, f64) {
 /// bake computes them: what `facebake mask-images` renders.
 pub fn mask_sides(
     input: &SurfaceInput<'_>,
-    config: &SurfaceConfig,
+    config: &SurfaceOptions,
 ) -> Result<Vec<masks::MaskSides>, SurfaceError> {
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
@@ -309,7 +216,7 @@ pub fn mask_sides(
 /// `config`'s geodesics, plateau and decay.
 pub fn planar_allowance(
     input: &SurfaceInput<'_>,
-    config: &SurfaceConfig,
+    config: &SurfaceOptions,
 ) -> Result<crate::planar::MarkerAllowance, SurfaceError> {
     let sides = mask_sides(input, config)?;
     Ok(masks::marker_allowance(&sides, input.mesh.positions.len()))
@@ -318,7 +225,7 @@ pub fn planar_allowance(
 /// Every mask's sides and strengths with `config`'s plateau and decay (× `spacing`).
 fn sides_of(
     input: &SurfaceInput<'_>,
-    config: &SurfaceConfig,
+    config: &SurfaceOptions,
     geometry: &SurfaceGeometry,
     rest: &[[f64; 3]],
     spacing: f64,
@@ -333,89 +240,34 @@ fn sides_of(
     )?)
 }
 
-/// Vertices that not every marker reaches along the surface (mouth-interior pieces) take the
-/// weights of the nearest vertex every marker reaches, so they ride the skin beside them instead
-/// of being pulled by markers across the face through Euclidean distances.
-fn follow_nearest_reachable(
-    mut dense: Vec<Vec<f64>>,
-    unreachable: &[u32],
-    positions: &[[f64; 3]],
-) -> Vec<Vec<f64>> {
-    if unreachable.is_empty() {
-        return dense;
-    }
-    let mut cut = vec![false; positions.len()];
-    for &v in unreachable {
-        cut[v as usize] = true;
-    }
-    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
-    for &v in unreachable {
-        let p = &positions[v as usize];
-        if let Some(&near) = reachable.iter().min_by(|&&a, &&b| {
-            crate::mesh::distance(p, &positions[a])
-                .total_cmp(&crate::mesh::distance(p, &positions[b]))
-        }) {
-            dense[v as usize] = dense[near].clone();
-        }
-    }
-    dense
-}
-
 /// Mean nearest-marker distance.
 fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
-    let r = crate::rbf::kernel::nearest_distances(rest);
+    let r = crate::rbf::radial::nearest_distances(rest);
     r.iter().sum::<f64>() / r.len().max(1) as f64
 }
 
-/// Bake a surface-aware rig.
-pub fn bake_surface(
+/// The dense weights of a surface-aware method (with masks when `options.masks`) and its RBF
+/// system, in rig `space`. [`crate::bake()`] has checked the options.
+pub(crate) fn dense_weights(
     input: &SurfaceInput<'_>,
-    config: &SurfaceConfig,
-) -> Result<SurfaceBaked, SurfaceError> {
+    options: &BakeOptions,
+    space: &facebake_runtime::Space,
+) -> Result<SurfaceBake, SurfaceError> {
+    let config = options;
     let mesh = input.mesh;
     let n = input.markers.len();
-    let k = config.bake.k;
-    if !(1..=usize::from(facebake_runtime::fixed::MAX_INFLUENCES)).contains(&k) {
-        return Err(BakeError::from(sparsify::SparsifyError::BadK(k)).into());
-    }
     let masked = config.masks && !input.groups.is_empty();
-    if masked && config.bake.form == RigForm::Coefficients {
-        return Err(BakeError::Input(
-            "masks need the weights form (--form weights): the coefficient form has one RBF for the whole face"
-                .into(),
-        )
-        .into());
-    }
-    if config.method == Method::Pbw && config.bake.form == RigForm::Coefficients {
-        return Err(BakeError::Input(
-            "PBW weights are not an RBF: it needs the weights form (--form weights)".into(),
-        )
-        .into());
-    }
-    if config.bake.form == RigForm::Coefficients
-        && matches!(
-            config.bake.kernel,
-            KernelKind::Multiquadric | KernelKind::ThinPlate
-        )
-    {
-        return Err(BakeError::Input(format!(
-            "the {} kernel grows with distance, so its terms cannot be truncated to the K nearest: use --form weights",
-            config.bake.kernel.name()
-        ))
-        .into());
-    }
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
-    let names: Vec<String> = input.markers.iter().map(|m| m.name.clone()).collect();
     let stiffness: Vec<f64> = input.markers.iter().map(|m| m.stiffness).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
     let spacing = mean_spacing(&rest);
-    let geometry = SurfaceGeometry::new(mesh, &sources, config.geodesic)?;
+    let geometry = SurfaceGeometry::new(mesh, &sources, config.surface.geodesic)?;
     let kind = match config.method {
-        Method::Euclidean => DistanceKind::Euclidean,
-        Method::Geodesic | Method::Pbw => DistanceKind::Geodesic,
-        Method::Hybrid => DistanceKind::Hybrid {
-            region: config.region_factor * spacing,
-            decay: config.decay_factor * spacing,
+        Method::Euclidean => Distance::Euclidean,
+        Method::Geodesic | Method::Pbw => Distance::Geodesic,
+        Method::Hybrid => Distance::Hybrid {
+            region: config.surface.region_factor * spacing,
+            decay: config.surface.decay_factor * spacing,
         },
     };
     let d = distances::marker_distances(
@@ -449,13 +301,15 @@ pub fn bake_surface(
         ));
     }
     // Rig units, where the runtime evaluates.
-    let space = blob::space_for(&mesh.positions);
     let h = f64::from(space.half_extent);
-    let centres: Vec<[f64; 3]> = rest.iter().map(|p| blob::to_rig_units(&space, p)).collect();
+    let centres: Vec<[f64; 3]> = rest
+        .iter()
+        .map(|p| crate::space::to_rig_units(space, p))
+        .collect();
     let points: Vec<[f64; 3]> = mesh
         .positions
         .iter()
-        .map(|p| blob::to_rig_units(&space, p))
+        .map(|p| crate::space::to_rig_units(space, p))
         .collect();
     let between = &d.between / h;
     let rows: Vec<Vec<f64>> = d
@@ -477,10 +331,10 @@ pub fn bake_surface(
                     .collect()
             })
             .collect();
-        let k = KernelKind::Multiquadric.resolve(&centres, None, config.bake.width_factor);
+        let k = RadialFunction::Multiquadric.resolve(&centres, None, config.width_factor);
         (e, r, k)
     } else {
-        let k = resolve_kernel(&config.bake, &centres, &between, h);
+        let k = resolve_kernel(config, &centres, &between, h);
         (between, rows, k)
     };
     let (min_eig, mean_phi) = kernel_spectrum(&kernel, &between);
@@ -489,6 +343,7 @@ pub fn bake_surface(
     // for the multiquadric and thin-plate kernels, whose blocks have negative eigenvalues.
     let euclidean = matches!(config.method, Method::Euclidean | Method::Pbw);
     let ridge = config
+        .surface
         .ridge
         .unwrap_or(if min_eigenvalue < 0.0 && !euclidean {
             -min_eigenvalue + RIDGE_MARGIN
@@ -507,19 +362,13 @@ pub fn bake_surface(
         &centres,
         &between,
         kernel.clone(),
-        config.bake.affine,
+        config.affine,
         &stiffness,
         ridge,
-    )
-    .map_err(BakeError::from)?;
+    )?;
     let condition = system.condition();
-    if condition > crate::rbf::system::CONDITION_WARNING {
-        warnings.push(format!(
-            "the RBF system is ill-conditioned (1-norm condition ≈ {condition:.2e}): try a narrower kernel or a ridge"
-        ));
-    }
     let (dense, masked_vertices) = if masked {
-        let sides = sides_of(input, config, &geometry, &rest, spacing)?;
+        let sides = sides_of(input, &config.surface, &geometry, &rest, spacing)?;
         masks::masked_weights(
             &masks::MaskedSolve {
                 full: &system,
@@ -545,7 +394,7 @@ pub fn bake_surface(
     let dense = match geodesic_rows {
         Some(g) => {
             let nb = pbw::neighbours(&(&d.between / h));
-            let a = config.pbw_alpha;
+            let a = config.surface.pbw_alpha;
             dense
                 .iter()
                 .zip(g.iter().zip(&points))
@@ -561,25 +410,23 @@ pub fn bake_surface(
         }
         None => dense,
     };
-    let mut dense = follow_nearest_reachable(dense, &d.fallback, &mesh.positions);
-    let anchoring = match (config.anchoring_margin_factor, config.bake.form) {
-        (Some(factor), RigForm::Weights) => {
-            let head = if input.head.is_empty() {
-                let rims: Vec<Vec<[f64; 3]>> = geometry
-                    .openings
-                    .iter()
-                    .map(|o| {
-                        o.vertices
-                            .iter()
-                            .map(|&v| mesh.welded_positions[v as usize])
-                            .collect()
-                    })
-                    .collect();
-                anchoring::skull_markers(&rest, &rims, spacing)
-            } else {
-                input.head.to_vec()
-            };
+    let pieces = geometry.pieces_of(&d.fallback);
+    let mut dense = follow_nearest_reachable(dense, &d.fallback, &pieces, &mesh.positions);
+    let rims: Vec<Vec<[f64; 3]>> = geometry
+        .openings
+        .iter()
+        .map(|o| {
+            o.vertices
+                .iter()
+                .map(|&v| mesh.welded_positions[v as usize])
+                .collect()
+        })
+        .collect();
+    let skull = anchoring::skull_markers(&rest, &rims, spacing);
+    let anchoring = match (config.anchoring, config.deformer) {
+        (Some(factor), crate::DeformerKind::Linear) => {
             let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
+            // The mouth: the lowest opening, when it is below the markers' mean height.
             let floor = geometry
                 .openings
                 .iter()
@@ -588,77 +435,120 @@ pub fn bake_surface(
                     Some(low.map_or(y, |l| l.min(y)))
                 })
                 .filter(|&y| y < mean_height);
-            let a =
-                anchoring::static_anchoring(&mesh.positions, &rest, &head, floor, factor * spacing);
+            let a = anchoring::static_anchoring(
+                &mesh.positions,
+                &rest,
+                &skull,
+                floor,
+                factor * spacing,
+            );
             a.apply(&mut dense);
-            Some(AnchoringReport {
-                head_markers: head.iter().map(|&h| names[h].clone()).collect(),
+            Some(AnchoringFigures {
+                skull_markers: skull
+                    .iter()
+                    .map(|&h| input.markers[h].name.clone())
+                    .collect(),
                 anchored_vertices: a.anchored_vertices(),
                 still_vertices: a.still_vertices(),
             })
         }
         _ => None,
     };
-    let form = match config.bake.form {
-        RigForm::Weights => {
-            // The prior's covariance under the method's own distances, so re-fitting a dropped
-            // lower-lip marker does not lean on the upper lip.
-            let length = config.bake.prior_length * 2.0 * 3f64.sqrt();
-            let sym = (&between + between.transpose()) * 0.5;
-            let mut cov = sym.map(|r| (-(r * r) / (2.0 * length * length)).exp());
-            let lift = (-cov.clone().symmetric_eigenvalues().min()).max(0.0);
-            for i in 0..n {
-                cov[(i, i)] += 1e-9 + lift;
-            }
-            bake::linear_deformer(dense.iter().cloned(), k, config.bake.refit, &cov)?
-        }
-        RigForm::Coefficients => {
-            let phi_rows = rows.iter().map(|r| {
-                r.iter()
-                    .enumerate()
-                    .map(|(i, &x)| kernel.phi(i, x))
-                    .collect()
-            });
-            bake::coefficients_deformer(phi_rows, k.min(n), &system)?
-        }
-        RigForm::Planar => return Err(SurfaceError::PlanarForm),
-    };
-    let (blob, sizes) = blob::write(&BlobContents {
-        space,
-        vertices: &mesh.positions,
-        marker_names: &names,
-        marker_rest: &rest,
-        deformer: &form.deformer,
-    })
-    .map_err(BakeError::from)?;
-    let report = SurfaceReport {
-        method: config.method,
-        form: config.bake.form,
-        kernel: if config.method == Method::Pbw {
-            KernelKind::Multiquadric.name()
-        } else {
-            config.bake.kernel.name()
-        },
+    let marker_distances = (0..n)
+        .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
+        .collect();
+    let figures = SurfaceFigures {
         min_eigenvalue,
         ridge,
-        condition,
         geodesic_asymmetry: geometry.asymmetry(),
         openings: geometry.openings.len(),
         unreachable_vertices: d.fallback.len(),
         masked_vertices,
+        masks: if masked {
+            input.groups.iter().map(|g| g.name.clone()).collect()
+        } else {
+            Vec::new()
+        },
         anchoring,
-        weight_frac_bits: form.frac_bits,
-        mean_dropped_mass: form.dropped.iter().sum::<f64>() / form.dropped.len().max(1) as f64,
-        sizes,
-        warnings,
     };
-    let marker_distances = (0..n)
-        .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
-        .collect();
-    Ok(SurfaceBaked {
-        blob,
-        report,
+    Ok(SurfaceBake {
+        between,
+        rows,
+        kernel,
+        system,
+        figures,
+        condition,
+        radial: if config.method == Method::Pbw {
+            RadialFunction::Multiquadric
+        } else {
+            config.radial
+        },
         dense,
+        warnings,
         marker_distances,
+        skull,
     })
+}
+
+/// Pieces of the mesh that not every marker reaches along the surface (mouth-interior pieces:
+/// teeth, gums, tongue) ride the skin beside them as one: every vertex of a piece takes the
+/// weights of the reachable vertex nearest the piece's centre, so the piece moves rigidly with
+/// that skin instead of being stretched between the lips or pulled by markers across the face.
+fn follow_nearest_reachable(
+    mut dense: Vec<Vec<f64>>,
+    unreachable: &[u32],
+    pieces: &[(u32, Vec<u32>)],
+    positions: &[[f64; 3]],
+) -> Vec<Vec<f64>> {
+    if unreachable.is_empty() {
+        return dense;
+    }
+    let mut cut = vec![false; positions.len()];
+    for &v in unreachable {
+        cut[v as usize] = true;
+    }
+    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
+    for (_, piece) in pieces {
+        let centre = crate::mesh::centroid(positions, piece);
+        let Some(&near) = reachable.iter().min_by(|&&a, &&b| {
+            crate::mesh::distance(&centre, &positions[a])
+                .total_cmp(&crate::mesh::distance(&centre, &positions[b]))
+        }) else {
+            continue;
+        };
+        let weights = dense[near].clone();
+        for &v in piece {
+            dense[v as usize] = weights.clone();
+        }
+    }
+    dense
+}
+
+impl SurfaceBake {
+    /// The linear deformer of the dense weights, re-fitted under a prior whose covariance uses
+    /// the method's own distances, so re-fitting a dropped lower-lip marker does not lean on the
+    /// upper lip.
+    pub(crate) fn linear(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
+        let n = self.between.nrows();
+        let length = options.prior_length * 2.0 * 3f64.sqrt();
+        let sym = (&self.between + self.between.transpose()) * 0.5;
+        let mut cov = sym.map(|r| (-(r * r) / (2.0 * length * length)).exp());
+        let lift = (-cov.clone().symmetric_eigenvalues().min()).max(0.0);
+        for i in 0..n {
+            cov[(i, i)] += 1e-9 + lift;
+        }
+        deformer::linear::bake(self.dense.iter().cloned(), options.k, options.refit, &cov)
+    }
+
+    /// The RBF deformer: each vertex's radial values under the method's distances.
+    pub(crate) fn rbf(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
+        let n = self.between.nrows();
+        let phi_rows = self.rows.iter().map(|r| {
+            r.iter()
+                .enumerate()
+                .map(|(i, &x)| self.kernel.phi(i, x))
+                .collect()
+        });
+        deformer::rbf::bake(phi_rows, options.k.min(n), &self.system)
+    }
 }

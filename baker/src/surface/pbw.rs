@@ -3,8 +3,8 @@
 //! distances over a reach `d` from the two neighbours best aligned with the vertex (eqs 5–7) and
 //! by inverse squared distance (eq 8). Paper 002 measures eq 8's distances in the current frame;
 //! the bake uses the rest-pose geodesic distances so the weights are fixed (linear) and bake to
-//! the runtime's weights form. The global multiquadric RBF and the α blend (eqs 9–11) are in
-//! [`super::bake_surface`].
+//! the runtime's linear deformer. The global multiquadric RBF and the α blend (eqs 9–11) are in
+//! [`crate::bake()`].
 
 use nalgebra::DMatrix;
 

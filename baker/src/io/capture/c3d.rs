@@ -447,11 +447,15 @@ pub(super) fn parse(
         Some(rate) => rate,
         None => header_rate as f64,
     };
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+    if !super::valid_rate(rate_hz) {
         return Err(error(
             path,
             "parameter POINT:RATE",
-            format!("invalid rate {rate_hz} Hz"),
+            format!(
+                "invalid rate {rate_hz} Hz (expected {} to {} Hz)",
+                super::RATE_RANGE_HZ.start(),
+                super::RATE_RANGE_HZ.end()
+            ),
         ));
     }
     let units = match (units, r.param("POINT:UNITS")) {

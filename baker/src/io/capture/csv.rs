@@ -130,7 +130,7 @@ pub(super) fn parse(
 fn rate_from_times(times: &[Option<f64>], frames: usize) -> Option<f64> {
     let (first, last) = (times.first().copied()??, times.last().copied()??);
     let rate = (frames as f64 - 1.0) / (last - first);
-    (rate.is_finite() && rate > 0.0).then_some(rate)
+    super::valid_rate(rate).then_some(rate)
 }
 
 /// Reads the header row into what each column holds and the marker names in order.

@@ -17,77 +17,9 @@ pub mod c3d;
 pub mod csv;
 pub mod trc;
 
-use std::fmt;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 
-/// A length unit of marker positions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Units {
-    /// Millimetres (`mm`), the usual unit of optical capture systems and C3D files.
-    Millimetres,
-    /// Centimetres (`cm`).
-    Centimetres,
-    /// Metres (`m`), the unit of the baker's meshes.
-    Metres,
-    /// Inches (`in`).
-    Inches,
-}
-
-impl Units {
-    /// How many metres one of this unit is.
-    pub fn to_metres(self) -> f64 {
-        match self {
-            Units::Millimetres => 0.001,
-            Units::Centimetres => 0.01,
-            Units::Metres => 1.0,
-            Units::Inches => 0.0254,
-        }
-    }
-
-    /// The short symbol written to files: `mm`, `cm`, `m` or `in`.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            Units::Millimetres => "mm",
-            Units::Centimetres => "cm",
-            Units::Metres => "m",
-            Units::Inches => "in",
-        }
-    }
-}
-
-impl fmt::Display for Units {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.symbol())
-    }
-}
-
-/// The error of parsing a [`Units`] from text: the text was no known unit.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown units {0:?} (expected mm, cm, m or in)")]
-pub struct ParseUnitsError(pub String);
-
-impl FromStr for Units {
-    type Err = ParseUnitsError;
-
-    /// Accepts the symbols `mm`, `cm`, `m`, `in` and the long names (`millimetres`,
-    /// `millimeter`, `metre`, `inches`, …), case-insensitively, surrounding blanks ignored.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let lower = s.trim().to_ascii_lowercase();
-        let units = match lower.as_str() {
-            "mm" | "millimetre" | "millimetres" | "millimeter" | "millimeters" => {
-                Units::Millimetres
-            }
-            "cm" | "centimetre" | "centimetres" | "centimeter" | "centimeters" => {
-                Units::Centimetres
-            }
-            "m" | "metre" | "metres" | "meter" | "meters" => Units::Metres,
-            "in" | "inch" | "inches" => Units::Inches,
-            _ => return Err(ParseUnitsError(s.trim().to_string())),
-        };
-        Ok(units)
-    }
-}
+use crate::model::{Capture, Units};
 
 /// Everything that can go wrong reading, writing or reshaping a capture. Every variant names the
 /// file it is about.
@@ -156,60 +88,7 @@ fn quote_list(names: &[String]) -> String {
         .join(", ")
 }
 
-/// A marker capture: `frames[f][m]` is marker `marker_names[m]` at frame `f`, sampled at
-/// `rate_hz`, in `units`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Capture {
-    /// The file it was read from (or is about to be written to).
-    pub source: PathBuf,
-    /// Frames per second.
-    pub rate_hz: f64,
-    /// The length unit of every position.
-    pub units: Units,
-    /// Marker names, unique, in column order.
-    pub marker_names: Vec<String>,
-    /// Frames × markers; every frame has one entry per marker, `None` for a missing sample.
-    pub frames: Vec<Vec<Option<[f64; 3]>>>,
-}
-
 impl Capture {
-    /// The column of the marker called `name` (exact match), if any.
-    pub fn marker_index(&self, name: &str) -> Option<usize> {
-        self.marker_names.iter().position(|n| n == name)
-    }
-
-    /// The number of frames.
-    pub fn frame_count(&self) -> usize {
-        self.frames.len()
-    }
-
-    /// The number of missing samples over all frames and markers.
-    pub fn missing_count(&self) -> usize {
-        self.frames
-            .iter()
-            .map(|frame| frame.iter().filter(|s| s.is_none()).count())
-            .sum()
-    }
-
-    /// A copy with every position converted to metres (and `units` = [`Units::Metres`]).
-    pub fn in_metres(&self) -> Capture {
-        let k = self.units.to_metres();
-        Capture {
-            units: Units::Metres,
-            frames: self
-                .frames
-                .iter()
-                .map(|frame| {
-                    frame
-                        .iter()
-                        .map(|s| s.map(|p| [p[0] * k, p[1] * k, p[2] * k]))
-                        .collect()
-                })
-                .collect(),
-            ..self.clone()
-        }
-    }
-
     /// A copy holding only the markers `names`, in that order. Errors naming every requested
     /// marker the capture lacks.
     pub fn select(&self, names: &[&str]) -> Result<Capture, CaptureError> {
@@ -243,15 +122,20 @@ impl Capture {
         })
     }
 
-    /// Checks what the writers rely on: a positive finite rate, unique marker names and one
+    /// Checks what the writers rely on: a rate in [`RATE_RANGE_HZ`], unique marker names and one
     /// sample per marker in every frame.
     fn check_writable(&self, path: &Path) -> Result<(), CaptureError> {
         let err = |message: String| CaptureError::File {
             path: path.to_path_buf(),
             message,
         };
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
-            return Err(err(format!("cannot write a rate of {} Hz", self.rate_hz)));
+        if !valid_rate(self.rate_hz) {
+            return Err(err(format!(
+                "cannot write a rate of {} Hz (the readers take {} to {} Hz)",
+                self.rate_hz,
+                RATE_RANGE_HZ.start(),
+                RATE_RANGE_HZ.end()
+            )));
         }
         if let Some(name) = first_duplicate(&self.marker_names) {
             return Err(err(format!("duplicate marker name {name:?}")));
@@ -287,12 +171,22 @@ pub fn read_capture(path: &Path) -> Result<Capture, CaptureError> {
     read_capture_with_units(path, None)
 }
 
+/// Capture rates the readers accept and the writers write, Hz. Bounded away from zero (a
+/// subnormal rate makes the written times `frame / rate` infinite, which no reader takes back)
+/// and from infinity.
+pub const RATE_RANGE_HZ: std::ops::RangeInclusive<f64> = 1e-3..=1e6;
+
+/// Whether `rate_hz` is in [`RATE_RANGE_HZ`] (so neither NaN, infinite, zero nor subnormal).
+pub fn valid_rate(rate_hz: f64) -> bool {
+    RATE_RANGE_HZ.contains(&rate_hz)
+}
+
 /// Reads a capture like [`read_capture`]; `units`, when given, is an explicit override that
 /// replaces whatever units the file states (positions are not rescaled: the override says what
 /// unit the numbers are in). It is the way to read a CSV file that has no units line.
 pub fn read_capture_with_units(path: &Path, units: Option<Units>) -> Result<Capture, CaptureError> {
     let format = Format::of(path)?;
-    let bytes = std::fs::read(path).map_err(|source| CaptureError::Io {
+    let bytes = crate::io::read_bounded(path).map_err(|source| CaptureError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -437,15 +331,17 @@ mod text {
             Ok(complete.then_some(p))
         }
 
-        /// A sampling rate: a positive finite number of Hz.
+        /// A sampling rate: a number of Hz in [`RATE_RANGE_HZ`](super::RATE_RANGE_HZ).
         pub(super) fn rate(&self, line: usize, text: &str) -> Result<f64, CaptureError> {
             match text.trim().parse::<f64>() {
-                Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+                Ok(r) if super::valid_rate(r) => Ok(r),
                 _ => Err(self.at(
                     line,
                     format!(
-                        "invalid rate {:?} (expected a positive number of Hz)",
-                        text.trim()
+                        "invalid rate {:?} (expected {} to {} Hz)",
+                        text.trim(),
+                        super::RATE_RANGE_HZ.start(),
+                        super::RATE_RANGE_HZ.end()
                     ),
                 )),
             }

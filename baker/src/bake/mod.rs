@@ -1,0 +1,462 @@
+//! The bake: a [`Scene`] and [`BakeOptions`] in, a sealed rig blob out, written once.
+//!
+//! [`bake()`] checks the options against each other once, then the distance strategy gives each
+//! vertex its dense weights (Euclidean: `euclidean`; geodesic, hybrid, PBW and masks:
+//! [`crate::surface`]) and the deformer ([`crate::deformer`]) keeps, re-fits and quantises K of
+//! them; with a capture, the stages ([`crate::stages`]) are baked in the same rig space; then the
+//! blob is written with everything in it.
+
+mod euclidean;
+
+use facebake_runtime::Space;
+use serde::Serialize;
+
+use crate::blob::{self, BlobContents, BlobError, BlobSizes};
+use crate::deformer::planar::reference::PlanarReference;
+use crate::deformer::planar::PlanarSummary;
+use crate::deformer::rbf::DenseRbf;
+use crate::deformer::DeformerError;
+use crate::deformer::{self, DeformerKind, DeformerOutput};
+use crate::model::Capture;
+use crate::model::FaceMesh;
+use crate::model::MarkerGroups;
+use crate::model::PlacedMarker;
+use crate::options::{BakeOptions, Method};
+use crate::planar::{PlanarError, PlanarOptions, DEGENERATE_ANGLE_DEGREES};
+use crate::rbf::SolveError;
+use crate::sparsify::SparsifyError;
+use crate::stages::reference::StagesF64;
+use crate::stages::{bake_stages, StagesError, StagesReport};
+use crate::surface::{SideRule, SurfaceError, SurfaceFigures, SurfaceInput, SurfaceMarker};
+
+/// What a rig is baked from: the mesh, the markers placed on it, their groups either side of the
+/// openings and the control triangles given in the layout, and the actor's capture when the
+/// rig should also run the capture stages.
+pub struct Scene<'a> {
+    /// The mesh; the rig deforms its glTF vertices.
+    pub mesh: &'a FaceMesh,
+    /// The markers, in rig order.
+    pub markers: Vec<SurfaceMarker>,
+    /// Marker groups, one per mask ([`BakeOptions::masks`]).
+    pub groups: Vec<MarkerGroups>,
+    /// How the masks' vertex sides are found.
+    pub sides: SideRule,
+    /// Planar deformer: the control triangles (marker indices); `None` builds them.
+    pub control_triangles: Option<Vec<[usize; 3]>>,
+    /// The actor's capture: when given, the capture stages are baked into the rig.
+    pub capture: Option<&'a Capture>,
+}
+
+impl<'a> Scene<'a> {
+    /// `markers` on `mesh`, without groups, control triangles or capture.
+    pub fn new(mesh: &'a FaceMesh, markers: Vec<SurfaceMarker>) -> Self {
+        Self {
+            mesh,
+            markers,
+            groups: Vec::new(),
+            sides: SideRule::Auto,
+            control_triangles: None,
+            capture: None,
+        }
+    }
+
+    /// Layout markers placed on `mesh`.
+    pub fn placed(mesh: &'a FaceMesh, placed: &[PlacedMarker]) -> Self {
+        Self::new(
+            mesh,
+            placed.iter().map(SurfaceMarker::from_placed).collect(),
+        )
+    }
+
+    /// Marker names, in rig order.
+    pub fn marker_names(&self) -> Vec<String> {
+        self.markers.iter().map(|m| m.name.clone()).collect()
+    }
+
+    /// Marker rest positions, asset units.
+    pub fn marker_rest(&self) -> Vec<[f64; 3]> {
+        self.markers.iter().map(|m| m.rest).collect()
+    }
+
+    fn surface_input(&self) -> SurfaceInput<'_> {
+        SurfaceInput {
+            mesh: self.mesh,
+            markers: &self.markers,
+            groups: &self.groups,
+            sides: &self.sides,
+        }
+    }
+}
+
+/// The bake failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The RBF system.
+    #[error("solving the RBF system: {0}")]
+    Solve(#[from] SolveError),
+    /// Sparsification / quantisation.
+    #[error("sparsifying the weights: {0}")]
+    Sparsify(#[from] SparsifyError),
+    /// Writing the blob.
+    #[error("writing the rig: {0}")]
+    Blob(#[from] BlobError),
+    /// Inconsistent input or options.
+    #[error("{0}")]
+    Input(String),
+    /// The deformer.
+    #[error(transparent)]
+    Deformer(#[from] crate::deformer::DeformerError),
+    /// A surface-aware method (geodesics, masks).
+    #[error("surface-aware bake failed: {0}")]
+    Surface(#[from] SurfaceError),
+    /// The capture stages.
+    #[error("{0}")]
+    Stages(#[from] StagesError),
+}
+
+/// What the bake measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BakeReport {
+    /// The runtime's deformer.
+    pub deformer: DeformerKind,
+    /// The distance (or weighting) the dense weights came from.
+    pub method: Method,
+    /// Radial function used (none for planar bones).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radial: Option<&'static str>,
+    /// 1-norm condition estimate of the RBF system (none for planar bones).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<f64>,
+    /// Warnings worth a user's attention.
+    pub warnings: Vec<String>,
+    /// Influences per vertex (K).
+    pub k: usize,
+    /// Fractional weight bits chosen.
+    pub weight_frac_bits: u8,
+    /// Mean share of the vertex's dense weight (linear), radial mass (RBF) or eq-12 weight
+    /// (planar) dropped by keeping K.
+    pub mean_dropped_mass: f64,
+    /// Largest such share.
+    pub max_dropped_mass: f64,
+    /// Largest weight rounding error.
+    pub max_weight_rounding: f64,
+    /// Largest coefficient-map rounding error relative to its row (RBF deformer).
+    pub max_matrix_rounding: f64,
+    /// Blob sizes, the stages included.
+    pub sizes: BlobSizes,
+    /// Planar deformer: control triangles, and vertices within no bone's radius.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub planar: Option<PlanarSummary>,
+    /// Surface-aware methods and masks: spectrum, ridge, openings, masks.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceFigures>,
+    /// The capture stages, when the scene has a capture.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stages: Option<StagesReport>,
+}
+
+/// The f64 twin of a baked deformer: what the runtime approximates.
+pub enum DeformerReference {
+    /// The papers' dense RBF, solved every frame (Euclidean RBF and linear bakes).
+    Rbf(DenseRbf),
+    /// Per vertex, its dense weights on the marker displacements, masks applied (surface-aware
+    /// bakes).
+    Weights(DenseWeights),
+    /// Planar bones: eqs 1–12 on the exact rest positions with the baked influences.
+    Planar(PlanarReference),
+}
+
+impl DeformerReference {
+    /// Deformed positions for marker positions `markers` (asset units).
+    pub fn frame(&self, markers: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        match self {
+            Self::Rbf(r) => r.frame(markers),
+            Self::Weights(w) => w.frame(markers),
+            Self::Planar(p) => p.frame(markers).0,
+        }
+    }
+
+    /// The planar bones' reference, for a planar bake.
+    pub fn planar(&self) -> Option<&PlanarReference> {
+        match self {
+            Self::Planar(p) => Some(p),
+            _ => None,
+        }
+    }
+}
+
+/// Dense per-vertex weights on marker displacements.
+pub struct DenseWeights {
+    /// Vertex rest positions, asset units.
+    pub rest: Vec<[f64; 3]>,
+    /// Marker rest positions, asset units.
+    pub marker_rest: Vec<[f64; 3]>,
+    /// Per vertex, one weight per marker.
+    pub weights: Vec<Vec<f64>>,
+}
+
+impl DenseWeights {
+    /// Deformed positions for marker positions `markers` (asset units).
+    pub fn frame(&self, markers: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let d: Vec<[f64; 3]> = markers
+            .iter()
+            .zip(&self.marker_rest)
+            .map(|(m, r)| [0, 1, 2].map(|c| m[c] - r[c]))
+            .collect();
+        self.rest
+            .iter()
+            .zip(&self.weights)
+            .map(|(v, w)| {
+                [0, 1, 2].map(|c| v[c] + w.iter().zip(&d).map(|(w, d)| w * d[c]).sum::<f64>())
+            })
+            .collect()
+    }
+}
+
+/// The f64 references of everything baked.
+pub struct Reference {
+    /// The deformer's.
+    pub deformer: DeformerReference,
+    /// The capture stages', when the scene has a capture.
+    pub stages: Option<StagesF64>,
+}
+
+/// A finished bake.
+pub struct Baked {
+    /// The sealed blob.
+    pub blob: Vec<u8>,
+    /// The rig space of the blob: asset units to rig units.
+    pub space: Space,
+    /// Figures.
+    pub report: BakeReport,
+    /// The f64 references.
+    pub reference: Reference,
+}
+
+/// The deformer's output with what the strategy measured besides it.
+struct DeformerBake {
+    output: DeformerOutput,
+    radial: Option<&'static str>,
+    condition: Option<f64>,
+    warnings: Vec<String>,
+    planar: Option<PlanarSummary>,
+    surface: Option<SurfaceFigures>,
+    reference: DeformerReference,
+    /// Surface-aware methods: marker-to-marker distances along the skin and the skull markers,
+    /// for the capture stages' fill neighbours and head-marker candidates.
+    surface_markers: Option<(Vec<Vec<f64>>, Vec<String>)>,
+}
+
+/// Bake `scene` with `options` into a sealed rig: deformer, and capture stages when the scene
+/// has a capture.
+pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError> {
+    check(scene, options)?;
+    let names = scene.marker_names();
+    let rest = scene.marker_rest();
+    let space = crate::space::space_for(&scene.mesh.positions);
+    let d = bake_deformer(scene, options, &rest, &space)?;
+    let stages = match scene.capture {
+        Some(capture) => {
+            // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
+            // apart in space) and head markers among the skull markers, unless given.
+            let mut config = options.stages.clone();
+            if let Some((distances, skull)) = &d.surface_markers {
+                config
+                    .marker_distances
+                    .get_or_insert_with(|| distances.clone());
+                config.head_candidates.get_or_insert_with(|| skull.clone());
+            }
+            Some(bake_stages(capture, &names, &rest, &space, &config)?)
+        }
+        None => None,
+    };
+    let (blob, sizes) = blob::write(&BlobContents {
+        space,
+        vertices: &scene.mesh.positions,
+        marker_names: &names,
+        marker_rest: &rest,
+        deformer: &d.output.bytes,
+        stages: stages.as_ref().map(|s| &s.bytes),
+    })?;
+    let dropped = &d.output.dropped;
+    let report = BakeReport {
+        deformer: options.deformer,
+        method: options.method,
+        radial: d.radial,
+        condition: d.condition,
+        warnings: d.warnings,
+        k: options.k.min(rest.len()),
+        weight_frac_bits: d.output.frac_bits,
+        mean_dropped_mass: dropped.iter().sum::<f64>() / dropped.len().max(1) as f64,
+        max_dropped_mass: dropped.iter().copied().fold(0.0, f64::max),
+        max_weight_rounding: d.output.rounding,
+        max_matrix_rounding: d.output.matrix_rounding,
+        sizes,
+        planar: d.planar,
+        surface: d.surface,
+        stages: stages.as_ref().map(|s| s.report.clone()),
+    };
+    Ok(Baked {
+        blob,
+        space,
+        report,
+        reference: Reference {
+            deformer: d.reference,
+            stages: stages.map(|s| s.reference),
+        },
+    })
+}
+
+/// The options' refusals, each in one place.
+fn check(scene: &Scene<'_>, options: &BakeOptions) -> Result<(), BakeError> {
+    if !(1..=usize::from(facebake_runtime::fixed::MAX_INFLUENCES)).contains(&options.k) {
+        return Err(SparsifyError::BadK(options.k).into());
+    }
+    if options.masks && scene.groups.is_empty() {
+        return Err(BakeError::Input(
+            "masks need a [groups] table naming the upper and lower markers of each opening".into(),
+        ));
+    }
+    if options.deformer == DeformerKind::Rbf {
+        if options.masks {
+            return Err(BakeError::Input(
+                "masks need the linear deformer (--deformer linear): the RBF deformer has one RBF for the whole face"
+                    .into(),
+            ));
+        }
+        if options.method == Method::Pbw {
+            return Err(BakeError::Input(
+                "PBW weights are not an RBF: it needs the linear deformer (--deformer linear)"
+                    .into(),
+            ));
+        }
+        if options.radial.grows() {
+            return Err(BakeError::Input(format!(
+                "the {} radial function grows with distance, so its terms cannot be truncated to the K nearest: use --deformer linear",
+                options.radial.name()
+            )));
+        }
+    }
+    if options.deformer == DeformerKind::Planar && options.method != Method::Euclidean {
+        return Err(SurfaceError::Planar.into());
+    }
+    Ok(())
+}
+
+/// The deformer by the options' strategy.
+fn bake_deformer(
+    scene: &Scene<'_>,
+    options: &BakeOptions,
+    rest: &[[f64; 3]],
+    space: &Space,
+) -> Result<DeformerBake, BakeError> {
+    let mesh = scene.mesh;
+    if options.deformer == DeformerKind::Planar {
+        let allowance = if options.masks {
+            Some(crate::surface::planar_allowance(
+                &scene.surface_input(),
+                &options.surface,
+            )?)
+        } else {
+            None
+        };
+        let (output, summary, reference) = deformer::planar::bake(
+            &mesh.positions,
+            &mesh.triangles,
+            rest,
+            &PlanarOptions {
+                given: scene.control_triangles.as_deref(),
+                k: options.k,
+                radius_factor: options.planar_radius,
+                masks: allowance.as_ref(),
+            },
+            space,
+        )
+        .map_err(|e| named_triangle(scene, e))?;
+        return Ok(DeformerBake {
+            output,
+            radial: None,
+            condition: None,
+            warnings: Vec::new(),
+            planar: Some(summary),
+            surface: None,
+            reference: DeformerReference::Planar(reference),
+            surface_markers: None,
+        });
+    }
+    let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
+    if options.method == Method::Euclidean && !options.masks {
+        let system = euclidean::dense_system(rest, &stiffness, options)?;
+        let condition = system.condition();
+        let output = match options.deformer {
+            DeformerKind::Linear => {
+                euclidean::linear(&mesh.positions, rest, &system, options, space)?
+            }
+            DeformerKind::Rbf => euclidean::rbf(&mesh.positions, rest, &stiffness, options, space)?,
+            DeformerKind::Planar => return Err(SurfaceError::Planar.into()),
+        };
+        return Ok(DeformerBake {
+            output,
+            radial: Some(options.radial.name()),
+            condition: Some(condition),
+            warnings: condition_warning(condition).into_iter().collect(),
+            planar: None,
+            surface: None,
+            reference: DeformerReference::Rbf(euclidean::reference(system, &mesh.positions, rest)),
+            surface_markers: None,
+        });
+    }
+    let s = crate::surface::dense_weights(&scene.surface_input(), options, space)?;
+    let output = match options.deformer {
+        DeformerKind::Linear => s.linear(options)?,
+        DeformerKind::Rbf => s.rbf(options)?,
+        DeformerKind::Planar => return Err(SurfaceError::Planar.into()),
+    };
+    let mut warnings = s.warnings;
+    warnings.extend(condition_warning(s.condition));
+    let skull = s
+        .skull
+        .iter()
+        .map(|&i| scene.markers[i].name.clone())
+        .collect();
+    Ok(DeformerBake {
+        output,
+        radial: Some(s.radial.name()),
+        condition: Some(s.condition),
+        warnings,
+        planar: None,
+        surface: Some(s.figures),
+        reference: DeformerReference::Weights(DenseWeights {
+            rest: mesh.positions.clone(),
+            marker_rest: rest.to_vec(),
+            weights: s.dense,
+        }),
+        surface_markers: Some((s.marker_distances, skull)),
+    })
+}
+
+/// A degenerate control triangle the scene gave, named by its markers as the layout names it.
+fn named_triangle(scene: &Scene<'_>, e: DeformerError) -> BakeError {
+    match e {
+        DeformerError::Planar(PlanarError::DegenerateTriangle {
+            triangle,
+            markers,
+            angle,
+        }) if scene.control_triangles.is_some() => {
+            let names = markers.map(|m| scene.markers.get(m).map_or("?", |x| x.name.as_str()));
+            BakeError::Input(format!(
+                "triangles[{triangle}] {names:?} is degenerate on the mesh: its smallest angle is {angle:.3}° (at least {DEGENERATE_ANGLE_DEGREES}° needed)"
+            ))
+        }
+        e => e.into(),
+    }
+}
+
+/// The warning of an ill-conditioned RBF system.
+fn condition_warning(condition: f64) -> Option<String> {
+    (condition > crate::rbf::system::CONDITION_WARNING).then(|| {
+        format!(
+            "the RBF system is ill-conditioned (1-norm condition ≈ {condition:.2e}); results may be noisy: try a narrower radial width, the affine term or a ridge"
+        )
+    })
+}

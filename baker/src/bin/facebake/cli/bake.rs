@@ -1,0 +1,648 @@
+//! `facebake bake`: mesh + marker layout → rig blob, with a report of what the bake measured.
+
+use std::ops::Range;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use super::values::{deformer_parser, MethodArg, RadialArg, RefitArg, RetargetArg};
+use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
+use facebake::io::capture::read_capture_with_units;
+use facebake::io::gltf_check::BufferAccess;
+use facebake::io::gltf_mesh::load_mesh_with;
+use facebake::io::layout::read_layout;
+use facebake::io::mask_sides::read_vertex_sides;
+use facebake::model::{
+    place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
+};
+use facebake::surface::SideRule;
+use facebake::{
+    BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
+    StagesConfig,
+};
+
+/// Arguments of `facebake bake`.
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// The face mesh (.glb or .gltf).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Which mesh of the file (default: the first).
+    #[arg(long, value_name = "NAME")]
+    pub mesh_name: Option<String>,
+    /// Which primitive of the mesh (default: the first triangle primitive).
+    #[arg(long, value_name = "INDEX")]
+    pub primitive: Option<usize>,
+    /// The marker layout (.toml or .json).
+    #[arg(long, value_name = "LAYOUT")]
+    pub layout: PathBuf,
+    /// Let a `.gltf` read its buffers from anywhere (absolute paths, `file:` URIs, `..`);
+    /// by default only files inside the mesh's folder are read.
+    #[arg(long)]
+    pub allow_outside_asset: bool,
+    /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
+    /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
+    /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
+    /// half with a global multiquadric RBF; linear deformer). Default: geodesic, on the linear
+    /// deformer with static anchoring and the exponential radial function, width factor 1.5
+    /// (euclidean with `--deformer planar`, whose bones blend triangle frames, not distances).
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
+    /// Leave out static anchoring: by default the skin beyond the markers' hull above the mouth
+    /// (cranium, back of the head, ears) follows the skull markers instead of the face.
+    #[arg(long)]
+    pub no_anchoring: bool,
+    /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
+    /// side of an opening may not move the other side. Masks need the linear or planar deformer
+    /// (linear is the default with --masks).
+    #[arg(long)]
+    pub masks: bool,
+    /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
+    /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
+    #[arg(long, value_name = "FILE", requires = "masks")]
+    pub mask_sides: Option<PathBuf>,
+    /// With --masks: a mask's sides from a grey PNG in the mesh's cylindrical projection (paper
+    /// 000 §4.3; white = upper side, black = lower, grey = unmasked), as `NAME=FILE`, once per
+    /// mask of the layout's `[groups]`. `facebake mask-images` writes templates.
+    #[arg(
+        long,
+        value_name = "NAME=FILE",
+        requires = "masks",
+        conflicts_with = "mask_sides"
+    )]
+    pub mask_image: Vec<String>,
+    /// With --masks: a mask's sides from a float vertex attribute of the mesh's primitive (a
+    /// glTF application-specific attribute such as `_MASK_MOUTH`: above 0.5 upper side, below
+    /// -0.5 lower, between unmasked), as `NAME=ATTRIBUTE`, once per mask.
+    #[arg(long, value_name = "NAME=ATTRIBUTE", requires = "masks", conflicts_with_all = ["mask_sides", "mask_image"])]
+    pub mask_attribute: Vec<String>,
+    /// The runtime's deformer: rbf (per-frame RBF coefficients with K radial terms per vertex),
+    /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
+    /// triangles per vertex; the layout's `triangles = [["A", "B", "C"], ..]` when given, else
+    /// built automatically) (default: linear; rbf with `--method euclidean`).
+    #[arg(long, value_parser = deformer_parser())]
+    pub deformer: Option<DeformerKind>,
+    /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
+    /// hybrid).
+    #[arg(long, value_enum)]
+    pub radial: Option<RadialArg>,
+    /// Radial width in mesh units (default: --width-factor × the mean nearest-marker distance;
+    /// the inverse multiquadric uses per-marker radii and ignores it).
+    #[arg(long, value_name = "W", value_parser = parse_positive)]
+    pub width: Option<f64>,
+    /// Width as a multiple of the mean nearest-marker distance, when --width is not given
+    /// (default: 0.75 for euclidean, 1 for geodesic and hybrid).
+    #[arg(long, value_name = "F", value_parser = parse_positive)]
+    pub width_factor: Option<f64>,
+    /// Leave out the affine term of the RBF system.
+    #[arg(long)]
+    pub no_affine: bool,
+    /// Influences per vertex, 1 to 64.
+    #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeOptions::default().k)]
+    pub k: usize,
+    /// How the kept weights are re-fitted after sparsifying (linear deformer).
+    #[arg(long, value_enum, default_value_t = RefitArg::Prior)]
+    pub refit: RefitArg,
+    /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
+    /// (default: 1% of the mesh's bounding-box diagonal).
+    #[arg(long, value_name = "D", value_parser = parse_positive)]
+    pub max_snap: Option<f64>,
+    /// The actor's capture (.c3d, .trc or .csv): also bake the capture stages (head-motion
+    /// compensation, fill, retargeting onto the layout's markers) from it, so that `play`
+    /// takes this actor's raw captures. Its markers are matched to the layout's by name.
+    #[arg(long, value_name = "CAPTURE")]
+    pub capture: Option<PathBuf>,
+    /// Units of the capture's numbers, overriding what the file says.
+    #[arg(long, value_name = "UNITS", value_parser = parse_units, requires = "capture")]
+    pub capture_units: Option<Units>,
+    /// The actor's neutral pose: a frame `N` or a range `A..B` averaged (0-based, B excluded).
+    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames, requires = "capture")]
+    pub neutral: Range<usize>,
+    /// Head markers for compensation: comma-separated names, `auto` (the 4 most rigid over
+    /// the capture), `auto:N`, or `none` (the capture is already head-stabilised).
+    #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head, requires = "capture")]
+    pub head_markers: HeadMarkers,
+    /// A compensated marker further than this from its neutral position is rejected and
+    /// rebuilt, as a fraction of the actor's half extent.
+    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, value_parser = parse_positive, requires = "capture")]
+    pub max_displacement: f64,
+    /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
+    /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
+    #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
+    pub retarget: RetargetArg,
+    /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
+    #[arg(long, value_name = "F", default_value_t = BakeOptions::default().planar_radius, value_parser = parse_positive)]
+    pub planar_radius: f64,
+    /// Layout markers the capture never has (e.g. inner lips), comma-separated: rebuilt from
+    /// their nearest captured markers every frame (paper 000 §5.2). Any other layout marker
+    /// missing from the capture is an error.
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        requires = "capture"
+    )]
+    pub virtual_markers: Vec<String>,
+    /// Static anchors, comma-separated: layout markers (back of the head, neck) pinned at rest
+    /// every frame, whatever the capture says of them (paper 003).
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        requires = "capture"
+    )]
+    pub anchor_markers: Vec<String>,
+    /// Where to write the rig blob.
+    #[arg(short, long, value_name = "RIG")]
+    pub output: PathBuf,
+    /// Print the report as JSON on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl BakeArgs {
+    /// The bake options: the options given, the defaults of the method for the rest.
+    /// The distance method: as given, else geodesic (euclidean for planar bones).
+    fn method(&self) -> facebake::Method {
+        match (self.method, self.deformer) {
+            (Some(m), _) => m.into(),
+            (None, Some(DeformerKind::Planar)) => facebake::Method::Euclidean,
+            (None, _) => facebake::Method::Geodesic,
+        }
+    }
+
+    pub fn options(&self) -> BakeOptions {
+        let d = BakeOptions::for_method(self.method(), self.masks);
+        BakeOptions {
+            deformer: self.deformer.unwrap_or(d.deformer),
+            radial: self.radial.map_or(d.radial, Into::into),
+            width: self.width.or(d.width),
+            width_factor: self.width_factor.unwrap_or(d.width_factor),
+            affine: d.affine && !self.no_affine,
+            k: self.k,
+            refit: self.refit.into(),
+            planar_radius: self.planar_radius,
+            stages: StagesConfig {
+                neutral: self.neutral.clone(),
+                head: self.head_markers.clone(),
+                max_displacement: self.max_displacement,
+                retarget: self.retarget.into(),
+                virtual_markers: self.virtual_markers.clone(),
+                anchor_markers: self.anchor_markers.clone(),
+                ..StagesConfig::default()
+            },
+            anchoring: if self.no_anchoring { None } else { d.anchoring },
+            ..d
+        }
+    }
+}
+
+/// What `bake` reports.
+#[derive(Debug, Serialize)]
+pub struct BakeSummary {
+    /// The rig written.
+    pub output: PathBuf,
+    /// The mesh file.
+    pub mesh: PathBuf,
+    /// The mesh's name in the file.
+    pub mesh_name: String,
+    /// The layout file.
+    pub layout: PathBuf,
+    /// Vertices of the rig.
+    pub vertices: usize,
+    /// Markers of the rig.
+    pub markers: usize,
+    /// Largest snap of a marker onto the surface, mesh units.
+    pub max_snap_distance: f64,
+    /// Whether the affine term was solved.
+    pub affine: bool,
+    /// Weight format, `Q(23−F).F`.
+    pub weight_format: String,
+    /// Bytes per stored influence.
+    pub bytes_per_influence: f64,
+    /// The bake's own report (the capture stages' included).
+    pub report: BakeReport,
+}
+
+/// The masks' vertex sides: from `--mask-sides`, `--mask-image` or `--mask-attribute`, else
+/// found from the openings.
+fn side_rule(
+    args: &BakeArgs,
+    mesh: &FaceMesh,
+    groups: &[MarkerGroups],
+) -> Result<SideRule, CliError> {
+    Ok(match &args.mask_sides {
+        Some(path) => SideRule::VertexSets(
+            read_vertex_sides(path, groups).map_err(|e| CliError::input(path, e.to_string()))?,
+        ),
+        None if !args.mask_image.is_empty() => SideRule::VertexSets(named_sides(
+            "--mask-image",
+            &args.mask_image,
+            groups,
+            &args.layout,
+            |file| image_sides(file, mesh),
+        )?),
+        None if !args.mask_attribute.is_empty() => SideRule::VertexSets(named_sides(
+            "--mask-attribute",
+            &args.mask_attribute,
+            groups,
+            &args.layout,
+            |attr| attribute_sides(attr, mesh),
+        )?),
+        None => SideRule::Auto,
+    })
+}
+
+/// The vertex sides of every mask from `--mask-image NAME=FILE` or `--mask-attribute
+/// NAME=ATTRIBUTE` arguments (`flag` names which), in `groups` order: `read` turns one value into
+/// that mask's sides.
+fn named_sides(
+    flag: &str,
+    args: &[String],
+    groups: &[MarkerGroups],
+    layout: &std::path::Path,
+    read: impl Fn(&str) -> Result<VertexSets, CliError>,
+) -> Result<Vec<VertexSets>, CliError> {
+    let mut given = std::collections::BTreeMap::new();
+    for a in args {
+        let (name, value) = a
+            .split_once('=')
+            .ok_or_else(|| CliError::input(layout, format!("{flag} {a:?}: expected NAME=VALUE")))?;
+        if !groups.iter().any(|g| g.name == name) {
+            return Err(CliError::input(
+                layout,
+                format!("{flag} names mask \"{name}\", which the layout's [groups] does not have"),
+            ));
+        }
+        given.insert(name.to_string(), value.to_string());
+    }
+    groups
+        .iter()
+        .map(|g| {
+            let value = given.get(&g.name).ok_or_else(|| {
+                CliError::input(layout, format!("no {flag} for mask \"{}\"", g.name))
+            })?;
+            read(value)
+        })
+        .collect()
+}
+
+/// A mask's sides from a mask image (see [`facebake::io::mask_image`]).
+fn image_sides(file: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
+    let path = PathBuf::from(file);
+    facebake::io::mask_image::read_sides(&path, &mesh.positions, &mesh.triangles).map_err(|e| {
+        let text = e.to_string();
+        let prefix = format!("{}: ", path.display());
+        CliError::input(&path, text.strip_prefix(&prefix).unwrap_or(&text))
+    })
+}
+
+/// A mask's sides from a per-vertex float attribute of the mesh (see
+/// [`FaceMesh::attribute_sides`]), errors naming the mesh file.
+fn attribute_sides(name: &str, mesh: &FaceMesh) -> Result<VertexSets, CliError> {
+    mesh.attribute_sides(name)
+        .map_err(|e| CliError::input(&mesh.source, e.to_string()))
+}
+
+/// Run `facebake bake`.
+pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
+    let access = if args.allow_outside_asset {
+        BufferAccess::Anywhere
+    } else {
+        BufferAccess::AssetFolder
+    };
+    let mesh = load_mesh_with(
+        &args.mesh,
+        args.mesh_name.as_deref(),
+        args.primitive,
+        access,
+    )?;
+    let layout = read_layout(&args.layout)?;
+    let max_snap = args
+        .max_snap
+        .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
+    let placed = place_markers(&layout, &mesh, max_snap)?;
+    let options = args.options();
+    let mut scene = Scene::placed(&mesh, &placed);
+    if options.deformer == DeformerKind::Planar {
+        scene.control_triangles = layout.triangles.clone();
+    }
+    if options.masks {
+        scene.groups = layout.groups.clone();
+        scene.sides = side_rule(args, &mesh, &scene.groups)?;
+    }
+    let capture = match &args.capture {
+        Some(path) => Some(read_capture_with_units(path, args.capture_units)?),
+        None => None,
+    };
+    scene.capture = capture.as_ref();
+    let baked = facebake::bake(&scene, &options).map_err(|e| bake_error(args, e))?;
+    write_file(&args.output, &baked.blob)?;
+    let report = baked.report;
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        mesh: args.mesh.clone(),
+        mesh_name: mesh.mesh_name.clone(),
+        layout: args.layout.clone(),
+        vertices: mesh.positions.len(),
+        markers: placed.len(),
+        max_snap_distance: placed
+            .iter()
+            .map(|m| m.surface.distance)
+            .fold(0.0, f64::max),
+        affine: options.affine,
+        weight_format: weight_format(report.weight_frac_bits),
+        bytes_per_influence: report.sizes.influence_bytes as f64
+            / report.sizes.influences.max(1) as f64,
+        report,
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        print_text(&summary);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A failed bake as a command-line error naming the file it is about: the capture for the
+/// stages, the sides file for masks with given sides, else the layout.
+fn bake_error(args: &BakeArgs, e: BakeError) -> CliError {
+    match (&e, &args.capture, &args.mask_sides) {
+        (BakeError::Stages(_), Some(capture), _) => {
+            // Most stage errors name the capture already; the CLI error names it once.
+            let message = e.to_string();
+            let prefix = format!("{}: ", capture.display());
+            CliError::input(capture, message.strip_prefix(&prefix).unwrap_or(&message))
+        }
+        (BakeError::Surface(facebake::surface::SurfaceError::Mask(_)), _, Some(sides)) => {
+            CliError::input(sides, e.to_string())
+        }
+        (BakeError::Surface(_), _, _) => CliError::input(&args.layout, e.to_string()),
+        _ => CliError::Bake {
+            path: args.layout.clone(),
+            source: e,
+        },
+    }
+}
+
+/// Bytes as "N bytes (x.y KiB)".
+pub fn bytes_text(n: usize) -> String {
+    format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
+}
+
+fn print_text(s: &BakeSummary) {
+    let mut out = String::new();
+    let r = &s.report;
+    outln!(
+        out,
+        "baked mesh \"{}\" ({}, {} vertices) with {} markers ({})",
+        s.mesh_name,
+        s.mesh.display(),
+        s.vertices,
+        s.markers,
+        s.layout.display()
+    );
+    outln!(
+        out,
+        "  deformer      {}: {}",
+        r.deformer.name(),
+        r.deformer.description()
+    );
+    if let Some(radial) = r.radial {
+        outln!(
+            out,
+            "  radial        {radial} on {} distances, {}",
+            r.method.name(),
+            if s.affine {
+                "with affine term"
+            } else {
+                "no affine term"
+            }
+        );
+    }
+    if let Some(c) = r.condition {
+        outln!(out, "  condition     {c:.3e} (1-norm estimate)");
+    }
+    if let Some(f) = &r.surface {
+        outln!(
+            out,
+            "  surface       openings found: {}; kernel matrix smallest eigenvalue {:.3e} × mean |φ|, ridge {:.3e}, geodesic asymmetry {:.1} %",
+            f.openings,
+            f.min_eigenvalue,
+            f.ridge,
+            100.0 * f.geodesic_asymmetry
+        );
+        outln!(
+            out,
+            "  masks         {}; vertices masked: {}",
+            if f.masks.is_empty() {
+                "none".to_string()
+            } else {
+                f.masks.join(", ")
+            },
+            f.masked_vertices
+        );
+        if let Some(a) = &f.anchoring {
+            outln!(
+                out,
+                "  anchoring     {} vertices follow the skull markers {} ({} of them alone)",
+                a.anchored_vertices,
+                a.skull_markers.join(", "),
+                a.still_vertices
+            );
+        }
+    }
+    outln!(
+        out,
+        "  markers       largest snap onto the surface {:.3e} mesh units",
+        s.max_snap_distance
+    );
+    outln!(
+        out,
+        "  influences    K = {} per vertex, {} in all",
+        r.k,
+        r.sizes.influences
+    );
+    let stored = r.deformer.stored();
+    if r.deformer == DeformerKind::Planar {
+        outln!(
+            out,
+            "  weights       Q1.15 (unsigned 16-bit, each vertex's sum exactly 2^15), largest rounding {:.2e}",
+            r.max_weight_rounding
+        );
+    } else {
+        outln!(
+            out,
+            "  {stored:13} {} (signed 24-bit, F = {} fractional bits), largest rounding {:.2e}",
+            s.weight_format,
+            r.weight_frac_bits,
+            r.max_weight_rounding
+        );
+    }
+    if r.deformer == DeformerKind::Rbf {
+        outln!(
+            out,
+            "  coefficients  largest rounding of the coefficient map {:.2e} (relative to its row)",
+            r.max_matrix_rounding
+        );
+    }
+    outln!(
+        out,
+        "  dropped mass  mean {:.4}, max {:.4} (share of each vertex's {} dropped by keeping K)",
+        r.mean_dropped_mass,
+        r.max_dropped_mass,
+        r.deformer.dropped()
+    );
+    if let Some(p) = &r.planar {
+        outln!(
+            out,
+            "  control       {} triangles; {} vertices within no bone's radius ride their closest bone",
+            p.triangles.len(),
+            p.outside_radius
+        );
+    }
+    outln!(
+        out,
+        "  blob          {}: influences {} bytes ({} bytes/influence), other {:.2} bytes/vertex",
+        bytes_text(r.sizes.total),
+        r.sizes.influence_bytes,
+        s.bytes_per_influence,
+        r.sizes.other_bytes_per_vertex
+    );
+    if let Some(st) = &r.stages {
+        outln!(
+            out,
+            "  capture       neutral frames {:?}, actor half extent {:.1} mm (capture in {})",
+            st.neutral_frames,
+            st.actor_half_extent * 1000.0,
+            st.units
+        );
+        outln!(
+            out,
+            "  head markers  {} ({}; their distances vary by {:.3} mm)",
+            st.head_markers.join(", "),
+            if st.head_markers_picked {
+                "the most rigid, picked by the baker"
+            } else {
+                "as named"
+            },
+            st.head_spread * 1000.0
+        );
+        outln!(
+            out,
+            "  retargeting   {}; RBF condition {:.3e}, largest coefficient rounding {:.2e}",
+            match st.retarget {
+                RetargetKind::Rbf => "IMQ + affine RBF map (paper 000)",
+                RetargetKind::Proportional => "per-region proportional scaling (paper 003)",
+            },
+            st.retarget_condition,
+            st.max_alpha_rounding
+        );
+        if !st.virtual_markers.is_empty() {
+            outln!(
+                out,
+                "  virtual       not in the capture, rebuilt from neighbours every frame: {}",
+                st.virtual_markers.join(", ")
+            );
+        }
+        if !st.anchor_markers.is_empty() {
+            outln!(
+                out,
+                "  anchors       pinned at rest every frame: {}",
+                st.anchor_markers.join(", ")
+            );
+        }
+        if !st.unused_capture_markers.is_empty() {
+            outln!(
+                out,
+                "  not used      capture markers without a place on the character: {}",
+                st.unused_capture_markers.join(", ")
+            );
+        }
+    }
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
+    outln!(out, "wrote {}", s.output.display());
+    emit(&out);
+}
+
+/// Parse `--neutral`: `N` or `A..B`.
+pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("{t:?} is not a frame number"))
+    };
+    match s.split_once("..") {
+        Some((a, b)) => {
+            let (a, b) = (num(a)?, num(b)?);
+            if a < b {
+                Ok(a..b)
+            } else {
+                Err(format!("{s}: an empty range of frames"))
+            }
+        }
+        None => {
+            let n = num(s)?;
+            let end = n
+                .checked_add(1)
+                .ok_or_else(|| format!("{s}: frame number too large"))?;
+            Ok(n..end)
+        }
+    }
+}
+
+/// Parse `--head-markers`: names, `auto`, `auto:N` or `none`.
+pub fn parse_head(s: &str) -> Result<HeadMarkers, String> {
+    match s.trim() {
+        "none" => Ok(HeadMarkers::None),
+        "auto" => Ok(HeadMarkers::MostRigid(4)),
+        t => match t.strip_prefix("auto:") {
+            Some(n) => n
+                .parse()
+                .map(HeadMarkers::MostRigid)
+                .map_err(|_| format!("{n:?} is not a number of head markers")),
+            None => {
+                let names: Vec<String> = t
+                    .split(',')
+                    .map(|n| n.trim().to_string())
+                    .filter(|n| !n.is_empty())
+                    .collect();
+                if let Some((_, n)) = names
+                    .iter()
+                    .enumerate()
+                    .find(|(i, n)| names[..*i].contains(n))
+                {
+                    return Err(format!("head marker {n:?} is named twice"));
+                }
+                Ok(HeadMarkers::Named(names))
+            }
+        },
+    }
+}
+
+/// Parse a number that must be positive and finite (widths, radii, fractions): `nan`, `inf`,
+/// zero, negatives and subnormals are refused as bad arguments.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if x.is_normal() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s:?} must be a positive finite number"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn neutral_frame_numbers_never_overflow() {
+        assert!(super::parse_frames("18446744073709551615").is_err());
+        assert_eq!(super::parse_frames("7"), Ok(7..8));
+    }
+}

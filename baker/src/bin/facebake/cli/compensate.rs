@@ -1,0 +1,229 @@
+//! `facebake compensate`: a capture with the head's rigid motion removed, written as CSV, with
+//! the per-frame residual of the head fit and the estimated rotation pivot (paper 003 §2).
+
+use std::ops::Range;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use super::bake::{parse_frames, parse_head};
+use super::{emit, parse_units, print_json, CliError};
+use facebake::io::capture::{read_capture_with_units, write_csv};
+use facebake::model::{Capture, Units};
+use facebake::pivot::{estimate_pivot, PivotEstimate};
+use facebake::stages::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
+use facebake::stages::HeadMarkers;
+
+/// Arguments of `facebake compensate`.
+#[derive(Debug, Args)]
+pub struct CompensateArgs {
+    /// The capture (.c3d, .trc or .csv).
+    #[arg(value_name = "CAPTURE")]
+    pub capture: PathBuf,
+    /// Units of the capture's numbers, overriding what the file says.
+    #[arg(long, value_name = "UNITS", value_parser = parse_units)]
+    pub capture_units: Option<Units>,
+    /// The neutral pose the frames are brought back to: a frame `N` or a range `A..B` averaged.
+    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames)]
+    pub neutral: Range<usize>,
+    /// Head markers: comma-separated names, `auto` (the 4 most rigid) or `auto:N`.
+    #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head)]
+    pub head_markers: HeadMarkers,
+    /// The rigid fit: least squares over every present head marker (kabsch), or paper 003's
+    /// three-point method on the first three head markers (three-point).
+    #[arg(long, value_enum, default_value_t = Fit::Kabsch)]
+    pub fit: Fit,
+    /// Where to write the compensated capture (CSV, the capture's units).
+    #[arg(short, long, value_name = "CSV")]
+    pub output: PathBuf,
+    /// Print a JSON summary on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How each frame's head motion is fitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+pub enum Fit {
+    /// Least squares (Kabsch/Horn), reflection-safe, any n ≥ 3.
+    Kabsch,
+    /// Paper 003 §2.1: unit edge vectors of three markers and their cross product; needs the
+    /// first three head markers present.
+    ThreePoint,
+}
+
+/// What `compensate` reports.
+#[derive(Debug, Serialize)]
+pub struct CompensateSummary {
+    /// The capture.
+    pub capture: PathBuf,
+    /// Its frames.
+    pub frames: usize,
+    /// Its units.
+    pub units: String,
+    /// Head markers used.
+    pub head_markers: Vec<String>,
+    /// The fit used.
+    pub fit: Fit,
+    /// RMS residual of the head fit per frame, capture units (`None` where it could not be fitted
+    /// and the previous fit was held).
+    pub residuals: Vec<Option<f64>>,
+    /// Mean and largest of those.
+    pub residual_mean: f64,
+    /// Largest residual.
+    pub residual_max: f64,
+    /// The rotation pivot, capture space and units.
+    pub pivot: Option<PivotEstimate>,
+    /// The compensated capture.
+    pub output: PathBuf,
+}
+
+/// Run `facebake compensate`.
+pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
+    let capture = read_capture_with_units(&args.capture, args.capture_units)?;
+    let bad = |m: String| CliError::input(&args.capture, m);
+    let n = capture.marker_names.len();
+    let range = args.neutral.clone();
+    if range.end > capture.frame_count() {
+        return Err(bad(format!(
+            "neutral frames {range:?} are past the capture's {} frames",
+            capture.frame_count()
+        )));
+    }
+    let neutral: Vec<[f64; 3]> = (0..n)
+        .map(|j| {
+            let mut sum = [0.0; 3];
+            for f in range.clone() {
+                let p = capture.frames[f][j].ok_or_else(|| {
+                    bad(format!(
+                        "marker {:?} is missing in neutral frame {f}",
+                        capture.marker_names[j]
+                    ))
+                })?;
+                (0..3).for_each(|c| sum[c] += p[c] / range.len() as f64);
+            }
+            Ok(sum)
+        })
+        .collect::<Result<_, CliError>>()?;
+    let all: Vec<usize> = (0..n).collect();
+    let complete = facebake::stages::complete_sample(&capture, &all);
+    let head: Vec<usize> = match &args.head_markers {
+        HeadMarkers::Named(names) => names
+            .iter()
+            .map(|h| {
+                capture
+                    .marker_index(h)
+                    .ok_or_else(|| bad(format!("no head marker named {h:?}")))
+            })
+            .collect::<Result<_, _>>()?,
+        HeadMarkers::MostRigid(k) => {
+            most_rigid_subset(&complete, *k)
+                .map_err(|e| bad(format!("picking head markers: {e}")))?
+                .0
+        }
+        HeadMarkers::None => return Err(bad("compensation needs head markers".into())),
+    };
+    let mut last = RigidTransform::identity();
+    let mut residuals = Vec::with_capacity(capture.frame_count());
+    let mut frames = Vec::with_capacity(capture.frame_count());
+    let mut head_frames = Vec::new();
+    for frame in &capture.frames {
+        let present: Vec<usize> = head
+            .iter()
+            .copied()
+            .filter(|&h| frame[h].is_some())
+            .collect();
+        let from: Vec<[f64; 3]> = present.iter().map(|&h| neutral[h]).collect();
+        let to: Vec<[f64; 3]> = present.iter().filter_map(|&h| frame[h]).collect();
+        let fitted = match args.fit {
+            Fit::Kabsch => kabsch(&from, &to),
+            Fit::ThreePoint if present.len() >= 3 && present[..3] == head[..3] => {
+                three_point(&[from[0], from[1], from[2]], &[to[0], to[1], to[2]])
+            }
+            Fit::ThreePoint => Err(facebake::stages::rigid::RigidError::TooFewPoints(
+                present.len(),
+            )),
+        };
+        match fitted {
+            Ok(fit) => {
+                residuals.push(Some(fit.rms_residual(&from, &to)));
+                last = fit;
+                if present.len() == head.len() {
+                    head_frames.push(to);
+                }
+            }
+            Err(_) => residuals.push(None),
+        }
+        frames.push(
+            frame
+                .iter()
+                .map(|p| p.map(|p| last.apply_inverse(&p)))
+                .collect(),
+        );
+    }
+    let fitted: Vec<f64> = residuals.iter().flatten().copied().collect();
+    let centre = [0, 1, 2].map(|c| neutral.iter().map(|p| p[c]).sum::<f64>() / n as f64);
+    let size = neutral
+        .iter()
+        .map(|p| facebake::mesh::distance(p, &centre))
+        .fold(0.0, f64::max);
+    let pivot = estimate_pivot(&head_frames, centre, size.max(f64::MIN_POSITIVE));
+    let out = Capture {
+        source: args.output.clone(),
+        rate_hz: capture.rate_hz,
+        units: capture.units,
+        marker_names: capture.marker_names.clone(),
+        frames,
+    };
+    write_csv(&args.output, &out)?;
+    let summary = CompensateSummary {
+        capture: args.capture.clone(),
+        frames: capture.frame_count(),
+        units: capture.units.to_string(),
+        head_markers: head
+            .iter()
+            .map(|&h| capture.marker_names[h].clone())
+            .collect(),
+        fit: args.fit,
+        residual_mean: fitted.iter().sum::<f64>() / fitted.len().max(1) as f64,
+        residual_max: fitted.iter().copied().fold(0.0, f64::max),
+        residuals,
+        pivot,
+        output: args.output.clone(),
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        let mut text = String::new();
+        outln!(
+            text,
+            "compensated {} ({} frames, {}) with head markers {}",
+            summary.capture.display(),
+            summary.frames,
+            summary.units,
+            summary.head_markers.join(", ")
+        );
+        outln!(
+            text,
+            "  head fit      RMS residual mean {:.4}, max {:.4} {}; {} frames held the previous fit",
+            summary.residual_mean,
+            summary.residual_max,
+            summary.units,
+            summary.residuals.iter().filter(|r| r.is_none()).count()
+        );
+        if let Some(p) = &summary.pivot {
+            outln!(
+                text,
+                "  pivot         {:.3?} {} (paper 003 §2.2), {:.3?} from the markers' centre; distances to it vary by {:.4} on average",
+                p.pivot,
+                summary.units,
+                [0, 1, 2].map(|c| p.pivot[c] - centre[c]),
+                p.mean_length_change
+            );
+        }
+        outln!(text, "wrote {}", summary.output.display());
+        emit(&text);
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,443 @@
+//! `facebake render`: PNG contact sheets of played frames (and of the markers on the rest mesh),
+//! with the structure metrics; plus the hooks through which `demo` and `verify` draw and measure.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::Args;
+use facebake_runtime::Rig;
+use serde::Serialize;
+
+use super::play::evenly_spaced;
+use super::{emit, load_rig, marker_names, print_json, read_file, CliError};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::npy::read_npy_f32;
+use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
+use facebake::model::FaceMesh;
+use facebake::render::{write_png, MarkerSheet, Sheet, SheetFrame, PANEL};
+
+/// One frame's positions (vertices or markers).
+pub type Positions = Vec<[f64; 3]>;
+
+/// Rows of a sheet when `--frames` is not given: this many, evenly spaced.
+pub const DEFAULT_ROWS: usize = 6;
+
+/// Arguments of `facebake render`.
+#[derive(Debug, Args)]
+pub(crate) struct RenderArgs {
+    /// The played frames: a float32 `.npy`, frames × vertices × 3, as `play` writes it.
+    #[arg(value_name = "NPY")]
+    pub frames_npy: PathBuf,
+    /// The mesh the frames deform (its triangles and rest pose), glTF/GLB.
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Which mesh of the file (default: the first).
+    #[arg(long, value_name = "NAME")]
+    pub mesh_name: Option<String>,
+    /// The true frames, same shape: the sheet then shows truth, result and error.
+    #[arg(long, value_name = "NPY")]
+    pub truth: Option<PathBuf>,
+    /// The rig that played them: its markers are drawn on the marker sheet and pick the static
+    /// region of a mesh without morph targets.
+    #[arg(long, value_name = "RIG")]
+    pub rig: Option<PathBuf>,
+    /// Frames (0-based, comma-separated) to draw, one row each (default: 6 evenly spaced).
+    #[arg(long, value_name = "F,F,...", value_delimiter = ',')]
+    pub frames: Option<Vec<usize>>,
+    /// Where to write the contact sheet (PNG).
+    #[arg(short, long, value_name = "PNG")]
+    pub output: PathBuf,
+    /// Also write the rest mesh with the rig's markers here (PNG; needs --rig).
+    #[arg(long, value_name = "PNG", requires = "rig")]
+    pub marker_sheet: Option<PathBuf>,
+    /// Panel size in pixels.
+    #[arg(long, value_name = "PX", default_value_t = PANEL as u32, value_parser = clap::value_parser!(u32).range(64..=2048))]
+    pub panel: u32,
+    /// Remove each frame's best rigid motion (over the static region) before measuring: for
+    /// frames that carry head motion.
+    #[arg(long)]
+    pub remove_rigid: bool,
+    /// Print a JSON summary on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Structure metrics of a take: per frame, and the worst over it.
+#[derive(Debug, Serialize)]
+pub(crate) struct Structure {
+    /// How the static region was chosen, and its size.
+    pub static_rule: facebake::metrics::StaticRule,
+    /// Vertices in the static region.
+    pub static_vertices: usize,
+    /// Rim pairs across the mouth, and across the eyes.
+    pub rim_pairs: (usize, usize),
+    /// Per frame (frame label, metrics).
+    pub frames: Vec<(String, FrameMetrics)>,
+    /// The worst over the take.
+    pub take: TakeMetrics,
+}
+
+/// What `render` reports.
+#[derive(Debug, Serialize)]
+pub(crate) struct RenderSummary {
+    /// The sheets written.
+    pub files: Vec<PathBuf>,
+    /// Frames drawn.
+    pub frames: Vec<usize>,
+    /// The structure metrics over every frame of the `.npy`.
+    pub structure: Structure,
+}
+
+/// Read a frames × vertices × 3 `.npy` for a mesh of `vertices` vertices.
+fn read_frames(path: &Path, vertices: usize) -> Result<Vec<Vec<[f64; 3]>>, CliError> {
+    let (shape, data) = read_npy_f32(path).map_err(|e| CliError::input(path, e.to_string()))?;
+    match shape.as_slice() {
+        [_, n, 3] if *n == vertices => Ok(data
+            .chunks_exact(3 * vertices)
+            .map(|f| {
+                f.chunks_exact(3)
+                    .map(|p| [p[0], p[1], p[2]].map(f64::from))
+                    .collect()
+            })
+            .collect()),
+        _ => Err(CliError::input(
+            path,
+            format!("shape {shape:?}: expected frames × {vertices} × 3 (the mesh's vertices)"),
+        )),
+    }
+}
+
+/// The rig's markers at rest (asset units) and its head markers.
+fn rig_markers(rig: &Rig<'_>) -> (Vec<[f64; 3]>, Vec<usize>) {
+    let space = rig.space();
+    let rest = (0..rig.marker_count())
+        .map(|m| space.to_asset_f64(rig.marker_rest(m).unwrap_or_default()))
+        .collect();
+    let head = rig
+        .stages()
+        .map(|s| s.head_markers().iter().map(|&h| usize::from(h)).collect())
+        .unwrap_or_default();
+    (rest, head)
+}
+
+/// The regions of `mesh` (errors name it).
+pub(crate) fn regions(
+    mesh: &FaceMesh,
+    markers: &[[f64; 3]],
+    head: &[usize],
+) -> Result<Regions, CliError> {
+    Regions::for_mesh(mesh, markers, head).map_err(|e| CliError::input(&mesh.source, e.to_string()))
+}
+
+/// The regions of the mesh a rig was baked from, with the rig's markers.
+pub(crate) fn rig_regions(rig: &Rig<'_>, mesh: &FaceMesh) -> Result<Regions, CliError> {
+    let (markers, head) = rig_markers(rig);
+    regions(mesh, &markers, &head)
+}
+
+/// `verify`'s structure metrics: `played` frames against `truths` (empty: none), labelled with
+/// the ground truth's frame names when there is one.
+pub(crate) fn verify_structure(
+    regions: &Regions,
+    played: &[Vec<[f64; 3]>],
+    truths: &[Vec<[f64; 3]>],
+    truth: &Option<(facebake::ground_truth::GroundTruth, Vec<usize>)>,
+) -> Structure {
+    let label = |f: usize| match truth {
+        Some((t, frames)) => t.frames[frames[f]].name.clone(),
+        None => format!("frame {f}"),
+    };
+    let truths = (!truths.is_empty()).then_some(truths);
+    structure(regions, played, truths, label, false)
+}
+
+/// Measure every frame and the take; `labels` name the frames.
+pub(crate) fn structure(
+    regions: &Regions,
+    frames: &[Vec<[f64; 3]>],
+    truth: Option<&[Vec<[f64; 3]>]>,
+    labels: impl Fn(usize) -> String,
+    remove_rigid: bool,
+) -> Structure {
+    let (per_frame, take) = regions.measure_take(frames, truth, remove_rigid);
+    Structure {
+        static_rule: regions.static_rule.clone(),
+        static_vertices: regions.static_vertices.len(),
+        rim_pairs: (regions.lips.len(), regions.eyes.iter().map(Vec::len).sum()),
+        frames: per_frame
+            .into_iter()
+            .enumerate()
+            .map(|(f, m)| (labels(f), m))
+            .collect(),
+        take,
+    }
+}
+
+/// The text report of a [`Structure`]: the take's worst, then one line per frame if `per_frame`.
+pub(crate) fn structure_text(s: &Structure, per_frame: bool) -> String {
+    let mut out = String::new();
+    outln!(
+        out,
+        "  structure       static region {} vertices ({:?}), {} lip and {} eyelid rim pairs",
+        s.static_vertices,
+        s.static_rule,
+        s.rim_pairs.0,
+        s.rim_pairs.1
+    );
+    outln!(out, "    worst over {} frames: {}", s.take.frames, s.take);
+    if per_frame {
+        for (label, m) in &s.frames {
+            outln!(out, "    {label:>16}: {m}");
+        }
+    }
+    out
+}
+
+/// Draw a sheet of `rows` (frame indices) of `frames` over `mesh`, with `truth` if given.
+fn sheet(
+    title: String,
+    mesh: &FaceMesh,
+    frames: &[Vec<[f64; 3]>],
+    truth: Option<&[Vec<[f64; 3]>]>,
+    markers: Option<&[Vec<[f64; 3]>]>,
+    rows: &[(String, usize)],
+    panel: usize,
+) -> Sheet {
+    Sheet {
+        title,
+        rest: mesh.positions.clone(),
+        triangles: mesh.triangles.clone(),
+        frames: rows
+            .iter()
+            .filter(|(_, f)| *f < frames.len())
+            .map(|(label, f)| SheetFrame {
+                label: label.clone(),
+                positions: frames[*f].clone(),
+                truth: truth.and_then(|t| t.get(*f).cloned()),
+                markers: markers.and_then(|m| m.get(*f).cloned()).unwrap_or_default(),
+            })
+            .collect(),
+        panel,
+    }
+}
+
+/// Write `sheet` to `path`.
+fn write_sheet(path: &Path, image: &facebake::render::Image) -> Result<(), CliError> {
+    super::ensure_parent(path)?;
+    write_png(path, image).map_err(|e| CliError::input(path, e.to_string()))
+}
+
+/// The marker sheet of `names` at `rest` on `mesh`, written to `path`.
+pub(crate) fn write_marker_sheet(
+    path: &Path,
+    title: String,
+    mesh: &FaceMesh,
+    names: &[String],
+    rest: &[[f64; 3]],
+) -> Result<(), CliError> {
+    let sheet = MarkerSheet {
+        title,
+        rest: mesh.positions.clone(),
+        triangles: mesh.triangles.clone(),
+        markers: names.iter().cloned().zip(rest.iter().copied()).collect(),
+        panel: 2 * PANEL,
+    };
+    write_sheet(path, &sheet.render())
+}
+
+/// Run `facebake render`.
+pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
+    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
+    let n = mesh.positions.len();
+    let frames = read_frames(&args.frames_npy, n)?;
+    let truth = args
+        .truth
+        .as_deref()
+        .map(|p| {
+            let t = read_frames(p, n)?;
+            if t.len() == frames.len() {
+                Ok(t)
+            } else {
+                Err(CliError::input(
+                    p,
+                    format!("{} true frames for {} played frames", t.len(), frames.len()),
+                ))
+            }
+        })
+        .transpose()?;
+    let bytes = args.rig.as_deref().map(read_file).transpose()?;
+    let rig = match (&args.rig, &bytes) {
+        (Some(path), Some(b)) => Some(load_rig(path, b)?),
+        _ => None,
+    };
+    let (markers, head) = rig.as_ref().map(rig_markers).unwrap_or_default();
+    let chosen = args
+        .frames
+        .clone()
+        .unwrap_or_else(|| evenly_spaced(frames.len(), DEFAULT_ROWS));
+    if let Some(&bad) = chosen.iter().find(|&&f| f >= frames.len()) {
+        return Err(CliError::input(
+            &args.frames_npy,
+            format!(
+                "frame {bad} asked for, but the file has {} frames",
+                frames.len()
+            ),
+        ));
+    }
+    let rows: Vec<(String, usize)> = chosen.iter().map(|&f| (format!("FRAME {f}"), f)).collect();
+    let title = format!(
+        "{} ON {}",
+        file_name(&args.frames_npy),
+        file_name(&args.mesh)
+    );
+    let image = sheet(
+        title,
+        &mesh,
+        &frames,
+        truth.as_deref(),
+        None,
+        &rows,
+        args.panel as usize,
+    )
+    .render();
+    write_sheet(&args.output, &image)?;
+    let mut files = vec![args.output.clone()];
+    if let (Some(path), Some(rig)) = (&args.marker_sheet, &rig) {
+        let title = format!(
+            "MARKERS OF {}",
+            file_name(args.rig.as_deref().unwrap_or(path))
+        );
+        write_marker_sheet(path, title, &mesh, &marker_names(rig), &markers)?;
+        files.push(path.clone());
+    }
+    let regions = regions(&mesh, &markers, &head)?;
+    let structure = structure(
+        &regions,
+        &frames,
+        truth.as_deref(),
+        |f| format!("frame {f}"),
+        args.remove_rigid,
+    );
+    let summary = RenderSummary {
+        files,
+        frames: chosen,
+        structure,
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        let mut out = String::new();
+        for f in &summary.files {
+            outln!(out, "wrote {}", f.display());
+        }
+        out.push_str(&structure_text(&summary.structure, false));
+        emit(&out);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// The demo's ground-truth pictures and metrics: the true frames (`.npy`), the contact sheet of
+/// `rows` (truth, result, error) and the marker sheet, written into `dir`. Returns the metrics and (file, what) pairs.
+pub(crate) fn demo_ground_truth(
+    dir: &Path,
+    truth: &facebake::ground_truth::GroundTruth,
+    played: &[Vec<[f64; 3]>],
+    rows: &[&str],
+) -> Result<(Structure, Vec<(PathBuf, String)>), CliError> {
+    let truths: Vec<Vec<[f64; 3]>> = (0..truth.frames.len())
+        .map(|f| truth.positions(f))
+        .collect();
+    let markers: Vec<Vec<[f64; 3]>> = truths.iter().map(|t| truth.markers_of(t)).collect();
+    let rows: Vec<(String, usize)> = rows
+        .iter()
+        .filter_map(|name| {
+            let f = truth.frames.iter().position(|fr| fr.name == *name)?;
+            Some((name.to_string(), f))
+        })
+        .collect();
+    let mesh = &truth.mesh;
+    let truth_path = dir.join("facecap_truth.npy");
+    let flat: Vec<f32> = truths
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|&x| x as f32)
+        .collect();
+    let shape = [truths.len(), mesh.positions.len(), 3];
+    facebake::io::npy::write_npy_f32(&truth_path, &shape, &flat)
+        .map_err(|e| CliError::io(&truth_path, e))?;
+    let sheet_path = dir.join("facecap_sheet.png");
+    let title = "FACECAP GROUND TRUTH, DEFAULT BAKE: TRUTH / RESULT / ERROR".to_string();
+    let image = sheet(
+        title,
+        mesh,
+        played,
+        Some(&truths),
+        Some(&markers),
+        &rows,
+        PANEL,
+    )
+    .render();
+    write_sheet(&sheet_path, &image)?;
+    let marker_path = dir.join("facecap_markers.png");
+    let rest = truth.marker_rest();
+    let title = format!("FACECAP: {} SAMPLED MARKERS", rest.len());
+    write_marker_sheet(&marker_path, title, mesh, &truth.marker_names(), &rest)?;
+    let regions = regions(mesh, &rest, &[])?;
+    let s = structure(
+        &regions,
+        played,
+        Some(&truths),
+        |f| truth.frames[f].name.clone(),
+        false,
+    );
+    Ok((
+        s,
+        vec![
+            (truth_path, "the true frames, for `render --truth`".into()),
+            (sheet_path, "ground truth: truth, result, error".into()),
+            (
+                marker_path,
+                "the ground truth's markers on the rest mesh".into(),
+            ),
+        ],
+    ))
+}
+
+/// The demo's capture pictures and metrics: the contact sheet of `rows` of the `played` frames
+/// (result with the retargeted `markers`, and displacement) and the marker sheet of the
+/// capture's layout, written into `dir`.
+pub(crate) fn demo_capture(
+    dir: &Path,
+    mesh: &FaceMesh,
+    (played, markers): (&[Positions], &[Positions]),
+    rows: &[(String, usize)],
+    names: &[String],
+    rest: &[[f64; 3]],
+    head: &[usize],
+) -> Result<(Structure, Vec<(PathBuf, String)>), CliError> {
+    let rows: Vec<(String, usize)> = rows.iter().map(|(l, f)| (l.to_uppercase(), *f)).collect();
+    let sheet_path = dir.join("jawmocap_sheet.png");
+    let title = "JAWMOCAP ON FACECAP, DEFAULT BAKE: RESULT / DISPLACEMENT".to_string();
+    let image = sheet(title, mesh, played, None, Some(markers), &rows, PANEL).render();
+    write_sheet(&sheet_path, &image)?;
+    let marker_path = dir.join("jawmocap_markers.png");
+    let title = format!("JAWMOCAP LAYOUT ON FACECAP: {} MARKERS", names.len());
+    write_marker_sheet(&marker_path, title, mesh, names, rest)?;
+    let regions = regions(mesh, rest, head)?;
+    let s = structure(&regions, played, None, |f| format!("frame {f}"), false);
+    Ok((
+        s,
+        vec![
+            (sheet_path, "capture: result and displacement".into()),
+            (marker_path, "the capture's markers on the rest mesh".into()),
+        ],
+    ))
+}

@@ -1,0 +1,225 @@
+//! The face mesh: rest positions, triangles, morph targets and a welded copy of the topology,
+//! as [`crate::io::gltf_mesh::load_mesh`] reads it from glTF.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use crate::mesh::Topology;
+use crate::model::VertexSets;
+
+/// A mask's sides could not be read from a vertex attribute.
+#[derive(Debug, thiserror::Error)]
+pub enum AttributeSidesError {
+    /// The mesh has no such attribute.
+    #[error("mesh \"{mesh}\" has no float vertex attribute {name:?} (it has: {known})")]
+    Missing {
+        /// The mesh's name.
+        mesh: String,
+        /// The attribute asked for.
+        name: String,
+        /// The attributes it has, comma-separated, or `none`.
+        known: String,
+    },
+    /// The attribute leaves a side empty.
+    #[error("vertex attribute {name:?} puts {upper} vertices on the upper side (> 0.5) and {lower} on the lower (< -0.5): a mask needs both")]
+    OneSided {
+        /// The attribute.
+        name: String,
+        /// Vertices on the upper side.
+        upper: usize,
+        /// Vertices on the lower side.
+        lower: usize,
+    },
+}
+
+/// One morph target (blend shape) of a [`FaceMesh`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct MorphTarget {
+    /// Name from `mesh.extras.targetNames`, or `target_<i>` when the file names none.
+    pub name: String,
+    /// Per-vertex position offsets, in glTF vertex order and asset units
+    /// (all zero when the target carries no `POSITION` attribute).
+    pub deltas: Vec<[f64; 3]>,
+}
+
+/// A triangle mesh read from glTF, with its morph targets and a welded copy of its topology.
+#[derive(Debug, Clone)]
+pub struct FaceMesh {
+    /// The file the mesh was read from.
+    pub source: PathBuf,
+    /// The mesh's name in the file (`#<index>` when it has none).
+    pub mesh_name: String,
+    /// Rest positions, in glTF vertex order and asset units.
+    pub positions: Vec<[f64; 3]>,
+    /// Vertex normals as stored in the file, if the primitive has `NORMAL`.
+    pub normals: Option<Vec<[f64; 3]>>,
+    /// Triangles in original glTF vertex indices, in file order.
+    pub triangles: Vec<[u32; 3]>,
+    /// For each original vertex, the id of its welded vertex (vertices with bit-identical
+    /// positions share one id; ids are numbered in order of first appearance).
+    pub weld: Vec<u32>,
+    /// Position of each welded vertex.
+    pub welded_positions: Vec<[f64; 3]>,
+    /// The same triangles as [`FaceMesh::triangles`] (same order, none dropped) in welded ids;
+    /// see [`FaceMesh::degenerate_welded_triangles`] for those that collapse.
+    pub welded_triangles: Vec<[u32; 3]>,
+    /// Morph targets in file order.
+    pub morph_targets: Vec<MorphTarget>,
+    /// Application-specific vertex attributes (glTF names starting with `_`) holding one float
+    /// per vertex, by name (e.g. `_MASK_MOUTH`); others are not read.
+    pub attributes: std::collections::BTreeMap<String, Vec<f32>>,
+}
+
+/// Welds vertices with bit-identical positions; returns (original -> welded id, welded positions).
+pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    let mut welded = Vec::new();
+    let weld = positions
+        .iter()
+        .map(|p| {
+            *ids.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                welded.push(*p);
+                (welded.len() - 1) as u32
+            })
+        })
+        .collect();
+    (weld, welded)
+}
+
+impl FaceMesh {
+    /// A mesh made in code (no file, no morph targets, normals or attributes): `positions` and
+    /// `triangles` as given, the weld computed as
+    /// [`crate::io::gltf_mesh::load_mesh`] does.
+    pub fn from_triangles(name: &str, positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Self {
+        let (weld, welded_positions) = weld_positions(&positions);
+        let welded_triangles = triangles
+            .iter()
+            .map(|t| t.map(|v| weld[v as usize]))
+            .collect();
+        FaceMesh {
+            source: PathBuf::new(),
+            mesh_name: name.to_string(),
+            positions,
+            normals: None,
+            triangles,
+            weld,
+            welded_positions,
+            welded_triangles,
+            morph_targets: Vec::new(),
+            attributes: std::collections::BTreeMap::new(),
+        }
+    }
+
+    /// Positions with morph targets applied: rest + Σ weight · delta, in glTF vertex order.
+    ///
+    /// `weights` pairs a morph target index with its weight.
+    ///
+    /// # Panics
+    /// If a target index is out of range (use [`FaceMesh::morph_index`] to look names up).
+    pub fn morphed(&self, weights: &[(usize, f64)]) -> Vec<[f64; 3]> {
+        let mut out = self.positions.clone();
+        for &(t, w) in weights {
+            let target = self.morph_targets.get(t).unwrap_or_else(|| {
+                panic!(
+                    "morph target {t} out of range: mesh \"{}\" has {}",
+                    self.mesh_name,
+                    self.morph_targets.len()
+                )
+            });
+            for (p, d) in out.iter_mut().zip(&target.deltas) {
+                for k in 0..3 {
+                    p[k] += w * d[k];
+                }
+            }
+        }
+        out
+    }
+
+    /// Index of the morph target with this exact name.
+    pub fn morph_index(&self, name: &str) -> Option<usize> {
+        self.morph_targets.iter().position(|t| t.name == name)
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the rest positions.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        bounds(self.positions.iter().copied())
+    }
+
+    /// Length of the bounding box diagonal of the rest positions (a scale for tolerances).
+    pub fn diagonal(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        crate::mesh::distance(&lo, &hi)
+    }
+
+    /// Indices of triangles whose welded vertices are not three distinct ids.
+    pub fn degenerate_welded_triangles(&self) -> Vec<usize> {
+        self.welded_triangles
+            .iter()
+            .enumerate()
+            .filter(|(_, [a, b, c])| a == b || b == c || a == c)
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// For each welded vertex, the first original glTF vertex that maps to it.
+    pub fn welded_to_original(&self) -> Vec<u32> {
+        let mut out = vec![u32::MAX; self.welded_positions.len()];
+        for (orig, &w) in self.weld.iter().enumerate().rev() {
+            out[w as usize] = orig as u32;
+        }
+        out
+    }
+
+    /// A mask's sides from the float vertex attribute `name` (such as `_MASK_MOUTH`): above ½
+    /// the upper side, below −½ the lower side, between unmasked. Both sides must have
+    /// vertices.
+    pub fn attribute_sides(&self, name: &str) -> Result<VertexSets, AttributeSidesError> {
+        let values = self.attributes.get(name).ok_or_else(|| {
+            let known: Vec<&str> = self.attributes.keys().map(String::as_str).collect();
+            AttributeSidesError::Missing {
+                mesh: self.mesh_name.clone(),
+                name: name.to_string(),
+                known: if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                },
+            }
+        })?;
+        let pick = |keep: &dyn Fn(f32) -> bool| {
+            values
+                .iter()
+                .enumerate()
+                .filter(|(_, &x)| keep(x))
+                .map(|(v, _)| v as u32)
+                .collect::<Vec<u32>>()
+        };
+        let (upper, lower) = (pick(&|x| x > 0.5), pick(&|x| x < -0.5));
+        if upper.is_empty() || lower.is_empty() {
+            return Err(AttributeSidesError::OneSided {
+                name: name.to_string(),
+                upper: upper.len(),
+                lower: lower.len(),
+            });
+        }
+        Ok((upper, lower))
+    }
+
+    /// Topology (adjacency, edges, components, boundary loops) of the welded mesh.
+    pub fn welded_topology(&self) -> Topology {
+        Topology::new(&self.welded_positions, &self.welded_triangles)
+    }
+}
+
+/// Axis-aligned bounds `(min, max)` of a point set (`(+inf, -inf)` when empty).
+pub fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}

@@ -1,0 +1,14 @@
+//! What the baker works on, in memory: the face mesh, the marker layout and its placement on
+//! the mesh, and the actor's capture. [`crate::io`] reads and writes them.
+
+mod capture;
+pub(crate) mod layout;
+mod mesh;
+
+pub use capture::{Capture, ParseUnitsError, Units};
+pub use layout::{
+    place_markers, LayoutError, LayoutMarker, MarkerAnchor, MarkerGroups, MarkerLayout,
+    PlacedMarker, Side, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
+};
+pub(crate) use mesh::weld_positions;
+pub use mesh::{bounds, AttributeSidesError, FaceMesh, MorphTarget};

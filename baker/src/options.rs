@@ -1,0 +1,178 @@
+//! How to bake: every choice of [`crate::bake()`] in one value, with the defaults of each method.
+
+use crate::deformer::DeformerKind;
+use crate::geodesic::GeodesicMethod;
+use crate::rbf::RadialFunction;
+use crate::sparsify::Refit;
+use crate::stages::StagesConfig;
+
+/// Which distance the RBF is built on, or PBW's weighting: the strategy the deformation's dense
+/// weights come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Straight-line distance.
+    Euclidean,
+    /// Distance along the surface.
+    Geodesic,
+    /// Geodesic near the mouth and eyes, Euclidean elsewhere.
+    Hybrid,
+    /// Proximity-based weighting on geodesics blended with a global multiquadric RBF
+    /// (paper 002 §2.2; linear deformer only).
+    Pbw,
+}
+
+impl Method {
+    /// Every method, for sweeps.
+    pub const ALL: [Method; 4] = [Self::Euclidean, Self::Geodesic, Self::Hybrid, Self::Pbw];
+
+    /// Name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Euclidean => "euclidean",
+            Self::Geodesic => "geodesic",
+            Self::Hybrid => "hybrid",
+            Self::Pbw => "pbw",
+        }
+    }
+}
+
+/// The surface-aware choices: geodesics, the hybrid's region, the masks' fade, PBW's blend and
+/// the ridge.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceOptions {
+    /// How geodesics are computed.
+    pub geodesic: GeodesicMethod,
+    /// Hybrid: radius of the geodesic region around the openings, × mean marker spacing.
+    pub region_factor: f64,
+    /// Hybrid: width of the Gaussian decay outside the region, × mean marker spacing.
+    pub decay_factor: f64,
+    /// Masks: distance from the openings within which a mask is at full strength, × mean
+    /// marker spacing.
+    pub mask_plateau_factor: f64,
+    /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
+    pub mask_decay_factor: f64,
+    /// PBW: α of paper 002's eq 11, the share of the local (proximity) weights; the rest is the
+    /// global multiquadric RBF.
+    pub pbw_alpha: f64,
+    /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
+    /// the kernel block positive semi-definite, plus [`crate::surface::RIDGE_MARGIN`] when it is
+    /// not.
+    pub ridge: Option<f64>,
+}
+
+impl Default for SurfaceOptions {
+    /// Heat-method geodesics; hybrid region and decay 0.5 × spacing; masks at full strength
+    /// within 0.5 × spacing of the opening, fading over 1 × spacing; PBW half and half.
+    fn default() -> Self {
+        Self {
+            geodesic: GeodesicMethod::Heat,
+            region_factor: 0.5,
+            decay_factor: 0.5,
+            mask_plateau_factor: 0.5,
+            mask_decay_factor: 1.0,
+            pbw_alpha: 0.5,
+            ridge: None,
+        }
+    }
+}
+
+/// Static anchoring's fade-in distance, × the mean marker spacing, in the surface-aware
+/// methods' defaults.
+pub const ANCHORING_MARGIN: f64 = 0.8;
+
+/// How to bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeOptions {
+    /// The runtime's deformer.
+    pub deformer: DeformerKind,
+    /// The distance (or PBW weighting) the dense weights come from.
+    pub method: Method,
+    /// The radial function φ.
+    pub radial: RadialFunction,
+    /// Radial width in asset units; `None` derives it from the marker spacing.
+    pub width: Option<f64>,
+    /// Width as a multiple of the mean nearest-marker distance, when `width` is `None`.
+    pub width_factor: f64,
+    /// Solve the affine term with the RBF coefficients.
+    pub affine: bool,
+    /// Influences per vertex.
+    pub k: usize,
+    /// Re-fit of the kept weights (linear deformer).
+    pub refit: Refit,
+    /// Length scale of the smooth-motion prior as a fraction of the mesh's bounding-box diagonal
+    /// (linear deformer with the prior re-fit).
+    pub prior_length: f64,
+    /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
+    pub planar_radius: f64,
+    /// Apply the scene's marker groups as masks (linear and planar deformers).
+    pub masks: bool,
+    /// Geodesics, hybrid region, mask fade, PBW blend, ridge.
+    pub surface: SurfaceOptions,
+    /// The capture stages, baked when the scene has a capture.
+    pub stages: StagesConfig,
+    /// Static anchoring (linear deformer, surface-aware methods): the skin beyond the markers'
+    /// hull above the mouth follows the skull markers, fading in over this distance × the mean
+    /// marker spacing ([`crate::surface::anchoring`]); `None`: off.
+    pub anchoring: Option<f64>,
+}
+
+impl Default for BakeOptions {
+    /// Gaussian radial function, width 0.75 × the mean nearest-marker distance, affine term,
+    /// K = 8, Euclidean distances, RBF deformer: the configuration that keeps the sparse rig
+    /// within 0.1 mm (p99) of the dense RBF on the FaceCap ground truth.
+    fn default() -> Self {
+        Self {
+            deformer: DeformerKind::Rbf,
+            method: Method::Euclidean,
+            radial: RadialFunction::Gaussian,
+            width: None,
+            width_factor: 0.75,
+            affine: true,
+            k: 8,
+            refit: Refit::Prior,
+            prior_length: 0.05,
+            planar_radius: crate::planar::DEFAULT_RADIUS_FACTOR,
+            masks: false,
+            surface: SurfaceOptions::default(),
+            stages: StagesConfig::default(),
+            anchoring: None,
+        }
+    }
+}
+
+impl BakeOptions {
+    /// The defaults of `method`, with or without `masks`: Euclidean as [`Default`] (the
+    /// papers' Euclidean RBF, which the golden rigs pin); geodesic, hybrid and PBW in the linear
+    /// deformer with static anchoring over 0.8 × the mean marker spacing and the exponential
+    /// radial function `exp(−r/c)` (thesis eq 2.3a; its geodesic kernel matrix stays positive
+    /// definite on FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing.
+    /// `for_method(Method::Geodesic, false)` is what `facebake bake` uses when given no method:
+    /// the rig that keeps the skull still and lets the lips part (see the README's figures).
+    pub fn for_method(method: Method, masks: bool) -> Self {
+        let base = Self {
+            method,
+            masks,
+            ..Self::default()
+        };
+        let base = if method == Method::Euclidean {
+            base
+        } else {
+            Self {
+                deformer: DeformerKind::Linear,
+                radial: RadialFunction::Exponential,
+                width_factor: 1.5,
+                anchoring: Some(ANCHORING_MARGIN),
+                ..base
+            }
+        };
+        if masks {
+            Self {
+                deformer: DeformerKind::Linear,
+                ..base
+            }
+        } else {
+            base
+        }
+    }
+}

@@ -1,0 +1,603 @@
+//! Pictures of a face and what a rig does to it: PNG contact sheets drawn by a small z-buffer
+//! rasteriser with flat (per-face Lambert) shading, in orthographic front and side views framed
+//! on the rest mesh's bounding box.
+//!
+//! Everything here works on plain data: rest positions and triangles (any consistent vertex
+//! indexing, glTF order in the CLI), per frame the deformed positions, optionally the true ones
+//! and the markers. Units are metres; labels are millimetres.
+//!
+//! * [`Sheet`]: chosen frames as rows. With a truth for every frame, each row shows truth,
+//!   result and the per-vertex error (front, then side); otherwise the result and its
+//!   displacement from rest. One colour scale for the whole sheet, with a bar labelled in mm.
+//! * [`MarkerSheet`]: the rest mesh with the markers as numbered dots and a legend of names, so
+//!   a misplaced marker is seen.
+
+pub mod colour;
+pub mod font;
+pub mod image;
+
+use std::path::{Path, PathBuf};
+
+use colour::{colour_bar, nice_ceiling, viridis, BAR_WIDTH};
+use font::{text_width, GLYPH_HEIGHT};
+pub use image::{DepthBuffer, Image, Rgb};
+
+use crate::mesh::distance;
+
+/// Background of the sheets.
+const PAPER: Rgb = [236, 236, 232];
+/// Text colour.
+const INK: Rgb = [20, 20, 20];
+/// Albedo of the deformed (result) mesh.
+const RESULT_ALBEDO: Rgb = [226, 204, 186];
+/// Albedo of the true mesh, a cooler tint so the two read apart.
+const TRUTH_ALBEDO: Rgb = [192, 206, 228];
+/// Marker dot colour.
+const MARKER: Rgb = [225, 30, 40];
+/// Fraction of a panel left empty on each side of the framed box.
+const MARGIN: f64 = 0.05;
+/// Height of a text strip (label at scale 2 and padding), pixels.
+const STRIP: usize = 2 * GLYPH_HEIGHT + 10;
+/// Largest growth of a sheet's framed box beyond the rest box, per side, as a fraction of the
+/// rest box's largest extent.
+pub const GROWTH: f64 = 0.05;
+/// Default panel size, pixels.
+pub const PANEL: usize = 320;
+
+/// A PNG could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// Encoding or writing failed.
+    #[error("{}: {message}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+}
+
+/// Write `image` as a PNG at `path`.
+pub fn write_png(path: &Path, image: &Image) -> Result<(), RenderError> {
+    let fail = |message: String| RenderError::Write {
+        path: path.to_path_buf(),
+        message,
+    };
+    let bytes = image.to_png().map_err(|e| fail(e.to_string()))?;
+    std::fs::write(path, bytes).map_err(|e| fail(e.to_string()))
+}
+
+/// A viewing direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// From the front (+z), the subject's left (+x) on the right of the picture.
+    Front,
+    /// From the subject's right (−x), the face (+z) on the right of the picture.
+    Side,
+}
+
+impl View {
+    /// A point in view coordinates: right, up, towards the viewer.
+    pub fn project(self, p: &[f64; 3]) -> [f64; 3] {
+        match self {
+            Self::Front => *p,
+            Self::Side => [p[2], p[1], -p[0]],
+        }
+    }
+
+    /// Direction to the light in view coordinates: above and in front, from the side the face
+    /// is on (upper left from the front, upper right from the side), unit length.
+    pub fn light(self) -> [f64; 3] {
+        let x = match self {
+            Self::Front => -0.40,
+            Self::Side => 0.40,
+        };
+        let l = [x, 0.50, 0.77];
+        let n = crate::mesh::norm(&l);
+        l.map(|c| c / n)
+    }
+
+    /// Its name on the sheets.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Front => "FRONT",
+            Self::Side => "SIDE",
+        }
+    }
+}
+
+/// How a box of the world maps onto a square panel: the same scale in both views.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Framing {
+    centre: [f64; 3],
+    /// Pixels per metre.
+    pub scale: f64,
+    /// Panel size, pixels.
+    pub size: usize,
+}
+
+impl Framing {
+    /// Frame the bounding box of `points` in a `size`-pixel panel.
+    pub fn new(points: &[[f64; 3]], size: usize) -> Self {
+        let (lo, hi) = crate::model::bounds(
+            points
+                .iter()
+                .copied()
+                .filter(|p| p.iter().all(|x| x.is_finite())),
+        );
+        let extent = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        let scale = if extent > 0.0 && extent.is_finite() {
+            size as f64 * (1.0 - 2.0 * MARGIN) / extent
+        } else {
+            1.0
+        };
+        let centre = if lo[0].is_finite() && hi[0].is_finite() {
+            [0, 1, 2].map(|c| 0.5 * (lo[c] + hi[c]))
+        } else {
+            [0.0; 3]
+        };
+        Self {
+            centre,
+            scale,
+            size,
+        }
+    }
+
+    /// Frame the rest box grown to hold the `drawn` points, but by no more than
+    /// [`GROWTH`] of its largest extent on each side (so a chin pulled down stays in the panel
+    /// without one stray vertex shrinking the face).
+    pub fn around<'a>(
+        rest: &[[f64; 3]],
+        drawn: impl IntoIterator<Item = &'a [f64; 3]>,
+        size: usize,
+    ) -> Self {
+        let finite = |p: &&[f64; 3]| p.iter().all(|x| x.is_finite());
+        let (lo, hi) = crate::model::bounds(rest.iter().filter(finite).copied());
+        let grow = GROWTH * (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        let (dlo, dhi) = crate::model::bounds(drawn.into_iter().filter(finite).copied());
+        let corner = |d: [f64; 3], r: [f64; 3], sign: f64| {
+            [0, 1, 2].map(|c| {
+                let outward = (sign * (d[c] - r[c])).clamp(0.0, grow);
+                if outward.is_finite() {
+                    r[c] + sign * outward
+                } else {
+                    r[c]
+                }
+            })
+        };
+        Self::new(&[corner(dlo, lo, -1.0), corner(dhi, hi, 1.0)], size)
+    }
+
+    /// A world point in pixel space of `view`: x right, y down, depth larger nearer.
+    pub fn to_pixel(&self, view: View, p: &[f64; 3]) -> [f64; 3] {
+        let q = view.project(p);
+        let c = view.project(&self.centre);
+        let half = self.size as f64 / 2.0;
+        [
+            half + (q[0] - c[0]) * self.scale,
+            half - (q[1] - c[1]) * self.scale,
+            q[2] - c[2],
+        ]
+    }
+}
+
+/// How a mesh is coloured.
+#[derive(Clone, Copy, Debug)]
+pub enum Paint<'a> {
+    /// One albedo, shaded.
+    Flat(Rgb),
+    /// A per-vertex value (mm) through the colour map, 0 to `max_mm`, shaded lightly.
+    Heat {
+        /// One value per vertex, millimetres.
+        values_mm: &'a [f64],
+        /// The top of the scale.
+        max_mm: f64,
+    },
+}
+
+/// Draw `triangles` over `positions` seen from `view` into a fresh panel. Triangles naming
+/// missing vertices, and non-finite positions, are skipped.
+pub fn draw_mesh(
+    view: View,
+    framing: &Framing,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    paint: Paint<'_>,
+) -> (Image, DepthBuffer) {
+    let mut image = Image::new(framing.size, framing.size, PAPER);
+    let mut depth = DepthBuffer::for_image(&image);
+    let light = view.light();
+    for t in triangles {
+        let Some(corners) = t
+            .iter()
+            .map(|&v| positions.get(v as usize).copied())
+            .collect::<Option<Vec<_>>>()
+        else {
+            continue;
+        };
+        let q: Vec<[f64; 3]> = corners.iter().map(|p| view.project(p)).collect();
+        let n = crate::mesh::cross(
+            &crate::mesh::sub(&q[1], &q[0]),
+            &crate::mesh::sub(&q[2], &q[0]),
+        );
+        let len = crate::mesh::norm(&n);
+        let lambert = if len > 0.0 {
+            (crate::mesh::dot(&n, &light) / len).abs()
+        } else {
+            0.0
+        };
+        let screen = [0, 1, 2].map(|i| framing.to_pixel(view, &corners[i]));
+        match paint {
+            Paint::Flat(albedo) => {
+                let c = albedo.map(|a| (f64::from(a) * (0.28 + 0.72 * lambert)).round() as u8);
+                image::fill_triangle(&mut image, &mut depth, screen, |_| c);
+            }
+            Paint::Heat { values_mm, max_mm } => {
+                let v = t.map(|i| values_mm.get(i as usize).copied().unwrap_or(0.0));
+                let shade = 0.55 + 0.45 * lambert;
+                image::fill_triangle(&mut image, &mut depth, screen, |w| {
+                    let value = w[0] * v[0] + w[1] * v[1] + w[2] * v[2];
+                    viridis(value / max_mm).map(|c| (f64::from(c) * shade).round() as u8)
+                });
+            }
+        }
+    }
+    (image, depth)
+}
+
+/// Draw dots at `points` where they are not hidden behind the surface in `depth`.
+fn draw_markers(
+    image: &mut Image,
+    depth: &DepthBuffer,
+    view: View,
+    framing: &Framing,
+    points: &[[f64; 3]],
+    radius: f64,
+) -> Vec<Option<[f64; 2]>> {
+    // A marker on the skin is at the depth of the surface under it, within a sliver.
+    let tolerance = 0.01 * framing.size as f64 / framing.scale;
+    points
+        .iter()
+        .map(|p| {
+            let s = framing.to_pixel(view, p);
+            let visible = (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| s[2] + tolerance >= depth.at(s[0] as i64 + dx, s[1] as i64 + dy))
+            });
+            (visible && s.iter().all(|x| x.is_finite())).then(|| {
+                image.dot(s[0], s[1], radius, MARKER, [40, 0, 0]);
+                [s[0], s[1]]
+            })
+        })
+        .collect()
+}
+
+/// One frame of a take on a [`Sheet`].
+#[derive(Clone, Debug, Default)]
+pub struct SheetFrame {
+    /// Its label (e.g. "jaw open", "frame 388").
+    pub label: String,
+    /// The deformed positions, one per rest vertex.
+    pub positions: Vec<[f64; 3]>,
+    /// The true positions, if known.
+    pub truth: Option<Vec<[f64; 3]>>,
+    /// Marker positions to dot on the result (empty: none).
+    pub markers: Vec<[f64; 3]>,
+}
+
+/// A contact sheet of chosen frames. See the module docs.
+#[derive(Clone, Debug)]
+pub struct Sheet {
+    /// Title line.
+    pub title: String,
+    /// Rest positions, metres.
+    pub rest: Vec<[f64; 3]>,
+    /// Triangles over them.
+    pub triangles: Vec<[u32; 3]>,
+    /// The frames, one row each.
+    pub frames: Vec<SheetFrame>,
+    /// Panel size, pixels.
+    pub panel: usize,
+}
+
+/// Per-vertex distances between two position lists, millimetres (from metres).
+pub fn distances_mm(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| 1000.0 * distance(p, q))
+        .collect()
+}
+
+impl Sheet {
+    /// Whether the sheet compares against a truth: every frame has one (of the right length).
+    pub fn has_truth(&self) -> bool {
+        !self.frames.is_empty()
+            && self.frames.iter().all(|f| {
+                f.truth
+                    .as_ref()
+                    .is_some_and(|t| t.len() == f.positions.len())
+            })
+    }
+
+    /// The per-vertex heat values of a frame, mm: error against the truth, or displacement.
+    fn heat(&self, frame: &SheetFrame) -> Vec<f64> {
+        match (&frame.truth, self.has_truth()) {
+            (Some(t), true) => distances_mm(&frame.positions, t),
+            _ => distances_mm(&frame.positions, &self.rest),
+        }
+    }
+
+    /// Draw the sheet.
+    pub fn render(&self) -> Image {
+        let truth = self.has_truth();
+        let heats: Vec<Vec<f64>> = self.frames.iter().map(|f| self.heat(f)).collect();
+        let largest = heats.iter().flatten().copied().fold(0.0, f64::max);
+        let max_mm = nice_ceiling(largest);
+        let heat_name = if truth { "ERROR" } else { "DISPLACEMENT" };
+        let mut columns: Vec<(View, &str)> = Vec::new();
+        for view in [View::Front, View::Side] {
+            if truth {
+                columns.push((view, "TRUTH"));
+            }
+            columns.push((view, "RESULT"));
+            columns.push((view, heat_name));
+        }
+        let panel = self.panel.max(64);
+        let drawn = self
+            .frames
+            .iter()
+            .flat_map(|f| f.positions.iter().chain(f.truth.iter().flatten()));
+        let framing = Framing::around(&self.rest, drawn, panel);
+        let bar_space = BAR_WIDTH + 30;
+        let width = columns.len() * panel + bar_space;
+        let top = STRIP + STRIP;
+        let row_height = STRIP + panel;
+        let height = top + self.frames.len().max(1) * row_height + 6;
+        let mut sheet = Image::new(width, height, PAPER);
+        sheet.text(8, 6, &self.title, 2, INK);
+        for (c, (view, what)) in columns.iter().enumerate() {
+            let text = format!("{what} {}", view.name());
+            sheet.text((c * panel + 8) as i64, (STRIP + 6) as i64, &text, 2, INK);
+        }
+        for (r, frame) in self.frames.iter().enumerate() {
+            let y0 = top + r * row_height;
+            let worst = heats[r].iter().copied().fold(0.0, f64::max);
+            let label = format!(
+                "{}   MAX {} {} MM",
+                frame.label,
+                heat_name,
+                mm_text_precise(worst)
+            );
+            sheet.fill_rect(0, y0 as i64, columns.len() * panel, 1, [180; 3]);
+            sheet.text(8, (y0 + 6) as i64, &label, 2, INK);
+            for (c, (view, what)) in columns.iter().enumerate() {
+                let (positions, paint) = match *what {
+                    "TRUTH" => (
+                        frame.truth.as_deref().unwrap_or(&frame.positions),
+                        Paint::Flat(TRUTH_ALBEDO),
+                    ),
+                    "RESULT" => (frame.positions.as_slice(), Paint::Flat(RESULT_ALBEDO)),
+                    _ => (
+                        frame.positions.as_slice(),
+                        Paint::Heat {
+                            values_mm: &heats[r],
+                            max_mm,
+                        },
+                    ),
+                };
+                let (mut img, depth) =
+                    draw_mesh(*view, &framing, positions, &self.triangles, paint);
+                if *what == "RESULT" && !frame.markers.is_empty() {
+                    draw_markers(&mut img, &depth, *view, &framing, &frame.markers, 2.0);
+                }
+                sheet.blit(&img, c * panel, y0 + STRIP);
+                sheet.fill_rect((c * panel) as i64, (y0 + STRIP) as i64, 1, panel, [180; 3]);
+            }
+        }
+        let bar_height = (panel * self.frames.len().clamp(1, 2)).saturating_sub(60);
+        colour_bar(
+            &mut sheet,
+            (columns.len() * panel + 16) as i64,
+            (top + STRIP + 40) as i64,
+            bar_height,
+            max_mm,
+            heat_name,
+        );
+        sheet
+    }
+}
+
+/// A value in mm for a row label: one decimal, two below 1 mm.
+fn mm_text_precise(v: f64) -> String {
+    if v < 1.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+/// The rest mesh with its markers, numbered, and a legend of their names.
+#[derive(Clone, Debug)]
+pub struct MarkerSheet {
+    /// Title line.
+    pub title: String,
+    /// Rest positions, metres.
+    pub rest: Vec<[f64; 3]>,
+    /// Triangles over them.
+    pub triangles: Vec<[u32; 3]>,
+    /// The markers: name and rest position.
+    pub markers: Vec<(String, [f64; 3])>,
+    /// Panel size, pixels.
+    pub panel: usize,
+}
+
+impl MarkerSheet {
+    /// Draw the sheet: front and side, then the legend.
+    pub fn render(&self) -> Image {
+        let panel = self.panel.max(64);
+        let framing = Framing::new(&self.rest, panel);
+        let line = GLYPH_HEIGHT + 5;
+        let per_column = ((panel - 10) / line).max(1);
+        let columns = self.markers.len().div_ceil(per_column).max(1);
+        let longest = self
+            .markers
+            .iter()
+            .enumerate()
+            .map(|(i, (n, _))| text_width(&format!("{i:2} {n}"), 1))
+            .max()
+            .unwrap_or(0);
+        let column_width = longest + 16;
+        let width = 2 * panel + columns * column_width + 10;
+        let height = 2 * STRIP + panel + 6;
+        let mut sheet = Image::new(width, height, PAPER);
+        sheet.text(8, 6, &self.title, 2, INK);
+        let points: Vec<[f64; 3]> = self.markers.iter().map(|m| m.1).collect();
+        for (c, view) in [View::Front, View::Side].into_iter().enumerate() {
+            let (mut img, depth) = draw_mesh(
+                view,
+                &framing,
+                &self.rest,
+                &self.triangles,
+                Paint::Flat(RESULT_ALBEDO),
+            );
+            let at = draw_markers(&mut img, &depth, view, &framing, &points, 3.0);
+            for (i, p) in at.iter().enumerate() {
+                if let Some([x, y]) = p {
+                    img.label(
+                        *x as i64 + 5,
+                        *y as i64 - GLYPH_HEIGHT as i64 - 2,
+                        &i.to_string(),
+                        1,
+                        INK,
+                        [255, 255, 255],
+                    );
+                }
+            }
+            sheet.text(
+                (c * panel + 8) as i64,
+                (STRIP + 6) as i64,
+                &format!("REST {}", view.name()),
+                2,
+                INK,
+            );
+            sheet.blit(&img, c * panel, 2 * STRIP);
+        }
+        for (i, (name, _)) in self.markers.iter().enumerate() {
+            let x = 2 * panel + 10 + (i / per_column) * column_width;
+            let y = 2 * STRIP + 5 + (i % per_column) * line;
+            sheet.text(x as i64, y as i64, &format!("{i:2} {name}"), 1, INK);
+        }
+        sheet
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit quad facing +z, two triangles, centred at the origin.
+    fn quad() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        (
+            vec![
+                [-0.05, -0.05, 0.0],
+                [0.05, -0.05, 0.0],
+                [0.05, 0.05, 0.0],
+                [-0.05, 0.05, 0.0],
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+    }
+
+    #[test]
+    fn framing_centres_the_box_and_views_agree_on_scale() {
+        let (p, _) = quad();
+        let f = Framing::new(&p, 100);
+        assert!((f.scale - 900.0).abs() < 1e-9);
+        let c = f.to_pixel(View::Front, &[0.0, 0.0, 0.0]);
+        assert_eq!([c[0], c[1]], [50.0, 50.0]);
+        // Up is up the picture; the subject's left is on the right from the front.
+        assert!(f.to_pixel(View::Front, &[0.0, 0.05, 0.0])[1] < 50.0);
+        assert!(f.to_pixel(View::Front, &[0.05, 0.0, 0.0])[0] > 50.0);
+        // From the side, the front (+z) is on the right and −x is nearer.
+        assert!(f.to_pixel(View::Side, &[0.0, 0.0, 0.05])[0] > 50.0);
+        assert!(f.to_pixel(View::Side, &[-0.05, 0.0, 0.0])[2] > 0.0);
+    }
+
+    #[test]
+    fn framing_grows_for_drawn_points_but_only_so_far() {
+        let (p, _) = quad();
+        let rest = Framing::new(&p, 100);
+        assert_eq!(Framing::around(&p, &p, 100), rest);
+        // 2 mm beyond the 10 cm box: all of it; 1 m beyond: only 5 mm (5 %).
+        let near = Framing::around(&p, &[[0.0, 0.052, 0.0]], 100);
+        assert!((near.scale - 90.0 / 0.102).abs() < 1e-9);
+        let far = Framing::around(&p, &[[0.0, 1.05, 0.0]], 100);
+        assert!((far.scale - 90.0 / 0.105).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_facing_quad_fills_the_framed_box_and_an_edge_on_one_nothing() {
+        let (p, t) = quad();
+        let f = Framing::new(&p, 100);
+        let (img, _) = draw_mesh(View::Front, &f, &p, &t, Paint::Flat([200, 200, 200]));
+        let drawn = img.pixels.iter().filter(|&&c| c != PAPER).count();
+        assert_eq!(drawn, 90 * 90);
+        let (img, _) = draw_mesh(View::Side, &f, &p, &t, Paint::Flat([200, 200, 200]));
+        assert!(img.pixels.iter().all(|&c| c == PAPER));
+    }
+
+    #[test]
+    fn heat_follows_the_values_and_bad_triangles_are_skipped() {
+        let (p, mut t) = quad();
+        t.push([0, 1, 99]);
+        let f = Framing::new(&p, 40);
+        let values = [0.0, 0.0, 10.0, 10.0];
+        let (img, _) = draw_mesh(
+            View::Front,
+            &f,
+            &p,
+            &t,
+            Paint::Heat {
+                values_mm: &values,
+                max_mm: 10.0,
+            },
+        );
+        let lum = |c: Rgb| c.iter().map(|&x| u32::from(x)).sum::<u32>();
+        // Bright at the top (values 10), dark at the bottom (values 0).
+        assert!(lum(img.get(20, 4).unwrap()) > lum(img.get(20, 35).unwrap()) + 100);
+    }
+
+    #[test]
+    fn sheets_have_the_expected_layout() {
+        let (p, t) = quad();
+        let moved: Vec<[f64; 3]> = p.iter().map(|q| [q[0], q[1], q[2] + 0.002]).collect();
+        let frame = SheetFrame {
+            label: "lifted".into(),
+            positions: moved.clone(),
+            truth: Some(p.clone()),
+            markers: vec![p[0]],
+        };
+        let mut sheet = Sheet {
+            title: "test".into(),
+            rest: p.clone(),
+            triangles: t.clone(),
+            frames: vec![frame.clone(), frame],
+            panel: 80,
+        };
+        assert!(sheet.has_truth());
+        let img = sheet.render();
+        assert_eq!(img.width, 6 * 80 + BAR_WIDTH + 30);
+        assert_eq!(img.height, 2 * STRIP + 2 * (STRIP + 80) + 6);
+        sheet.frames[1].truth = None;
+        assert!(!sheet.has_truth());
+        assert_eq!(sheet.render().width, 4 * 80 + BAR_WIDTH + 30);
+        let markers = MarkerSheet {
+            title: "markers".into(),
+            rest: p,
+            triangles: t,
+            markers: vec![("A".into(), [0.0, 0.0, 0.0])],
+            panel: 80,
+        };
+        let img = markers.render();
+        assert!(img.pixels.contains(&MARKER));
+    }
+}

@@ -1,0 +1,758 @@
+//! Baking the capture stages (head-motion compensation, fill, retargeting) that the runtime runs
+//! on an actor's raw markers, and their f64 reference.
+//!
+//! From a capture (its neutral frame or range) and the character's marker positions this module
+//! builds [`facebake_runtime::stages::Stages`]: the actor's space and neutral markers, the head
+//! markers (named, or the most rigid subset of the neutral range), the neighbours each marker is
+//! rebuilt from when missing, and the retargeting map (inverse multiquadric with per-centre radius
+//! plus affine, [`RetargetMap`]) from actor space to the character's rig space.
+//!
+//! [`StagesF64`] runs the same steps in f64 with the unquantised map and Kabsch fits: the
+//! reference the runtime is compared with.
+
+use std::ops::Range;
+
+use facebake_runtime::fixed::pack_influence;
+use facebake_runtime::format::records::FILL_NEIGHBOURS;
+use facebake_runtime::stages::compensate::MAX_HEAD_MARKERS;
+use facebake_runtime::stages::fill::FILL_FRAC_BITS;
+use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
+use facebake_runtime::Space;
+
+pub mod reference;
+pub mod retarget;
+pub mod rigid;
+
+use crate::mesh::distance;
+use crate::model::Capture;
+use crate::rbf::SolveError;
+use crate::space::{space_for, to_rig_units};
+use reference::StagesF64;
+use retarget::{Proportional, RetargetMap};
+use rigid::{kabsch, most_rigid_subset, RigidError};
+
+/// Which markers carry the head's rigid motion.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeadMarkers {
+    /// These markers, by name.
+    Named(Vec<String>),
+    /// The this-many markers whose mutual distances vary least over the capture's complete
+    /// frames (every frame where all the rig's markers are present, at most 600 of them evenly
+    /// spread): head markers stay rigid through every expression, not only the neutral one.
+    MostRigid(usize),
+    /// No compensation (the capture is already in the head's frame).
+    None,
+}
+
+/// How compensated actor markers become the character's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum RetargetKind {
+    /// The RBF map of paper 000 §5.1: inverse multiquadric with per-centre radii plus affine.
+    #[default]
+    Rbf,
+    /// Paper 003 §4's per-region proportional scaling: the actor's displacements turned into the
+    /// character's frame and scaled per axis by the ratio of the two faces' extents, separately
+    /// for the upper and the lower face. 9 multiply-adds per marker at run time.
+    Proportional,
+}
+
+/// How to bake the capture stages.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StagesConfig {
+    /// Frames averaged into the actor's neutral pose (frame 0 by default).
+    pub neutral: Range<usize>,
+    /// Head markers.
+    pub head: HeadMarkers,
+    /// Largest plausible displacement of a compensated marker from neutral, as a fraction of the
+    /// actor's half extent (half the largest side of the neutral markers' bounds).
+    pub max_displacement: f64,
+    /// The retargeting method.
+    pub retarget: RetargetKind,
+    /// Rig markers the capture never has (paper 000 §5.2: inner lips, say): rebuilt from their
+    /// nearest real markers every frame. Any other rig marker missing from the capture is an
+    /// error.
+    pub virtual_markers: Vec<String>,
+    /// Static anchors (paper 003: back of the head, neck): rig markers pinned at their rest
+    /// position on the character every frame, whatever the capture says of them, so the regions
+    /// around them do not move.
+    pub anchor_markers: Vec<String>,
+    /// Distances between the rig's markers along the character's skin (asset units, rig
+    /// marker order), to choose fill neighbours on the marker's own side of the mouth and the
+    /// eyes: lip markers across a closed mouth are millimetres apart in space. `None`: the
+    /// actor's neutral straight-line distances.
+    pub marker_distances: Option<Vec<Vec<f64>>>,
+    /// With [`HeadMarkers::MostRigid`]: the markers it may pick from (the skull markers the
+    /// bake found clear of the mouth and eyes); `None`: every marker the capture has.
+    pub head_candidates: Option<Vec<String>>,
+}
+
+impl Default for StagesConfig {
+    fn default() -> Self {
+        Self {
+            neutral: 0..1,
+            head: HeadMarkers::MostRigid(4),
+            max_displacement: 0.5,
+            retarget: RetargetKind::Rbf,
+            virtual_markers: Vec::new(),
+            anchor_markers: Vec::new(),
+            marker_distances: None,
+            head_candidates: None,
+        }
+    }
+}
+
+/// The capture stages could not be baked.
+#[derive(Debug, thiserror::Error)]
+pub enum StagesError {
+    /// A rig marker the capture does not have.
+    #[error(
+        "{file}: the capture has no marker {name:?}, which the layout places on the character"
+    )]
+    MissingMarker {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+    },
+    /// The neutral range is empty or past the end.
+    #[error("{file}: neutral frames {start}..{end} are not inside the capture's {frames} frames")]
+    NeutralRange {
+        /// The capture file.
+        file: String,
+        /// First neutral frame.
+        start: usize,
+        /// One past the last.
+        end: usize,
+        /// Frames in the capture.
+        frames: usize,
+    },
+    /// A marker is missing in a neutral frame.
+    #[error("{file}: marker {name:?} is missing in neutral frame {frame} (choose another neutral range)")]
+    NeutralIncomplete {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+        /// The frame (0-based).
+        frame: usize,
+    },
+    /// A marker in a neutral frame is far from all the others: a ghost sample or a mislabel.
+    #[error(
+        "{file}: marker {name:?} in neutral frame {frame} is {distance_mm:.1} mm from its nearest \
+         neighbour, more than {NEUTRAL_OUTLIER_FACTOR} × the median nearest-neighbour distance \
+         ({median_mm:.1} mm): a ghost sample? (choose another neutral range with --neutral)"
+    )]
+    NeutralOutlier {
+        /// The capture file.
+        file: String,
+        /// The marker.
+        name: String,
+        /// The frame (0-based).
+        frame: usize,
+        /// Its distance to the nearest other marker, mm.
+        distance_mm: f64,
+        /// The median of all markers' nearest-neighbour distances, mm.
+        median_mm: f64,
+    },
+    /// The neutral face, in the capture's units, is not the size of a face.
+    #[error(
+        "{file}: the actor's neutral markers span {half_extent_m:.4} m from their centre (read as \
+         {units}), not a face's {ACTOR_HALF_EXTENT_MIN_M}–{ACTOR_HALF_EXTENT_MAX_M} m: are the \
+         capture's units right? (--capture-units)"
+    )]
+    ActorScale {
+        /// The capture file.
+        file: String,
+        /// Half the largest side of the neutral markers' bounds, metres.
+        half_extent_m: f64,
+        /// The units the numbers were read in.
+        units: String,
+    },
+    /// A named head marker is not a rig marker the capture has.
+    #[error("head marker {0:?} is not one of the rig's markers in the capture")]
+    UnknownHeadMarker(String),
+    /// A virtual or anchor marker is not a rig marker.
+    #[error("virtual or anchor marker {0:?} is not one of the rig's markers")]
+    UnknownVirtualMarker(String),
+    /// Head markers: too few, too many, or repeated.
+    #[error("{0} head markers given; compensation needs 3 to {MAX_HEAD_MARKERS} distinct ones")]
+    HeadMarkerCount(usize),
+    /// The head markers cannot carry a rigid motion.
+    #[error("head markers: {0}")]
+    Rigid(#[from] RigidError),
+    /// The retargeting system could not be solved.
+    #[error("retargeting map: {0}")]
+    Retarget(#[from] SolveError),
+    /// A value does not fit the runtime's formats.
+    #[error("{0}")]
+    OutOfRange(String),
+}
+
+/// What was baked, for reports.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StagesReport {
+    /// Head markers used for compensation, by name.
+    pub head_markers: Vec<String>,
+    /// Whether the baker picked them (most rigid subset).
+    pub head_markers_picked: bool,
+    /// Mean standard deviation of the head markers' mutual distances over the capture's
+    /// complete frames, metres.
+    pub head_spread: f64,
+    /// Frames averaged into the neutral pose.
+    pub neutral_frames: Range<usize>,
+    /// Capture markers the rig does not use.
+    pub unused_capture_markers: Vec<String>,
+    /// Rig markers the capture does not have, rebuilt from their neighbours every frame.
+    pub virtual_markers: Vec<String>,
+    /// Rig markers pinned at rest every frame.
+    pub anchor_markers: Vec<String>,
+    /// Actor half extent, metres.
+    pub actor_half_extent: f64,
+    /// The capture's own length unit (the stages work in metres).
+    pub units: String,
+    /// The retargeting method.
+    pub retarget: RetargetKind,
+    /// 1-norm condition estimate of the retargeting system (the RBF map's).
+    pub retarget_condition: f64,
+    /// Largest rounding of a retarget coefficient, character rig units.
+    pub max_alpha_rounding: f64,
+}
+
+/// The stages' sections, encoded for the blob (see [`crate::blob::with_stages`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StagesBytes {
+    /// Actor space.
+    pub actor_space: Space,
+    /// Neutral markers, 12 bytes each.
+    pub actor_neutral: Vec<u8>,
+    /// Head marker indices.
+    pub head_markers: Vec<u8>,
+    /// Q8.24 actor units.
+    pub max_displacement: i32,
+    /// Fill words.
+    pub fill: Vec<u8>,
+    /// Radii, `i32` LE.
+    pub radii: Vec<u8>,
+    /// Coefficient scale exponent.
+    pub alpha_shift: u8,
+    /// Coefficients, 3 × `i32` LE per centre.
+    pub alpha: Vec<u8>,
+    /// Linear scale exponent.
+    pub linear_shift: u8,
+    /// Linear part, row-major.
+    pub linear: [i32; 9],
+    /// Offset, Q8.24.
+    pub offset: [i32; 3],
+    /// Proportional retargeting instead of the RBF map: (shift, matrices, rest) as the runtime's
+    /// `ProportionalRetarget` holds them.
+    pub proportional: Option<(u8, Vec<u8>, Vec<u8>)>,
+    /// Anchor marker indices, ascending.
+    pub anchors: Vec<u8>,
+}
+
+/// The baked stages: bytes for the blob, the f64 reference and a report.
+pub struct BakedStages {
+    /// For [`crate::blob::with_stages`].
+    pub bytes: StagesBytes,
+    /// The f64 reference.
+    pub reference: StagesF64,
+    /// What was baked.
+    pub report: StagesReport,
+}
+
+/// Bake the stages for a rig whose markers are `marker_names` at `character` (asset units, in
+/// the rig's `space`), driven by `capture` (any unit; the stages work in metres). Fill
+/// neighbours: the four nearest markers on the actor's neutral face, weighted by 1/d² (on
+/// JawMoCap this predicts a marker from its neighbours to 1.6 mm on average; 1/d, three or six
+/// neighbours, rigid group motion and least-squares weights did no better than ±0.5 mm).
+pub fn bake_stages(
+    capture: &Capture,
+    marker_names: &[String],
+    character: &[[f64; 3]],
+    space: &Space,
+    config: &StagesConfig,
+) -> Result<BakedStages, StagesError> {
+    // Actor space is kept in metres, whatever the capture's unit, so any capture of the same
+    // markers in any unit plays through the rig.
+    let original_units = capture.units;
+    let capture = &capture.in_metres();
+    let file = capture.source.display().to_string();
+    // Each rig marker's column in the capture; `None` for a virtual marker (one the capture
+    // never has, rebuilt from its neighbours every frame).
+    let columns: Vec<Option<usize>> = marker_names
+        .iter()
+        .map(|name| match capture.marker_index(name) {
+            _ if config.anchor_markers.contains(name) => Ok(None),
+            Some(c) => Ok(Some(c)),
+            None if config.virtual_markers.contains(name) => Ok(None),
+            None => Err(StagesError::MissingMarker {
+                file: file.clone(),
+                name: name.clone(),
+            }),
+        })
+        .collect::<Result<_, _>>()?;
+    if let Some(name) = config
+        .virtual_markers
+        .iter()
+        .find(|v| !marker_names.contains(v))
+    {
+        return Err(StagesError::UnknownVirtualMarker(name.clone()));
+    }
+    if let Some(name) = config
+        .anchor_markers
+        .iter()
+        .find(|v| !marker_names.contains(v))
+    {
+        return Err(StagesError::UnknownVirtualMarker(name.clone()));
+    }
+    // Rig marker indices of the markers the capture has, and their columns.
+    let real: Vec<usize> = (0..marker_names.len())
+        .filter(|&j| columns[j].is_some())
+        .collect();
+    let real_columns: Vec<usize> = columns.iter().flatten().copied().collect();
+    if real.len() < 4 {
+        return Err(StagesError::OutOfRange(format!(
+            "{file}: only {} of the rig's markers are in the capture; retargeting needs 4",
+            real.len()
+        )));
+    }
+    let range = config.neutral.clone();
+    if range.is_empty() || range.end > capture.frame_count() {
+        return Err(StagesError::NeutralRange {
+            file,
+            start: range.start,
+            end: range.end,
+            frames: capture.frame_count(),
+        });
+    }
+    // The neutral frames, the capture's markers in rig order, metres.
+    let neutral_frames: Vec<Vec<[f64; 3]>> = range
+        .clone()
+        .map(|f| {
+            real.iter()
+                .zip(&real_columns)
+                .map(|(&j, &c)| {
+                    capture.frames[f][c].ok_or_else(|| StagesError::NeutralIncomplete {
+                        file: file.clone(),
+                        name: marker_names[j].clone(),
+                        frame: f,
+                    })
+                })
+                .collect()
+        })
+        .collect::<Result<_, _>>()?;
+    for (frame, markers) in range.clone().zip(&neutral_frames) {
+        check_neutral_frame(markers).map_err(|(i, distance, median)| {
+            StagesError::NeutralOutlier {
+                file: file.clone(),
+                name: marker_names[real[i]].clone(),
+                frame,
+                distance_mm: distance * 1000.0,
+                median_mm: median * 1000.0,
+            }
+        })?;
+    }
+    let count = neutral_frames.len() as f64;
+    let real_neutral: Vec<[f64; 3]> = (0..real.len())
+        .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
+        .collect();
+    let actor_space = space_for(&real_neutral);
+    let half_extent = f64::from(actor_space.half_extent);
+    if !(ACTOR_HALF_EXTENT_MIN_M..=ACTOR_HALF_EXTENT_MAX_M).contains(&half_extent) {
+        return Err(StagesError::ActorScale {
+            file,
+            half_extent_m: half_extent,
+            units: original_units.symbol().to_string(),
+        });
+    }
+    let real_units: Vec<[f64; 3]> = real_neutral
+        .iter()
+        .map(|p| to_rig_units(&actor_space, p))
+        .collect();
+    // Virtual markers' neutral positions: the character's position carried into actor units
+    // by the RBF map from the character's real markers to the actor's.
+    let real_character: Vec<[f64; 3]> = real.iter().map(|&j| character[j]).collect();
+    let back = (real.len() < marker_names.len())
+        .then(|| RetargetMap::new(&real_character, &real_units))
+        .transpose()?;
+    let neutral: Vec<[f64; 3]> = (0..marker_names.len())
+        .map(|j| match real.iter().position(|&r| r == j) {
+            Some(i) => real_units[i],
+            None => back.as_ref().map_or([0.0; 3], |b| b.map(&character[j])),
+        })
+        .collect();
+
+    let (head, picked, head_spread) = match &config.head {
+        HeadMarkers::None => (Vec::new(), false, 0.0),
+        HeadMarkers::Named(names) => {
+            let mut idx: Vec<usize> = names
+                .iter()
+                .map(|n| {
+                    marker_names
+                        .iter()
+                        .position(|m| m == n)
+                        .filter(|&j| columns[j].is_some())
+                        .ok_or_else(|| StagesError::UnknownHeadMarker(n.clone()))
+                })
+                .collect::<Result<_, _>>()?;
+            idx.sort_unstable();
+            idx.dedup();
+            if idx.len() != names.len() || !(3..=MAX_HEAD_MARKERS).contains(&idx.len()) {
+                return Err(StagesError::HeadMarkerCount(names.len()));
+            }
+            let in_real: Vec<usize> = idx
+                .iter()
+                .filter_map(|j| real.iter().position(|r| r == j))
+                .collect();
+            let spread = spread_of(&complete_sample(capture, &real_columns), &in_real);
+            (idx, false, spread)
+        }
+        HeadMarkers::MostRigid(size) => {
+            if !(3..=MAX_HEAD_MARKERS).contains(size) {
+                return Err(StagesError::HeadMarkerCount(*size));
+            }
+            // Only skull markers are candidates, when the bake found them: the most rigid
+            // markers of a take without brow raises may be brows, which a later take moves.
+            let candidates: Vec<usize> = (0..real.len())
+                .filter(|&i| {
+                    config
+                        .head_candidates
+                        .as_ref()
+                        .is_none_or(|c| c.contains(&marker_names[real[i]]))
+                })
+                .collect();
+            if candidates.len() < 3 {
+                return Err(StagesError::HeadMarkerCount(candidates.len()));
+            }
+            let columns_of: Vec<usize> = candidates.iter().map(|&i| real_columns[i]).collect();
+            let (in_candidates, spread) = most_rigid_subset(
+                &complete_sample(capture, &columns_of),
+                (*size).min(candidates.len()),
+            )?;
+            let mut head: Vec<usize> = in_candidates.iter().map(|&i| real[candidates[i]]).collect();
+            head.sort_unstable();
+            (head, true, spread)
+        }
+    };
+    if !head.is_empty() {
+        // Refuse collinear head markers now rather than holding the identity at run time.
+        let pts: Vec<[f64; 3]> = head.iter().map(|&h| neutral[h]).collect();
+        kabsch(&pts, &pts)?;
+    }
+
+    // Fill neighbours: the nearest markers the capture has (a virtual one is never present); an
+    // anchor has none, so the runtime holds it at zero displacement: at rest.
+    let fill: Vec<Vec<(usize, f64)>> = (0..neutral.len())
+        .map(|j| {
+            if config.anchor_markers.contains(&marker_names[j]) {
+                return Vec::new();
+            }
+            let mut others: Vec<(usize, f64)> = real
+                .iter()
+                .copied()
+                .filter(|&k| k != j)
+                .map(|k| {
+                    let d = match &config.marker_distances {
+                        Some(between) => 0.5 * (between[j][k] + between[k][j]),
+                        None => distance(&neutral[j], &neutral[k]),
+                    };
+                    (k, d)
+                })
+                .collect();
+            others.sort_by(|a, b| a.1.total_cmp(&b.1));
+            others.truncate(FILL_NEIGHBOURS);
+            let inv: Vec<(usize, f64)> = others
+                .iter()
+                .map(|&(k, d)| (k, 1.0 / d.max(1e-9).powi(2)))
+                .collect();
+            let total: f64 = inv.iter().map(|p| p.1).sum();
+            inv.into_iter().map(|(k, w)| (k, w / total)).collect()
+        })
+        .collect();
+
+    let character_rig: Vec<[f64; 3]> = character.iter().map(|p| to_rig_units(space, p)).collect();
+    let map = RetargetMap::new(&neutral, &character_rig)?;
+    let proportional = match config.retarget {
+        RetargetKind::Rbf => None,
+        RetargetKind::Proportional => Some(Proportional::new(&neutral, &character_rig)?),
+    };
+
+    let mut bytes = encode(
+        &actor_space,
+        &neutral,
+        &head,
+        config.max_displacement,
+        &fill,
+        &map,
+    )?;
+    if let Some(p) = &proportional {
+        bytes.proportional = Some(encode_proportional(p)?);
+    }
+    bytes.anchors = (0..marker_names.len())
+        .filter(|&j| config.anchor_markers.contains(&marker_names[j]))
+        .map(|j| j as u8)
+        .collect();
+    if bytes
+        .anchors
+        .iter()
+        .any(|&a| head.contains(&usize::from(a)))
+    {
+        return Err(StagesError::OutOfRange(
+            "an anchor marker cannot also be a head marker".into(),
+        ));
+    }
+    let max_alpha_rounding = alpha_rounding(&map, bytes.alpha_shift);
+    let reference = StagesF64 {
+        actor_space,
+        neutral,
+        head: head.clone(),
+        max_displacement: config.max_displacement,
+        fill,
+        anchors: bytes.anchors.iter().map(|&a| usize::from(a)).collect(),
+        map,
+        proportional,
+    };
+    let report = StagesReport {
+        head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
+        head_markers_picked: picked,
+        head_spread,
+        neutral_frames: range,
+        unused_capture_markers: capture
+            .marker_names
+            .iter()
+            .filter(|n| !marker_names.contains(n))
+            .cloned()
+            .collect(),
+        anchor_markers: config.anchor_markers.clone(),
+        virtual_markers: (0..marker_names.len())
+            .filter(|&j| columns[j].is_none() && !config.anchor_markers.contains(&marker_names[j]))
+            .map(|j| marker_names[j].clone())
+            .collect(),
+        actor_half_extent: f64::from(actor_space.half_extent),
+        units: original_units.symbol().to_string(),
+        retarget: config.retarget,
+        retarget_condition: reference.map.condition(),
+        max_alpha_rounding,
+    };
+    Ok(BakedStages {
+        bytes,
+        reference,
+        report,
+    })
+}
+
+/// A neutral marker whose nearest neighbour is further than this many times the median of all
+/// markers' nearest-neighbour distances is refused as a ghost. On JawMoCap the largest ratio is
+/// about 2.
+pub const NEUTRAL_OUTLIER_FACTOR: f64 = 10.0;
+/// Smallest actor half extent (half the largest side of the neutral markers' bounds) accepted,
+/// metres: a face's markers span more than 2 cm.
+pub const ACTOR_HALF_EXTENT_MIN_M: f64 = 0.01;
+/// Largest actor half extent accepted, metres.
+pub const ACTOR_HALF_EXTENT_MAX_M: f64 = 1.0;
+
+/// Checks one neutral frame by robust statistics: `Err((marker, its nearest-neighbour distance,
+/// the median of those distances))` for the first marker further than [`NEUTRAL_OUTLIER_FACTOR`]
+/// × the median from every other marker. Quadratic in the markers (a face has at most 255).
+fn check_neutral_frame(markers: &[[f64; 3]]) -> Result<(), (usize, f64, f64)> {
+    if markers.len() < 3 {
+        return Ok(());
+    }
+    let nearest: Vec<f64> = markers
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            markers
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, q)| distance(p, q))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let mut sorted = nearest.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    match nearest
+        .iter()
+        .position(|&d| d > NEUTRAL_OUTLIER_FACTOR * median)
+    {
+        Some(i) => Err((i, nearest[i], median)),
+        None => Ok(()),
+    }
+}
+
+/// The capture's complete frames (all of `columns` present), at most 600 evenly spread, in
+/// rig marker order.
+pub fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]>> {
+    let complete: Vec<Vec<[f64; 3]>> = capture
+        .frames
+        .iter()
+        .filter_map(|f| columns.iter().map(|&c| f[c]).collect::<Option<Vec<_>>>())
+        .collect();
+    let step = complete.len().div_ceil(600).max(1);
+    complete.into_iter().step_by(step).collect()
+}
+
+/// Mean standard deviation of the pairwise distances of `idx` over `frames`.
+fn spread_of(frames: &[Vec<[f64; 3]>], idx: &[usize]) -> f64 {
+    let mut total = 0.0;
+    let mut pairs = 0usize;
+    for (a, &i) in idx.iter().enumerate() {
+        for &j in &idx[a + 1..] {
+            let d: Vec<f64> = frames.iter().map(|f| distance(&f[i], &f[j])).collect();
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            total += (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+            pairs += 1;
+        }
+    }
+    total / pairs.max(1) as f64
+}
+
+/// α̃ᵢ = αᵢ / rᵢ for the normalised kernel, per output coordinate.
+fn normalised_alpha(map: &RetargetMap) -> Vec<[f64; 3]> {
+    let c = map.coefficients();
+    map.radii()
+        .iter()
+        .enumerate()
+        .map(|(i, r)| [0, 1, 2].map(|k| c[(i, k)] / r))
+        .collect()
+}
+
+fn alpha_rounding(map: &RetargetMap, shift: u8) -> f64 {
+    let scale = 2f64.powi(i32::from(shift));
+    normalised_alpha(map)
+        .iter()
+        .flatten()
+        .map(|a| ((a * scale).round() / scale - a).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The largest shift s ≤ `max` with |v| · 2^s ≤ `limit` for every v.
+fn shift_for(values: impl Iterator<Item = f64>, limit: f64, max: u8) -> u8 {
+    let largest = values.map(f64::abs).fold(0.0, f64::max);
+    (0..=max)
+        .rev()
+        .find(|&s| largest * 2f64.powi(i32::from(s)) <= limit)
+        .unwrap_or(0)
+}
+
+fn q824(v: f64) -> Result<i32, StagesError> {
+    let q = (v * f64::from(1u32 << 24)).round();
+    if q.is_finite() && q.abs() <= f64::from(i32::MAX) {
+        Ok(q as i32)
+    } else {
+        Err(StagesError::OutOfRange(format!("{v} does not fit Q8.24")))
+    }
+}
+
+fn encode(
+    actor_space: &Space,
+    neutral: &[[f64; 3]],
+    head: &[usize],
+    max_displacement: f64,
+    fill: &[Vec<(usize, f64)>],
+    map: &RetargetMap,
+) -> Result<StagesBytes, StagesError> {
+    let limit = f64::from(NEUTRAL_LIMIT) / f64::from(1u32 << 24);
+    let mut actor_neutral = Vec::new();
+    for p in neutral {
+        for &c in p {
+            actor_neutral.extend_from_slice(&q824(c)?.to_le_bytes());
+        }
+    }
+    let head_markers = head
+        .iter()
+        .map(|&h| u8::try_from(h).map_err(|_| StagesError::OutOfRange(format!("head marker {h}"))))
+        .collect::<Result<Vec<u8>, _>>()?;
+    if !(max_displacement > 0.0 && max_displacement <= 64.0) {
+        return Err(StagesError::OutOfRange(format!(
+            "max displacement {max_displacement} must be in (0, 64] actor units"
+        )));
+    }
+    let mut fill_bytes = Vec::new();
+    for row in fill {
+        for slot in 0..FILL_NEIGHBOURS {
+            let word = match row.get(slot) {
+                Some(&(k, w)) => {
+                    let q = (w * f64::from(1u32 << FILL_FRAC_BITS)).round().max(1.0) as i32;
+                    pack_influence(k as u8, q)
+                        .ok_or_else(|| StagesError::OutOfRange(format!("fill weight {w}")))?
+                }
+                None => 0,
+            };
+            fill_bytes.extend_from_slice(&word.to_le_bytes());
+        }
+    }
+    let mut radii = Vec::new();
+    for &r in map.radii() {
+        if !(r > 0.0 && r <= limit) {
+            return Err(StagesError::OutOfRange(format!(
+                "retarget radius {r} actor units is outside (0, {limit}]"
+            )));
+        }
+        radii.extend_from_slice(&q824(r)?.max(1).to_le_bytes());
+    }
+    let alpha_f = normalised_alpha(map);
+    let alpha_limit = f64::from((1 << 23) - 1);
+    let alpha_shift = shift_for(
+        alpha_f.iter().flatten().copied(),
+        alpha_limit,
+        MAX_ALPHA_SHIFT,
+    );
+    let scale = 2f64.powi(i32::from(alpha_shift));
+    let mut alpha = Vec::new();
+    for a in alpha_f.iter().flatten() {
+        let q = (a * scale).round();
+        if q.abs() > alpha_limit {
+            return Err(StagesError::OutOfRange(format!(
+                "retarget coefficient {a} is too large for the runtime's 24-bit format"
+            )));
+        }
+        alpha.extend_from_slice(&(q as i32).to_le_bytes());
+    }
+    let c = map.coefficients();
+    let n = neutral.len();
+    // L[row][axis] = β_axis[row]; b = β₀.
+    let linear_f: [f64; 9] = core::array::from_fn(|i| c[(n + 1 + i % 3, i / 3)]);
+    let linear_shift = shift_for(linear_f.iter().copied(), f64::from(i32::MAX), 40).max(1);
+    let ls = 2f64.powi(i32::from(linear_shift));
+    let linear = linear_f.map(|v| (v * ls).round() as i32);
+    let offset = [q824(c[(n, 0)])?, q824(c[(n, 1)])?, q824(c[(n, 2)])?];
+    Ok(StagesBytes {
+        actor_space: *actor_space,
+        actor_neutral,
+        head_markers,
+        max_displacement: q824(max_displacement)?,
+        fill: fill_bytes,
+        radii,
+        alpha_shift,
+        alpha,
+        linear_shift,
+        linear,
+        offset,
+        proportional: None,
+        anchors: Vec::new(),
+    })
+}
+
+/// The runtime's `ProportionalRetarget` sections for `p`: one shift for every matrix entry.
+fn encode_proportional(p: &Proportional) -> Result<(u8, Vec<u8>, Vec<u8>), StagesError> {
+    let entries = p.matrices.iter().flatten().flatten().copied();
+    let shift = shift_for(entries, f64::from(i32::MAX), 40).max(1);
+    let scale = 2f64.powi(i32::from(shift));
+    let matrices = p
+        .matrices
+        .iter()
+        .flatten()
+        .flatten()
+        .flat_map(|v| ((v * scale).round() as i32).to_le_bytes())
+        .collect();
+    let mut rest = Vec::new();
+    for v in &p.rest {
+        for &c in v {
+            rest.extend_from_slice(&q824(c)?.to_le_bytes());
+        }
+    }
+    Ok((shift, matrices, rest))
+}

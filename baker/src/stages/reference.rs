@@ -1,0 +1,238 @@
+//! The capture stages in f64, unquantised: the reference the runtime is compared with. One
+//! function per step of the runtime's stages, in its order:
+//!
+//! 1. `input`: a sample is missing when absent, when it belongs to a static anchor
+//!    (whose samples are ignored, so it stays at rest) or when a coordinate lies beyond ±64 actor
+//!    units (then it is also rejected);
+//! 2. `fit_head`: Kabsch on the present head markers, dropping those beyond
+//!    `max_displacement` and fitting once more; the last good fit held when none is possible;
+//! 3. `plausibility`: a compensated marker further than `max_displacement` from
+//!    neutral is rejected;
+//! 4. `fill`: a missing marker moves with its present neighbours' weighted mean
+//!    displacement, else holds its last one (zero if never seen);
+//! 5. `retarget`: the unquantised RBF map (or proportional scaling) to the
+//!    character's rig units.
+
+use facebake_runtime::Space;
+
+use super::retarget::{Proportional, RetargetMap};
+use super::rigid::{kabsch, RigidTransform};
+use crate::mesh::distance;
+use crate::space::to_rig_units;
+
+/// The capture stages in f64, unquantised: the reference for the runtime.
+pub struct StagesF64 {
+    /// Actor space (metres).
+    pub actor_space: Space,
+    /// Neutral markers, actor units.
+    pub neutral: Vec<[f64; 3]>,
+    /// Head marker indices.
+    pub head: Vec<usize>,
+    /// Actor units.
+    pub max_displacement: f64,
+    /// Per marker, (neighbour, weight) pairs.
+    pub fill: Vec<Vec<(usize, f64)>>,
+    /// Static anchors: marker indices whose samples are ignored, so they stay at rest.
+    pub anchors: Vec<usize>,
+    /// Actor units → character rig units.
+    pub map: RetargetMap,
+    /// Proportional retargeting, used instead of `map` when present.
+    pub proportional: Option<Proportional>,
+}
+
+/// What the reference did with one frame (mirrors the runtime's report).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameReportF64 {
+    /// The head fit of this frame, if one was made.
+    pub fit: Option<RigidTransform>,
+    /// RMS residual of the fitted head markers, actor units.
+    pub residual: f64,
+    /// Rejected markers.
+    pub rejected: Vec<usize>,
+    /// Rebuilt markers.
+    pub rebuilt: Vec<usize>,
+    /// Held markers.
+    pub held: Vec<usize>,
+}
+
+/// State the reference keeps between frames.
+#[derive(Clone, Debug, Default)]
+pub struct StateF64 {
+    last: Vec<Option<[f64; 3]>>,
+    fit: Option<RigidTransform>,
+}
+
+/// Largest accepted input coordinate magnitude, actor units (the runtime's `INPUT_LIMIT`).
+const INPUT_LIMIT: f64 = 64.0;
+
+fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+impl StagesF64 {
+    /// One frame (metres, `None` = missing) → the character's markers in rig units.
+    pub fn solve(
+        &self,
+        state: &mut StateF64,
+        frame: &[Option<[f64; 3]>],
+    ) -> (Vec<[f64; 3]>, FrameReportF64) {
+        let (actor, report) = self.compensate(state, frame);
+        (self.retarget(&actor), report)
+    }
+
+    /// Steps 1 to 4 of [`Self::solve`]: one frame (metres) → every marker in the actor's
+    /// neutral head frame (actor units), missing ones rebuilt or held.
+    pub fn compensate(
+        &self,
+        state: &mut StateF64,
+        frame: &[Option<[f64; 3]>],
+    ) -> (Vec<[f64; 3]>, FrameReportF64) {
+        let n = self.neutral.len();
+        state.last.resize(n, None);
+        let mut report = FrameReportF64::default();
+        let mut actor = self.input(frame, &mut report);
+        let fit = self.fit_head(state, &actor, &mut report);
+        let present = self.plausibility(&fit, &mut actor, &mut report);
+        report.rejected.sort_unstable();
+        let disp = self.fill(state, &present, &mut report);
+        let out = (0..n)
+            .map(|j| [0, 1, 2].map(|c| self.neutral[j][c] + disp[j][c]))
+            .collect();
+        (out, report)
+    }
+
+    /// Step 1: each marker's sample in actor units, `None` when missing, an anchor's, or
+    /// beyond the input limit (rejected).
+    fn input(
+        &self,
+        frame: &[Option<[f64; 3]>],
+        report: &mut FrameReportF64,
+    ) -> Vec<Option<[f64; 3]>> {
+        (0..self.neutral.len())
+            .map(|j| {
+                if self.anchors.contains(&j) {
+                    return None;
+                }
+                let p = frame.get(j).copied().flatten()?;
+                let a = to_rig_units(&self.actor_space, &p);
+                if a.iter().all(|c| c.is_finite() && c.abs() <= INPUT_LIMIT) {
+                    Some(a)
+                } else {
+                    report.rejected.push(j);
+                    None
+                }
+            })
+            .collect()
+    }
+
+    /// Step 2: the head's rigid motion from neutral, or the one held.
+    fn fit_head(
+        &self,
+        state: &mut StateF64,
+        actor: &[Option<[f64; 3]>],
+        report: &mut FrameReportF64,
+    ) -> RigidTransform {
+        if self.head.is_empty() {
+            return RigidTransform::identity();
+        }
+        let mut used: Vec<usize> = self
+            .head
+            .iter()
+            .copied()
+            .filter(|&h| actor[h].is_some())
+            .collect();
+        let fit_of = |used: &[usize]| {
+            let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
+            let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
+            kabsch(&from, &to)
+        };
+        let mut fitted = fit_of(&used);
+        if let Ok(fit) = &fitted {
+            let before = used.len();
+            used.retain(|&h| {
+                let q = actor[h].unwrap_or_default();
+                distance(&fit.apply(&self.neutral[h]), &q) <= self.max_displacement
+            });
+            if used.len() < before {
+                fitted = fit_of(&used);
+            }
+        }
+        match fitted {
+            Ok(fit) => {
+                let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
+                let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
+                report.residual = fit.rms_residual(&from, &to);
+                report.fit = Some(fit);
+                state.fit = Some(fit);
+                fit
+            }
+            Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),
+        }
+    }
+
+    /// Step 3: each present marker's compensated displacement from neutral; those further than
+    /// `max_displacement` are rejected.
+    fn plausibility(
+        &self,
+        fit: &RigidTransform,
+        actor: &mut [Option<[f64; 3]>],
+        report: &mut FrameReportF64,
+    ) -> Vec<Option<[f64; 3]>> {
+        let mut disp: Vec<Option<[f64; 3]>> = vec![None; actor.len()];
+        for (j, slot) in actor.iter_mut().enumerate() {
+            let Some(a) = *slot else { continue };
+            let d = sub(&fit.apply_inverse(&a), &self.neutral[j]);
+            if d.iter().map(|c| c * c).sum::<f64>().sqrt() > self.max_displacement {
+                report.rejected.push(j);
+                *slot = None;
+            } else {
+                disp[j] = Some(d);
+            }
+        }
+        disp
+    }
+
+    /// Step 4: every marker's displacement, the missing ones rebuilt from their present
+    /// neighbours or held.
+    fn fill(
+        &self,
+        state: &mut StateF64,
+        present: &[Option<[f64; 3]>],
+        report: &mut FrameReportF64,
+    ) -> Vec<[f64; 3]> {
+        (0..present.len())
+            .map(|j| {
+                if let Some(d) = present[j] {
+                    state.last[j] = Some(d);
+                    return d;
+                }
+                let (mut acc, mut total) = ([0.0; 3], 0.0);
+                for &(k, w) in &self.fill[j] {
+                    if let Some(d) = present[k] {
+                        total += w;
+                        (0..3).for_each(|c| acc[c] += w * d[c]);
+                    }
+                }
+                if total > 0.0 {
+                    report.rebuilt.push(j);
+                    acc.map(|a| a / total)
+                } else {
+                    report.held.push(j);
+                    state.last[j].unwrap_or([0.0; 3])
+                }
+            })
+            .collect()
+    }
+
+    /// Step 5: compensated actor markers (actor units) → the character's, rig units.
+    fn retarget(&self, actor: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        actor
+            .iter()
+            .enumerate()
+            .map(|(j, a)| match &self.proportional {
+                Some(p) => p.map(j, &sub(a, &self.neutral[j])),
+                None => self.map.map(a),
+            })
+            .collect()
+    }
+}

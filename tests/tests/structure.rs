@@ -1,0 +1,308 @@
+//! Structure metrics (issue 11) on the bundled takes: static-region drift, lip aperture and
+//! eyelid closure against the truth, edge stretch and flipped triangles, worst over each take.
+//!
+//! The figures pinned here are today's, measured 2026-11-27, as regression guards: a change that
+//! makes any of them worse fails. They are not the issue's bars (static drift ≤ 0.5 mm, lips
+//! within 2 mm, eyelids within 1.5 mm, no edge over 2×, no flip), which the default bake does
+//! not meet yet; tighten them as the bake improves. Run with `-- --nocapture` to see them all.
+
+use facebake::ground_truth::GroundTruth;
+use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
+use facebake::surface::evaluate::Benchmark;
+use facebake::{BakeOptions, DeformerKind, Method};
+use facebake_runtime::{PlayState, Rig};
+use facebake_tests::{bake_scene, facecap_default, facecap_truth, fixture, jawmocap_rig_with};
+
+/// Today's worst figures of a take: static drift (mm), lips and eyelids (mm), largest stretch,
+/// most edges over 2× in a frame, most flipped triangles in a frame.
+struct Pinned {
+    drift_mm: f64,
+    lips_mm: f64,
+    eyelids_mm: f64,
+    stretch: f64,
+    over_2x: usize,
+    flipped: usize,
+}
+
+/// No figure worse than pinned (1 % and 0.05 mm of slack for platform rounding).
+fn guard(label: &str, t: &TakeMetrics, p: &Pinned) {
+    println!("{label}: {t}");
+    let slack = |x: f64| 1.01 * x + 0.05;
+    assert!(t.static_drift_mm.0 <= slack(p.drift_mm), "{label}: {t}");
+    assert!(t.lips_mm.unwrap().0 <= slack(p.lips_mm), "{label}: {t}");
+    assert!(
+        t.eyelids_mm.unwrap().0 <= slack(p.eyelids_mm),
+        "{label}: {t}"
+    );
+    assert!(t.max_stretch.0 <= 1.01 * p.stretch, "{label}: {t}");
+    assert!(t.edges_over_limit.0 <= p.over_2x, "{label}: {t}");
+    assert!(t.flipped.0 <= p.flipped, "{label}: {t}");
+}
+
+/// The FaceCap regions, found once per test binary.
+fn regions() -> &'static Regions {
+    static CELL: std::sync::OnceLock<Regions> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        let truth = &facecap_default().0;
+        Regions::for_mesh(&truth.mesh, &truth.marker_rest(), &[]).expect("regions")
+    })
+}
+
+fn truths(truth: &GroundTruth) -> Vec<Vec<[f64; 3]>> {
+    (0..truth.frames.len())
+        .map(|f| truth.positions(f))
+        .collect()
+}
+
+fn frame(truth: &GroundTruth, name: &str) -> usize {
+    truth
+        .frames
+        .iter()
+        .position(|f| f.name == name)
+        .expect("frame")
+}
+
+#[test]
+fn facecap_regions_and_the_truth_measured_against_itself() {
+    let r = regions();
+    let truth = &facecap_default().0;
+    // The skin no morph target moves; the mouth's rim and the two eyes' rims.
+    assert_eq!(r.static_vertices.len(), 675);
+    assert_eq!(r.lips.len(), 15);
+    assert_eq!(r.eyes.iter().map(Vec::len).collect::<Vec<_>>(), [11, 11]);
+    let all = truths(truth);
+    for (f, t) in all.iter().enumerate() {
+        let m = r.measure(t, Some(t), false);
+        // The truth is its own truth: apertures exact; its static skin moves only by the
+        // sub-threshold deltas the rule allows.
+        assert_eq!(m.lips.unwrap().error_mm, Some(0.0));
+        assert_eq!(m.eyelids.unwrap().error_mm, Some(0.0));
+        assert!(m.static_drift_mm < 0.3, "{}: {m}", truth.frames[f].name);
+        assert_eq!(m.flipped, 0, "{}: {m}", truth.frames[f].name);
+    }
+    let rest = r.measure(r.rest(), None, false);
+    let jaw = r.measure(&all[frame(truth, "jaw open")], None, false);
+    // Why stretch and flips the truth has too do not count: the truth's own jaw-open stretches
+    // an inner-lip edge 18.6× from rest and turns 6 skin triangles over.
+    assert!((jaw.max_stretch - 18.62).abs() < 0.01, "{jaw}");
+    assert_eq!(jaw.flipped, 6, "{jaw}");
+    let blink = r.measure(&all[frame(truth, "blink")], None, false);
+    // FaceCap's lips are closed at rest, 47 mm apart with the jaw open; the eyes 9.5 mm open
+    // at rest and 1 mm in the blink.
+    assert!((rest.lips.unwrap().widest_mm - 1.1).abs() < 0.1, "{rest}");
+    assert!((jaw.lips.unwrap().widest_mm - 47.1).abs() < 0.1, "{jaw}");
+    assert!(
+        (rest.eyelids.unwrap().widest_mm - 9.5).abs() < 0.1,
+        "{rest}"
+    );
+    assert!(
+        (blink.eyelids.unwrap().widest_mm - 1.0).abs() < 0.1,
+        "{blink}"
+    );
+}
+
+/// The ground truth's frames played through a rig baked on its own 40 markers.
+fn play_truth(truth: &GroundTruth, blob: &[u8]) -> Vec<Vec<[f64; 3]>> {
+    let rig = Rig::from_bytes(blob).expect("rig loads");
+    let space = rig.space();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    truths(truth)
+        .iter()
+        .map(|t| {
+            let q: Vec<[i32; 3]> = truth
+                .markers_of(t)
+                .iter()
+                .map(|p| space.to_rig_f64(*p).expect("in range"))
+                .collect();
+            rig.deform(&q, &mut out).expect("deforms");
+            out.iter().map(|p| space.to_asset_f64(*p)).collect()
+        })
+        .collect()
+}
+
+#[test]
+fn facecap_ground_truth_default_bake() {
+    let (truth, baked) = facecap_default();
+    let played = play_truth(truth, &baked.blob);
+    let (frames, take) = regions().measure_take(&played, Some(&truths(truth)), false);
+    for (f, m) in frames.iter().enumerate() {
+        println!("{:>12}: {m}", truth.frames[f].name);
+    }
+    let at = |name: &str| -> FrameMetrics { frames[frame(truth, name)] };
+    // Jaw open: the lips stay sealed (1.4 mm apart where the truth parts them 47 mm) and the
+    // crown moves 12.6 mm; the blink leaves the eyes 9.4 mm open where the truth closes them.
+    assert!(at("jaw open").lips.unwrap().widest_mm < 2.0);
+    assert!(at("blink").eyelids.unwrap().error_mm.unwrap() > 8.0);
+    assert_eq!(take.static_drift_mm.1, frame(truth, "jaw open"));
+    guard(
+        "FaceCap truth, 40 sampled markers, default bake",
+        &take,
+        &Pinned {
+            drift_mm: 12.63,
+            lips_mm: 47.0,
+            eyelids_mm: 8.4,
+            stretch: 2.19,
+            over_2x: 16,
+            flipped: 0,
+        },
+    );
+}
+
+/// The ground truth driven by the bundled JawMoCap layout's 41 markers as placed on FaceCap
+/// (lip and eyelid groups, no anchors): what `bake --layout` bakes. Its `Mouth_Down` sits on
+/// the chin crease, 35 mm below `Mouth_Up` (issue 11), which every lip figure here carries.
+fn layout_scene() -> &'static Benchmark {
+    static CELL: std::sync::OnceLock<Benchmark> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        let truth = facecap_truth();
+        let path = fixture("facecap_jawmocap_layout.toml");
+        let layout = facebake::io::layout::read_layout(&path).expect("layout reads");
+        let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("places");
+        Benchmark::new(truth, &placed, layout.groups.clone(), 0).expect("benchmark builds")
+    })
+}
+
+/// A bake of the layout scene's markers with `options`.
+fn bake_layout_scene(options: &BakeOptions) -> Vec<u8> {
+    bake_scene(layout_scene(), options).blob
+}
+
+fn layout_take(blob: &[u8]) -> TakeMetrics {
+    let s = layout_scene();
+    let played = s.play(blob);
+    regions()
+        .measure_take(&played, Some(&truths(&s.truth)), false)
+        .1
+}
+
+#[test]
+fn facecap_layout_default_and_planar() {
+    guard(
+        "FaceCap truth, JawMoCap layout, default bake",
+        &layout_take(&bake_layout_scene(&BakeOptions::default())),
+        &Pinned {
+            drift_mm: 21.53,
+            lips_mm: 46.9,
+            eyelids_mm: 8.3,
+            stretch: 2.52,
+            over_2x: 35,
+            flipped: 0,
+        },
+    );
+    guard(
+        "FaceCap truth, JawMoCap layout, --form planar",
+        &layout_take(&bake_layout_scene(&BakeOptions {
+            deformer: DeformerKind::Planar,
+            ..BakeOptions::default()
+        })),
+        &Pinned {
+            drift_mm: 36.69,
+            lips_mm: 47.1,
+            eyelids_mm: 8.2,
+            stretch: 12.72,
+            over_2x: 89,
+            flipped: 81,
+        },
+    );
+}
+
+#[test]
+fn facecap_layout_surface_aware() {
+    let pinned = [
+        (
+            "--method geodesic",
+            Method::Geodesic,
+            false,
+            Pinned {
+                drift_mm: 24.36,
+                lips_mm: 29.8,
+                eyelids_mm: 8.1,
+                stretch: 2.15,
+                over_2x: 5,
+                flipped: 3,
+            },
+        ),
+        (
+            "--masks",
+            Method::Euclidean,
+            true,
+            Pinned {
+                drift_mm: 21.72,
+                lips_mm: 28.2,
+                eyelids_mm: 8.1,
+                stretch: 2.78,
+                over_2x: 3,
+                flipped: 6,
+            },
+        ),
+        (
+            "--method pbw --masks",
+            Method::Pbw,
+            true,
+            Pinned {
+                drift_mm: 10.14,
+                lips_mm: 28.4,
+                eyelids_mm: 8.1,
+                stretch: 2.33,
+                over_2x: 9,
+                flipped: 1,
+            },
+        ),
+    ];
+    for (label, method, masks, pins) in &pinned {
+        let baked = bake_scene(layout_scene(), &BakeOptions::for_method(*method, *masks));
+        guard(
+            &format!("FaceCap truth, JawMoCap layout, {label}"),
+            &layout_take(&baked.blob),
+            pins,
+        );
+    }
+}
+
+#[test]
+fn jawmocap_through_the_demo_rig() {
+    use facebake::stages::{HeadMarkers, StagesConfig};
+    // The demo's head markers: forehead and the top of the nose.
+    let head = ["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"];
+    let j = jawmocap_rig_with(
+        &BakeOptions::default(),
+        &StagesConfig {
+            head: HeadMarkers::Named(head.map(str::to_string).to_vec()),
+            ..StagesConfig::default()
+        },
+    );
+    let rig = Rig::from_bytes(&j.baked.blob).expect("rig loads");
+    let (space, actor) = (rig.space(), rig.stages().expect("stages").actor_space);
+    let mut state = PlayState::new();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let played: Vec<Vec<[f64; 3]>> = j
+        .frames
+        .iter()
+        .map(|f| {
+            let q: Vec<Option<[i32; 3]>> = f
+                .iter()
+                .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
+                .collect();
+            rig.play(&mut state, &q, &mut out).expect("plays");
+            out.iter().map(|p| space.to_asset_f64(*p)).collect()
+        })
+        .collect();
+    let r = Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
+    let (frames, take) = r.measure_take(&played, None, false);
+    let open = frames[388];
+    println!("JawMoCap frame 388 (mouth open): {open}");
+    // Mouth open: the lips stay shut (the rim 1 mm apart) while one lip edge stretches 2.7×.
+    assert!(open.lips.unwrap().widest_mm < 1.5, "{open}");
+    guard(
+        "JawMoCap, the demo's capture rig (no truth: lips and eyelids are the widest aperture)",
+        &take,
+        &Pinned {
+            drift_mm: 27.47,
+            lips_mm: 1.1,
+            eyelids_mm: 11.1,
+            stretch: 2.68,
+            over_2x: 83,
+            flipped: 0,
+        },
+    );
+}
