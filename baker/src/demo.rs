@@ -2,9 +2,6 @@
 //! the JawMoCap capture with its layout on the same head. `facebake demo`, the tests and the
 //! benches use these names, so they bake the same rigs.
 
-use crate::model::Capture;
-use crate::stages::HeadMarkers;
-
 /// The demo's mesh file, in the fixtures folder.
 pub const MESH_FILE: &str = "FaceCapHeadGeneric.glb";
 /// The mesh inside it.
@@ -31,16 +28,3 @@ pub const JAWMOCAP_FILE: &str = "JawMoCap.trc";
 pub const JAWMOCAP_LAYOUT: &str = "facecap_jawmocap_layout.toml";
 /// Frame rate written to the demo's capture file.
 pub const CAPTURE_RATE_HZ: f64 = 30.0;
-
-/// The head markers for a capture of JawMoCap's markers: [`JAWMOCAP_HEAD_MARKERS`] when the
-/// capture has them all, else the 4 most rigid.
-pub fn jawmocap_head_markers(capture: &Capture) -> HeadMarkers {
-    if JAWMOCAP_HEAD_MARKERS
-        .iter()
-        .all(|h| capture.marker_index(h).is_some())
-    {
-        HeadMarkers::Named(JAWMOCAP_HEAD_MARKERS.map(str::to_string).to_vec())
-    } else {
-        HeadMarkers::MostRigid(4)
-    }
-}

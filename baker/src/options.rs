@@ -77,6 +77,10 @@ impl Default for SurfaceOptions {
     }
 }
 
+/// Static anchoring's fade-in distance, × the mean marker spacing, in the surface-aware
+/// methods' defaults.
+pub const ANCHORING_MARGIN: f64 = 0.8;
+
 /// How to bake.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeOptions {
@@ -107,6 +111,10 @@ pub struct BakeOptions {
     pub surface: SurfaceOptions,
     /// The capture stages, baked when the scene has a capture.
     pub stages: StagesConfig,
+    /// Static anchoring (linear deformer, surface-aware methods): the skin beyond the markers'
+    /// hull above the mouth follows the skull markers, fading in over this distance × the mean
+    /// marker spacing ([`crate::surface::anchoring`]); `None`: off.
+    pub anchoring: Option<f64>,
 }
 
 impl Default for BakeOptions {
@@ -128,16 +136,19 @@ impl Default for BakeOptions {
             masks: false,
             surface: SurfaceOptions::default(),
             stages: StagesConfig::default(),
+            anchoring: None,
         }
     }
 }
 
 impl BakeOptions {
-    /// The defaults of `method`, with or without `masks`: Euclidean as [`Default`]; geodesic,
-    /// hybrid and PBW with the exponential radial function `exp(−r/c)` (thesis eq 2.3a; its
-    /// geodesic kernel matrix stays positive definite on FaceCap where the Gaussian's does not)
-    /// and c = the mean marker spacing. Masks and PBW need one set of weights per vertex: the
-    /// linear deformer.
+    /// The defaults of `method`, with or without `masks`: Euclidean as [`Default`] (the
+    /// papers' Euclidean RBF, which the golden rigs pin); geodesic, hybrid and PBW in the linear
+    /// deformer with static anchoring over 0.8 × the mean marker spacing and the exponential
+    /// radial function `exp(−r/c)` (thesis eq 2.3a; its geodesic kernel matrix stays positive
+    /// definite on FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing.
+    /// `for_method(Method::Geodesic, false)` is what `facebake bake` uses when given no method:
+    /// the rig that keeps the skull still and lets the lips part (see the README's figures).
     pub fn for_method(method: Method, masks: bool) -> Self {
         let base = Self {
             method,
@@ -148,12 +159,14 @@ impl BakeOptions {
             base
         } else {
             Self {
+                deformer: DeformerKind::Linear,
                 radial: RadialFunction::Exponential,
-                width_factor: 1.0,
+                width_factor: 1.5,
+                anchoring: Some(ANCHORING_MARGIN),
                 ..base
             }
         };
-        if masks || method == Method::Pbw {
+        if masks {
             Self {
                 deformer: DeformerKind::Linear,
                 ..base

@@ -107,6 +107,177 @@ pub fn place_from_landmarks(
     })
 }
 
+/// Which opening a feature marker sits beside.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// The mouth.
+    Mouth,
+    /// The subject's left eye (+X).
+    LeftEye,
+    /// The subject's right eye (−X).
+    RightEye,
+}
+
+/// Markers of the thesis' MPEG-4 layout (Table 4.1) that sit on a lip or an eyelid: (name,
+/// opening, upper side, place along the opening as a fraction of its half width from its centre
+/// towards the subject's left). The actor wore them there; a warp from a few landmarks cannot put
+/// them there on another face, because lips and lids differ in shape more than anything else.
+pub const FEATURE_MARKERS: [(&str, Feature, bool, f64); 10] = [
+    ("Mouth_Up", Feature::Mouth, true, 0.0),
+    ("Mouth_UpL1", Feature::Mouth, true, 0.5),
+    ("Mouth_UpR1", Feature::Mouth, true, -0.5),
+    ("Mouth_Down", Feature::Mouth, false, 0.0),
+    ("Mouth_DownL", Feature::Mouth, false, 0.5),
+    ("Mouth_DownR", Feature::Mouth, false, -0.5),
+    ("Leye_Up", Feature::LeftEye, true, 0.0),
+    ("Leye_Down", Feature::LeftEye, false, 0.0),
+    ("Reye_Up", Feature::RightEye, true, 0.0),
+    ("Reye_Down", Feature::RightEye, false, 0.0),
+];
+
+/// How far along the skin from its opening a feature marker sits, as a fraction of the
+/// opening's width: on the lip's or lid's visible surface, clear of the rim.
+pub const FEATURE_OFFSET: f64 = 0.1;
+
+/// The mouth and eye openings of a face mesh's skin, as boundary loops of welded vertices
+/// (the skin's loops, longest first, are the neck cut, the mouth and the two eyes).
+pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {
+    let topo = mesh.welded_topology();
+    let loops = topo.loops_of(0);
+    let [_, lips, eye_a, eye_b] = loops.as_slice() else {
+        return Err(PlacementError::Mesh(format!(
+            "{}: the skin has {} boundary loops; placing lip and eyelid markers needs 4 (neck, lips, two eyes)",
+            mesh.source.display(),
+            loops.len()
+        )));
+    };
+    let x = |l: &crate::mesh::BoundaryLoop| mesh.welded_positions[l.vertices[0] as usize][0];
+    let (left, right) = if x(eye_a) > x(eye_b) {
+        (eye_a, eye_b)
+    } else {
+        (eye_b, eye_a)
+    };
+    Ok([
+        lips.vertices.clone(),
+        left.vertices.clone(),
+        right.vertices.clone(),
+    ])
+}
+
+/// Put every marker of [`FEATURE_MARKERS`] that `layout` has on its lip or eyelid: on the skin
+/// [`FEATURE_OFFSET`] × the opening's width from the opening's upper or lower rim, at its
+/// fraction of the opening's half width. Other markers are left where they are.
+pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<(), PlacementError> {
+    if !layout
+        .markers
+        .iter()
+        .any(|m| FEATURE_MARKERS.iter().any(|f| f.0 == m.name))
+    {
+        return Ok(());
+    }
+    let openings = face_openings(mesh)?;
+    let topo = mesh.welded_topology();
+    let graph = crate::geodesic::dijkstra::Graph::new(&topo);
+    let p = &mesh.welded_positions;
+    let original = mesh.welded_to_original();
+    let skin = &topo.components.vertex_component;
+    for (i, opening) in [Feature::Mouth, Feature::LeftEye, Feature::RightEye]
+        .into_iter()
+        .enumerate()
+    {
+        let rim = &openings[i];
+        let (upper, lower) = rim_sides(rim, p, &topo.neighbours);
+        let from = |chain: &[u32]| {
+            let seeds: Vec<(u32, f64)> = chain.iter().map(|&v| (v, 0.0)).collect();
+            crate::geodesic::dijkstra::distances(&graph, &seeds)
+        };
+        let (d_up, d_low) = (from(&upper), from(&lower));
+        let (lo, hi) = rim
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(p[v as usize][0]), hi.max(p[v as usize][0]))
+            });
+        let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let offset = FEATURE_OFFSET * 2.0 * half;
+        for &(name, feature, is_upper, along) in &FEATURE_MARKERS {
+            if feature != opening {
+                continue;
+            }
+            let Some(marker) = layout.markers.iter_mut().find(|m| m.name == name) else {
+                continue;
+            };
+            let (near, far) = if is_upper {
+                (&d_up, &d_low)
+            } else {
+                (&d_low, &d_up)
+            };
+            let x = centre + along * half;
+            // The skin vertex on this side, about `offset` from the rim, closest to the place
+            // along the opening.
+            let best = (0..p.len())
+                .filter(|&v| skin[v] == 0 && near[v] < far[v])
+                .filter(|&v| (near[v] - offset).abs() <= 0.5 * offset)
+                .min_by(|&a, &b| {
+                    let cost = |v: usize| (p[v][0] - x).abs() + 0.3 * (near[v] - offset).abs();
+                    cost(a).total_cmp(&cost(b))
+                })
+                .ok_or_else(|| {
+                    PlacementError::Mesh(format!(
+                        "{}: no skin {} from the {:?} opening's {} rim for marker {name}",
+                        mesh.source.display(),
+                        offset,
+                        opening,
+                        if is_upper { "upper" } else { "lower" }
+                    ))
+                })?;
+            marker.anchor = MarkerAnchor::Vertex(original[best]);
+        }
+    }
+    Ok(())
+}
+
+/// An opening's rim split at its two x-extremes (the mouth's corners, the eye's) into the upper
+/// and the lower chain, corners excluded. The upper chain is the one whose skin neighbours off
+/// the rim lie higher: a closed mouth's two rims can be at the same height.
+fn rim_sides(rim: &[u32], p: &[[f64; 3]], neighbours: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
+    let extreme = |max: bool| {
+        (0..rim.len())
+            .max_by(|&a, &b| {
+                let o = p[rim[a] as usize][0].total_cmp(&p[rim[b] as usize][0]);
+                if max {
+                    o
+                } else {
+                    o.reverse()
+                }
+            })
+            .unwrap_or(0)
+    };
+    let (a, b) = {
+        let (i, j) = (extreme(false), extreme(true));
+        (i.min(j), i.max(j))
+    };
+    let first: Vec<u32> = rim[a + 1..b].to_vec();
+    let second: Vec<u32> = rim[b + 1..].iter().chain(&rim[..a]).copied().collect();
+    let off_height = |chain: &[u32]| {
+        let mut sum = 0.0;
+        let mut count = 0usize;
+        for &v in chain {
+            for &u in &neighbours[v as usize] {
+                if !rim.contains(&u) {
+                    sum += p[u as usize][1];
+                    count += 1;
+                }
+            }
+        }
+        sum / count.max(1) as f64
+    };
+    if off_height(&first) >= off_height(&second) {
+        (first, second)
+    } else {
+        (second, first)
+    }
+}
+
 /// The seven FaceCap landmarks for the thesis' marker layout, found from the mesh's topology
 /// (see the module docs). Vertices are glTF vertex indices.
 pub fn facecap_landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
@@ -190,7 +361,9 @@ mod tests {
         let cap = read_capture(&fixture("JawMoCap.trc")).unwrap();
         let neutral: Vec<[f64; 3]> = cap.frames[0].iter().map(|p| p.unwrap()).collect();
         let landmarks = facecap_landmarks(&mesh).unwrap();
-        let layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh).unwrap();
+        let mut layout =
+            place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh).unwrap();
+        snap_to_features(&mut layout, &mesh).unwrap();
         let committed = read_layout(&fixture("facecap_jawmocap_layout.toml")).unwrap();
         assert_eq!(committed.markers.len(), 41);
         for (a, b) in layout.markers.iter().zip(&committed.markers) {

@@ -1,12 +1,13 @@
 //! Writes `fixtures/facecap_jawmocap_layout.toml`: JawMoCap's 41 markers placed on the FaceCap
-//! head from nine landmarks found from the mesh's topology (see `facebake::placement`). The
+//! head from seven landmarks found from the mesh's topology, then the lip and eyelid markers
+//! onto the lips and lids (see `facebake::placement`). The
 //! test `placement::tests` checks the committed file against a fresh placement. The file ends
 //! with the lip and eyelid marker groups of the surface-aware masks.
 //! `cargo run -p facebake-tests --example facecap_layout`
 use facebake::io::capture::read_capture;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
-use facebake::placement::{facecap_landmarks, place_from_landmarks};
+use facebake::placement::{facecap_landmarks, place_from_landmarks, snap_to_features};
 use facebake_tests::fixture;
 
 /// Which of JawMoCap's markers sit above and below the mouth and the eyes.
@@ -24,7 +25,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|p| p.ok_or("frame 0 has a missing marker"))
         .collect::<Result<_, _>>()?;
     let landmarks = facecap_landmarks(&mesh)?;
-    let layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh)?;
+    let mut layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh)?;
+    snap_to_features(&mut layout, &mesh)?;
     let out = fixture("facecap_jawmocap_layout.toml");
     write_layout(&out, &layout)?;
     // The discontinuity masks' marker groups (`facebake bake --masks`).

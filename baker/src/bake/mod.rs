@@ -242,6 +242,9 @@ struct DeformerBake {
     planar: Option<PlanarSummary>,
     surface: Option<SurfaceFigures>,
     reference: DeformerReference,
+    /// Surface-aware methods: marker-to-marker distances along the skin and the skull markers,
+    /// for the capture stages' fill neighbours and head-marker candidates.
+    surface_markers: Option<(Vec<Vec<f64>>, Vec<String>)>,
 }
 
 /// Bake `scene` with `options` into a sealed rig: deformer, and capture stages when the scene
@@ -253,13 +256,18 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let space = crate::space::space_for(&scene.mesh.positions);
     let d = bake_deformer(scene, options, &rest, &space)?;
     let stages = match scene.capture {
-        Some(capture) => Some(bake_stages(
-            capture,
-            &names,
-            &rest,
-            &space,
-            &options.stages,
-        )?),
+        Some(capture) => {
+            // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
+            // apart in space) and head markers among the skull markers, unless given.
+            let mut config = options.stages.clone();
+            if let Some((distances, skull)) = &d.surface_markers {
+                config
+                    .marker_distances
+                    .get_or_insert_with(|| distances.clone());
+                config.head_candidates.get_or_insert_with(|| skull.clone());
+            }
+            Some(bake_stages(capture, &names, &rest, &space, &config)?)
+        }
         None => None,
     };
     let (blob, sizes) = blob::write(&BlobContents {
@@ -373,6 +381,7 @@ fn bake_deformer(
             planar: Some(summary),
             surface: None,
             reference: DeformerReference::Planar(reference),
+            surface_markers: None,
         });
     }
     let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
@@ -394,6 +403,7 @@ fn bake_deformer(
             planar: None,
             surface: None,
             reference: DeformerReference::Rbf(euclidean::reference(system, &mesh.positions, rest)),
+            surface_markers: None,
         });
     }
     let s = crate::surface::dense_weights(&scene.surface_input(), options, space)?;
@@ -404,6 +414,11 @@ fn bake_deformer(
     };
     let mut warnings = s.warnings;
     warnings.extend(condition_warning(s.condition));
+    let skull = s
+        .skull
+        .iter()
+        .map(|&i| scene.markers[i].name.clone())
+        .collect();
     Ok(DeformerBake {
         output,
         radial: Some(s.radial.name()),
@@ -416,6 +431,7 @@ fn bake_deformer(
             marker_rest: rest.to_vec(),
             weights: s.dense,
         }),
+        surface_markers: Some((s.marker_distances, skull)),
     })
 }
 

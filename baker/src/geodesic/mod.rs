@@ -17,7 +17,7 @@
 //! another piece than the source gets `f64::INFINITY`, and
 //! [`Geodesics::unreachable`] lists those pieces.
 
-mod dijkstra;
+pub(crate) mod dijkstra;
 mod heat;
 mod intrinsic;
 mod ldlt;

@@ -76,6 +76,14 @@ pub struct StagesConfig {
     /// position on the character every frame, whatever the capture says of them, so the regions
     /// around them do not move.
     pub anchor_markers: Vec<String>,
+    /// Distances between the rig's markers along the character's skin (asset units, rig
+    /// marker order), to choose fill neighbours on the marker's own side of the mouth and the
+    /// eyes: lip markers across a closed mouth are millimetres apart in space. `None`: the
+    /// actor's neutral straight-line distances.
+    pub marker_distances: Option<Vec<Vec<f64>>>,
+    /// With [`HeadMarkers::MostRigid`]: the markers it may pick from (the skull markers the
+    /// bake found clear of the mouth and eyes); `None`: every marker the capture has.
+    pub head_candidates: Option<Vec<String>>,
 }
 
 impl Default for StagesConfig {
@@ -87,6 +95,8 @@ impl Default for StagesConfig {
             retarget: RetargetKind::Rbf,
             virtual_markers: Vec::new(),
             anchor_markers: Vec::new(),
+            marker_distances: None,
+            head_candidates: None,
         }
     }
 }
@@ -401,9 +411,27 @@ pub fn bake_stages(
             if !(3..=MAX_HEAD_MARKERS).contains(size) {
                 return Err(StagesError::HeadMarkerCount(*size));
             }
-            let (in_real, spread) =
-                most_rigid_subset(&complete_sample(capture, &real_columns), *size)?;
-            (in_real.iter().map(|&i| real[i]).collect(), true, spread)
+            // Only skull markers are candidates, when the bake found them: the most rigid
+            // markers of a take without brow raises may be brows, which a later take moves.
+            let candidates: Vec<usize> = (0..real.len())
+                .filter(|&i| {
+                    config
+                        .head_candidates
+                        .as_ref()
+                        .is_none_or(|c| c.contains(&marker_names[real[i]]))
+                })
+                .collect();
+            if candidates.len() < 3 {
+                return Err(StagesError::HeadMarkerCount(candidates.len()));
+            }
+            let columns_of: Vec<usize> = candidates.iter().map(|&i| real_columns[i]).collect();
+            let (in_candidates, spread) = most_rigid_subset(
+                &complete_sample(capture, &columns_of),
+                (*size).min(candidates.len()),
+            )?;
+            let mut head: Vec<usize> = in_candidates.iter().map(|&i| real[candidates[i]]).collect();
+            head.sort_unstable();
+            (head, true, spread)
         }
     };
     if !head.is_empty() {
@@ -423,7 +451,13 @@ pub fn bake_stages(
                 .iter()
                 .copied()
                 .filter(|&k| k != j)
-                .map(|k| (k, distance(&neutral[j], &neutral[k])))
+                .map(|k| {
+                    let d = match &config.marker_distances {
+                        Some(between) => 0.5 * (between[j][k] + between[k][j]),
+                        None => distance(&neutral[j], &neutral[k]),
+                    };
+                    (k, d)
+                })
                 .collect();
             others.sort_by(|a, b| a.1.total_cmp(&b.1));
             others.truncate(FILL_NEIGHBOURS);

@@ -89,6 +89,20 @@ impl SurfaceGeometry {
 }
 
 impl SurfaceGeometry {
+    /// The mesh pieces that glTF `vertices` lie in: (component id, those of `vertices` in it).
+    pub fn pieces_of(&self, vertices: &[u32]) -> Vec<(u32, Vec<u32>)> {
+        let comp = &self.geodesics.topology().components.vertex_component;
+        let mut out: Vec<(u32, Vec<u32>)> = Vec::new();
+        for &v in vertices {
+            let c = comp[self.weld[v as usize] as usize];
+            match out.iter_mut().find(|e| e.0 == c) {
+                Some(e) => e.1.push(v),
+                None => out.push((c, vec![v])),
+            }
+        }
+        out
+    }
+
     /// The mesh pieces (component id, vertex count among `vertices`) that glTF `vertices` lie in.
     pub fn topology_pieces(&self, vertices: &[u32]) -> Vec<(u32, usize)> {
         let comp = &self.geodesics.topology().components.vertex_component;

@@ -18,6 +18,7 @@
 //! zero plus a margin ([`RIDGE_MARGIN`]). With the affine term the system then stays solvable;
 //! the ridge relaxes interpolation of the markers by about the same relative amount.
 
+pub mod anchoring;
 pub mod distances;
 pub mod evaluate;
 pub mod geometry;
@@ -121,6 +122,20 @@ pub struct SurfaceFigures {
     pub masked_vertices: usize,
     /// Masks applied (group names).
     pub masks: Vec<String>,
+    /// Static anchoring, when applied.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub anchoring: Option<AnchoringFigures>,
+}
+
+/// What static anchoring did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AnchoringFigures {
+    /// The skull markers anchored skin follows.
+    pub skull_markers: Vec<String>,
+    /// glTF vertices with some anchoring.
+    pub anchored_vertices: usize,
+    /// glTF vertices that follow the skull markers alone.
+    pub still_vertices: usize,
 }
 
 /// What the surface-aware strategies hand back to [`crate::bake()`]: the dense weights and the
@@ -141,6 +156,11 @@ pub(crate) struct SurfaceBake {
     /// reference the sparse rig approximates.
     pub(crate) dense: Vec<Vec<f64>>,
     pub(crate) warnings: Vec<String>,
+    /// Marker-to-marker distances under the method's distance, asset units (rig marker order):
+    /// along the skin for the geodesic methods.
+    pub(crate) marker_distances: Vec<Vec<f64>>,
+    /// The markers that ride the skull ([`anchoring::skull_markers`]).
+    pub(crate) skull: Vec<usize>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
@@ -390,6 +410,53 @@ pub(crate) fn dense_weights(
         }
         None => dense,
     };
+    let pieces = geometry.pieces_of(&d.fallback);
+    let mut dense = follow_nearest_reachable(dense, &d.fallback, &pieces, &mesh.positions);
+    let rims: Vec<Vec<[f64; 3]>> = geometry
+        .openings
+        .iter()
+        .map(|o| {
+            o.vertices
+                .iter()
+                .map(|&v| mesh.welded_positions[v as usize])
+                .collect()
+        })
+        .collect();
+    let skull = anchoring::skull_markers(&rest, &rims, spacing);
+    let anchoring = match (config.anchoring, config.deformer) {
+        (Some(factor), crate::DeformerKind::Linear) => {
+            let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
+            // The mouth: the lowest opening, when it is below the markers' mean height.
+            let floor = geometry
+                .openings
+                .iter()
+                .map(|o| o.centre[1])
+                .fold(None, |low: Option<f64>, y| {
+                    Some(low.map_or(y, |l| l.min(y)))
+                })
+                .filter(|&y| y < mean_height);
+            let a = anchoring::static_anchoring(
+                &mesh.positions,
+                &rest,
+                &skull,
+                floor,
+                factor * spacing,
+            );
+            a.apply(&mut dense);
+            Some(AnchoringFigures {
+                skull_markers: skull
+                    .iter()
+                    .map(|&h| input.markers[h].name.clone())
+                    .collect(),
+                anchored_vertices: a.anchored_vertices(),
+                still_vertices: a.still_vertices(),
+            })
+        }
+        _ => None,
+    };
+    let marker_distances = (0..n)
+        .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
+        .collect();
     let figures = SurfaceFigures {
         min_eigenvalue,
         ridge,
@@ -402,6 +469,7 @@ pub(crate) fn dense_weights(
         } else {
             Vec::new()
         },
+        anchoring,
     };
     Ok(SurfaceBake {
         between,
@@ -417,7 +485,43 @@ pub(crate) fn dense_weights(
         },
         dense,
         warnings,
+        marker_distances,
+        skull,
     })
+}
+
+/// Pieces of the mesh that not every marker reaches along the surface (mouth-interior pieces:
+/// teeth, gums, tongue) ride the skin beside them as one: every vertex of a piece takes the
+/// weights of the reachable vertex nearest the piece's centre, so the piece moves rigidly with
+/// that skin instead of being stretched between the lips or pulled by markers across the face.
+fn follow_nearest_reachable(
+    mut dense: Vec<Vec<f64>>,
+    unreachable: &[u32],
+    pieces: &[(u32, Vec<u32>)],
+    positions: &[[f64; 3]],
+) -> Vec<Vec<f64>> {
+    if unreachable.is_empty() {
+        return dense;
+    }
+    let mut cut = vec![false; positions.len()];
+    for &v in unreachable {
+        cut[v as usize] = true;
+    }
+    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
+    for (_, piece) in pieces {
+        let centre = crate::mesh::centroid(positions, piece);
+        let Some(&near) = reachable.iter().min_by(|&&a, &&b| {
+            crate::mesh::distance(&centre, &positions[a])
+                .total_cmp(&crate::mesh::distance(&centre, &positions[b]))
+        }) else {
+            continue;
+        };
+        let weights = dense[near].clone();
+        for &v in piece {
+            dense[v as usize] = weights.clone();
+        }
+    }
+    dense
 }
 
 impl SurfaceBake {

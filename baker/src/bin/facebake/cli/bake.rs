@@ -45,10 +45,15 @@ pub struct BakeArgs {
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
-    /// half with a global multiquadric RBF; linear deformer). Geodesic, hybrid and pbw default to
-    /// the exponential radial function with width factor 1 (pbw: the multiquadric's width).
-    #[arg(long, value_enum, default_value_t = MethodArg::Euclidean)]
-    pub method: MethodArg,
+    /// half with a global multiquadric RBF; linear deformer). Default: geodesic, on the linear
+    /// deformer with static anchoring and the exponential radial function, width factor 1.5
+    /// (euclidean with `--deformer planar`, whose bones blend triangle frames, not distances).
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
+    /// Leave out static anchoring: by default the skin beyond the markers' hull above the mouth
+    /// (cranium, back of the head, ears) follows the skull markers instead of the face.
+    #[arg(long)]
+    pub no_anchoring: bool,
     /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
     /// side of an opening may not move the other side. Masks need the linear or planar deformer
     /// (linear is the default with --masks).
@@ -76,7 +81,7 @@ pub struct BakeArgs {
     /// The runtime's deformer: rbf (per-frame RBF coefficients with K radial terms per vertex),
     /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
     /// triangles per vertex; the layout's `triangles = [["A", "B", "C"], ..]` when given, else
-    /// built automatically) (default: rbf; linear with --masks or pbw).
+    /// built automatically) (default: linear; rbf with `--method euclidean`).
     #[arg(long, value_parser = deformer_parser())]
     pub deformer: Option<DeformerKind>,
     /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
@@ -159,8 +164,17 @@ pub struct BakeArgs {
 
 impl BakeArgs {
     /// The bake options: the options given, the defaults of the method for the rest.
+    /// The distance method: as given, else geodesic (euclidean for planar bones).
+    fn method(&self) -> facebake::Method {
+        match (self.method, self.deformer) {
+            (Some(m), _) => m.into(),
+            (None, Some(DeformerKind::Planar)) => facebake::Method::Euclidean,
+            (None, _) => facebake::Method::Geodesic,
+        }
+    }
+
     pub fn options(&self) -> BakeOptions {
-        let d = BakeOptions::for_method(self.method.into(), self.masks);
+        let d = BakeOptions::for_method(self.method(), self.masks);
         BakeOptions {
             deformer: self.deformer.unwrap_or(d.deformer),
             radial: self.radial.map_or(d.radial, Into::into),
@@ -177,7 +191,9 @@ impl BakeArgs {
                 retarget: self.retarget.into(),
                 virtual_markers: self.virtual_markers.clone(),
                 anchor_markers: self.anchor_markers.clone(),
+                ..StagesConfig::default()
             },
+            anchoring: if self.no_anchoring { None } else { d.anchoring },
             ..d
         }
     }
@@ -428,6 +444,15 @@ fn print_text(s: &BakeSummary) {
             },
             f.masked_vertices
         );
+        if let Some(a) = &f.anchoring {
+            outln!(
+                out,
+                "  anchoring     {} vertices follow the skull markers {} ({} of them alone)",
+                a.anchored_vertices,
+                a.skull_markers.join(", "),
+                a.still_vertices
+            );
+        }
     }
     outln!(
         out,

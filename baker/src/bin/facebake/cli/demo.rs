@@ -158,7 +158,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     )?;
     let baked = facebake::bake(
         &Scene::placed(&truth.mesh, &placed),
-        &BakeOptions::default(),
+        &BakeOptions::for_method(facebake::Method::Geodesic, false),
     )
     .map_err(|source| CliError::Bake {
         path: layout_path.clone(),

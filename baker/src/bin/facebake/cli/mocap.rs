@@ -11,7 +11,7 @@ use serde::Serialize;
 use super::play::{play_stages, StagesSummary};
 use super::{load_rig, max_distance, to_f32, write_file, CliError};
 use facebake::deformer::SparseF64;
-use facebake::demo::{jawmocap_head_markers, JAWMOCAP_FILE, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
+use facebake::demo::{JAWMOCAP_FILE, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
 use facebake::io::capture::read_capture;
 use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
@@ -19,7 +19,7 @@ use facebake::io::layout::read_layout;
 use facebake::io::npy::write_npy_f32;
 use facebake::model::{place_markers, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::stages::reference::StateF64;
-use facebake::{BakeError, BakeOptions, Scene, StagesConfig};
+use facebake::{BakeError, BakeOptions, Scene};
 
 /// Frames of the capture put in the `.glb` besides the chosen expressions.
 const EXTRA_GLB_FRAMES: usize = 3;
@@ -74,13 +74,9 @@ pub fn run(
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let mut scene = Scene::placed(&mesh, &placed);
     scene.capture = Some(&capture);
-    let options = BakeOptions {
-        stages: StagesConfig {
-            head: jawmocap_head_markers(&capture),
-            ..StagesConfig::default()
-        },
-        ..BakeOptions::default()
-    };
+    // What `facebake bake --capture` does with no other flag: the product's default rig, head
+    // markers picked among the skull markers.
+    let options = BakeOptions::for_method(facebake::Method::Geodesic, false);
     let baked = facebake::bake(&scene, &options).map_err(|e| match e {
         BakeError::Stages(_) => CliError::input(&capture_path, e.to_string()),
         _ => CliError::Bake {

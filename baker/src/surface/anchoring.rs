@@ -1,0 +1,292 @@
+//! Static anchoring: the skin beyond the markers rides the head instead of being dragged.
+//!
+//! An RBF with an affine term extrapolates: past the last marker the cranium, the back of the
+//! head, the ears and the neck move with whatever trend the face markers have (an open jaw lifts
+//! the skull by centimetres). Paper 003 pins such regions with static points. Here the region
+//! is found from the markers themselves, so no layout has to name it:
+//!
+//! * The face is seen in a cylindrical projection about the vertical axis (glTF's +Y) through
+//!   the centre of the mesh's bounding box: `u` = angle × the markers' median radius, `v` = height.
+//! * A vertex is *outside* by its distance beyond the convex hull of the markers in that plane.
+//!   Its anchoring strength rises smoothly from 0 on the hull to 1 at `margin` outside.
+//! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
+//!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
+//!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
+//!   height).
+//!
+//! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the head markers'
+//! mean: the weights still sum to one (uniform translation stays exact) and with the head
+//! markers still (a head-stabilised take, or a capture whose head fit removed the motion: a
+//! least-squares fit leaves the head markers' mean residual at zero) the anchored skin stays
+//! still.
+
+use crate::mesh::distance;
+
+/// How the skin beyond the markers follows the head.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Anchoring {
+    /// The head markers whose mean displacement anchored vertices follow.
+    pub head: Vec<usize>,
+    /// Per vertex, the anchoring strength in [0, 1].
+    pub strength: Vec<f64>,
+}
+
+impl Anchoring {
+    /// Blend each vertex's dense weights towards the head markers' mean by its strength.
+    pub fn apply(&self, dense: &mut [Vec<f64>]) {
+        let share = 1.0 / self.head.len().max(1) as f64;
+        for (w, &s) in dense.iter_mut().zip(&self.strength) {
+            if s <= 0.0 {
+                continue;
+            }
+            for x in w.iter_mut() {
+                *x *= 1.0 - s;
+            }
+            for &h in &self.head {
+                w[h] += s * share;
+            }
+        }
+    }
+
+    /// Vertices with any anchoring.
+    pub fn anchored_vertices(&self) -> usize {
+        self.strength.iter().filter(|&&s| s > 0.0).count()
+    }
+
+    /// Vertices fully anchored (strength 1).
+    pub fn still_vertices(&self) -> usize {
+        self.strength.iter().filter(|&&s| s >= 1.0).count()
+    }
+}
+
+/// Markers that ride the skull, found from the face's openings: those above the openings'
+/// highest centre whose distance from every point of every opening's rim (mouth, eyes) is at
+/// least [`SKULL_CLEARANCE`] × `spacing` and [`SKULL_SHARE`] × the largest such distance, so
+/// never a lip, jaw, cheek, eyelid or brow marker. With fewer than three such markers, the three
+/// above the openings that are farthest from them; on a mesh without openings, the three
+/// highest. Ascending indices.
+pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64) -> Vec<usize> {
+    if rims.iter().all(|r| r.is_empty()) {
+        let mut order: Vec<usize> = (0..markers.len()).collect();
+        order.sort_by(|&a, &b| markers[b][1].total_cmp(&markers[a][1]).then(a.cmp(&b)));
+        order.truncate(3);
+        order.sort_unstable();
+        return order;
+    }
+    let top = rims
+        .iter()
+        .filter(|r| !r.is_empty())
+        .map(|r| r.iter().map(|p| p[1]).sum::<f64>() / r.len() as f64)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let clearance = |m: &[f64; 3]| {
+        rims.iter()
+            .flatten()
+            .map(|p| distance(m, p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut above: Vec<(usize, f64)> = markers
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m[1] > top)
+        .map(|(i, m)| (i, clearance(m)))
+        .collect();
+    above.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    let farthest = above.first().map_or(0.0, |p| p.1);
+    let needed = (SKULL_CLEARANCE * spacing).max(SKULL_SHARE * farthest);
+    let clear = above.iter().filter(|(_, c)| *c >= needed).count();
+    let mut chosen: Vec<usize> = above.iter().take(clear.max(3)).map(|p| p.0).collect();
+    chosen.sort_unstable();
+    chosen
+}
+
+/// How far from every opening a skull marker sits, at least: × the mean marker spacing.
+pub const SKULL_CLEARANCE: f64 = 2.0;
+/// How far from every opening a skull marker sits, at least: × the clearance of the marker
+/// farthest from them (brows are about half as far from the eyes as the forehead's markers).
+pub const SKULL_SHARE: f64 = 0.75;
+
+/// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers`, with the
+/// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
+/// distance over which the strength rises, in asset units.
+pub fn static_anchoring(
+    positions: &[[f64; 3]],
+    markers: &[[f64; 3]],
+    head: &[usize],
+    floor: Option<f64>,
+    margin: f64,
+) -> Anchoring {
+    let (lo, hi) = bounds(positions);
+    let axis = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[2] + hi[2])];
+    let mut radii: Vec<f64> = markers
+        .iter()
+        .map(|m| (m[0] - axis[0]).hypot(m[2] - axis[1]))
+        .collect();
+    radii.sort_by(f64::total_cmp);
+    let radius = radii.get(radii.len() / 2).copied().unwrap_or(1.0);
+    let project = |p: &[f64; 3]| [(p[0] - axis[0]).atan2(p[2] - axis[1]) * radius, p[1]];
+    let hull = convex_hull(markers.iter().map(project).collect());
+    let floor = floor
+        .unwrap_or_else(|| markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64);
+    let strength = positions
+        .iter()
+        .map(|p| {
+            if hull.len() < 3 || margin <= 0.0 {
+                return 0.0;
+            }
+            let outside = outside_distance(&hull, project(p));
+            smoothstep(outside / margin) * smoothstep((p[1] - (floor - margin)) / margin)
+        })
+        .collect();
+    Anchoring {
+        head: head.to_vec(),
+        strength,
+    }
+}
+
+/// `3t² − 2t³` on `t` clamped to [0, 1].
+fn smoothstep(t: f64) -> f64 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn bounds(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Convex hull, counter-clockwise, by Andrew's monotone chain.
+fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    points.dedup();
+    if points.len() < 3 {
+        return points;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(2 * points.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(points.iter())
+        } else {
+            Box::new(points.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// Signed distance of `p` beyond a counter-clockwise convex polygon: the largest distance in
+/// front of an edge's line (positive outside, negative inside).
+fn outside_distance(hull: &[[f64; 2]], p: [f64; 2]) -> f64 {
+    (0..hull.len())
+        .map(|i| {
+            let a = hull[i];
+            let b = hull[(i + 1) % hull.len()];
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let len = distance(&[e[0], e[1], 0.0], &[0.0; 3]).max(f64::MIN_POSITIVE);
+            // Outward normal of a counter-clockwise edge: (e.y, −e.x).
+            ((p[0] - a[0]) * e[1] - (p[1] - a[1]) * e[0]) / len
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hull_of_a_square_with_an_inner_point() {
+        let h = convex_hull(vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.5, 0.5],
+        ]);
+        assert_eq!(h.len(), 4);
+        assert!((outside_distance(&h, [2.0, 0.5]) - 1.0).abs() < 1e-12);
+        assert!((outside_distance(&h, [0.5, 0.5]) + 0.5).abs() < 1e-12);
+        assert!((outside_distance(&h, [0.5, -0.25]) - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn skin_beyond_the_markers_follows_the_head_and_weights_still_sum_to_one() {
+        // Markers on the front of a unit cylinder (a "face"), vertices all around it.
+        let markers: Vec<[f64; 3]> = (0..5)
+            .flat_map(|i| {
+                let a = (i as f64 - 2.0) * 0.3;
+                [[a.sin(), -0.5, a.cos()], [a.sin(), 0.5, a.cos()]]
+            })
+            .collect();
+        let mut positions = Vec::new();
+        for j in 0..24 {
+            let a = j as f64 / 24.0 * std::f64::consts::TAU;
+            positions.push([a.sin(), 0.2, a.cos()]);
+        }
+        let head = skull_markers(&markers, &[], 1.0);
+        assert!(head.iter().all(|&h| markers[h][1] == 0.5));
+        let anchoring = static_anchoring(&positions, &markers, &head, Some(-0.5), 0.2);
+        // The front vertex (angle 0) is among the markers, the back one (angle π) far beyond.
+        assert_eq!(anchoring.strength[0], 0.0);
+        assert_eq!(anchoring.strength[12], 1.0);
+        let mut dense = vec![vec![0.1; markers.len()]; positions.len()];
+        anchoring.apply(&mut dense);
+        for w in &dense {
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        }
+        assert!(dense[12]
+            .iter()
+            .enumerate()
+            .all(|(i, &w)| if head.contains(&i) {
+                (w - 1.0 / 3.0).abs() < 1e-12
+            } else {
+                w == 0.0
+            }));
+    }
+
+    #[test]
+    fn skull_markers_keep_clear_of_the_openings() {
+        // An "eye" rim at height 0; markers beside it, above it, far above it.
+        let rim = vec![vec![[-0.1, 0.0, 0.0], [0.1, 0.0, 0.0]]];
+        let markers = [
+            [0.0, 1.5, 0.0], // a brow: above, clear of the rim by 1.5, but half the forehead's
+            [0.0, 3.0, 0.0],
+            [1.0, 3.0, 0.0],
+            [-1.0, 3.0, 0.0],
+            [0.0, -3.0, 0.0], // far, but below the opening (a chin)
+        ];
+        assert_eq!(skull_markers(&markers, &rim, 1.0), vec![1, 2, 3]);
+        // Too few clear markers: the three above that are farthest from the rim.
+        assert_eq!(skull_markers(&markers[..3], &rim, 1.0), vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn skin_below_the_floor_is_left_to_the_face() {
+        let markers = vec![
+            [0.0, 0.0, 1.0],
+            [0.3, 0.0, 0.95],
+            [0.0, 1.0, 1.0],
+            [0.3, 1.0, 0.95],
+        ];
+        let positions = vec![[0.0, 3.0, 1.0], [0.0, -3.0, 1.0]];
+        let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), 0.5);
+        assert_eq!(a.strength, vec![1.0, 0.0]);
+    }
+}
