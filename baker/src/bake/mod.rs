@@ -259,13 +259,17 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         Some(capture) => {
             // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
             // apart in space) and head markers among the skull markers, unless given.
+            let (distances, skull) = match &d.surface_markers {
+                Some(m) => m.clone(),
+                None => {
+                    let (distances, skull) =
+                        crate::surface::skin_markers(&scene.surface_input(), &options.surface)?;
+                    (distances, skull.iter().map(|&i| names[i].clone()).collect())
+                }
+            };
             let mut config = options.stages.clone();
-            if let Some((distances, skull)) = &d.surface_markers {
-                config
-                    .marker_distances
-                    .get_or_insert_with(|| distances.clone());
-                config.head_candidates.get_or_insert_with(|| skull.clone());
-            }
+            config.marker_distances.get_or_insert(distances);
+            config.head_candidates.get_or_insert(skull);
             Some(bake_stages(capture, &names, &rest, &space, &config)?)
         }
         None => None,

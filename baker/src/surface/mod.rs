@@ -412,17 +412,7 @@ pub(crate) fn dense_weights(
     };
     let pieces = geometry.pieces_of(&d.fallback);
     let mut dense = follow_nearest_reachable(dense, &d.fallback, &pieces, &mesh.positions);
-    let rims: Vec<Vec<[f64; 3]>> = geometry
-        .openings
-        .iter()
-        .map(|o| {
-            o.vertices
-                .iter()
-                .map(|&v| mesh.welded_positions[v as usize])
-                .collect()
-        })
-        .collect();
-    let skull = anchoring::skull_markers(&rest, &rims, spacing);
+    let skull = anchoring::skull_markers(&rest, &rims_of(&geometry, mesh), spacing);
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear) => {
             let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
@@ -488,6 +478,50 @@ pub(crate) fn dense_weights(
         marker_distances,
         skull,
     })
+}
+
+/// What the capture stages need from the skin for any deformer: the markers' distances to each
+/// other along the skin (asset units, symmetric; straight-line where no path joins them) and
+/// the skull markers ([`anchoring::skull_markers`]).
+pub(crate) fn skin_markers(
+    input: &SurfaceInput<'_>,
+    options: &SurfaceOptions,
+) -> Result<(Vec<Vec<f64>>, Vec<usize>), SurfaceError> {
+    let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
+    let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
+    let geometry = SurfaceGeometry::new(input.mesh, &sources, options.geodesic)?;
+    let n = rest.len();
+    let distances = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let d = 0.5 * (geometry.between[i][j] + geometry.between[j][i]);
+                    if d.is_finite() {
+                        d
+                    } else {
+                        crate::mesh::distance(&rest[i], &rest[j])
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let skull =
+        anchoring::skull_markers(&rest, &rims_of(&geometry, input.mesh), mean_spacing(&rest));
+    Ok((distances, skull))
+}
+
+/// The openings' rims, as positions.
+fn rims_of(geometry: &SurfaceGeometry, mesh: &FaceMesh) -> Vec<Vec<[f64; 3]>> {
+    geometry
+        .openings
+        .iter()
+        .map(|o| {
+            o.vertices
+                .iter()
+                .map(|&v| mesh.welded_positions[v as usize])
+                .collect()
+        })
+        .collect()
 }
 
 /// Pieces of the mesh that not every marker reaches along the surface (mouth-interior pieces:
