@@ -398,17 +398,17 @@ fn masks_keep_planar_lip_vertices_off_the_other_lips_triangles() {
         got.push((baked, s));
     }
     let ((_, plain), (masked_bake, masked)) = (&got[0], &got[1]);
-    // Measured (the line above): lips mean / p99 / max 2.79 / 17.86 / 33.7 mm and 32.1 %
-    // crossed without masks, 2.02 / 11.06 / 17.4 mm and 19.7 % with them.
+    // Measured 2026-11-27 (the line above; lip and eyelid markers on the lips and lids): lips
+    // mean / p99 / max 3.11 / 20.29 / 26.7 mm and 31.4 % crossed without masks, 1.47 / 8.20 /
+    // 14.1 mm and 15.3 % with them; eyelids p99 2.90 → 2.12 mm, crossed 11.3 → 9.4 %.
     assert!(plain.bands[0].p99_mm > 15.0 && plain.crossed[0] > 0.30);
-    assert!(masked.bands[0].mean_mm < 2.1, "{:?}", masked.bands[0]);
-    assert!(masked.bands[0].p99_mm < 11.5, "{:?}", masked.bands[0]);
-    assert!(masked.bands[0].max_mm < 18.0, "{:?}", masked.bands[0]);
-    assert!(masked.crossed[0] < 0.21, "{}", masked.crossed[0]);
+    assert!(masked.bands[0].mean_mm < 1.55, "{:?}", masked.bands[0]);
+    assert!(masked.bands[0].p99_mm < 8.5, "{:?}", masked.bands[0]);
+    assert!(masked.bands[0].max_mm < 14.5, "{:?}", masked.bands[0]);
+    assert!(masked.crossed[0] < 0.16, "{}", masked.crossed[0]);
     assert!(masked.whole.p99_mm < plain.whole.p99_mm);
-    // The eyelids barely change (their crossing 1.6 % → 2.5 %).
-    assert!((masked.bands[1].p99_mm - plain.bands[1].p99_mm).abs() < 0.5);
-    assert!(masked.crossed[1] < 0.03, "{}", masked.crossed[1]);
+    assert!(masked.bands[1].p99_mm <= plain.bands[1].p99_mm);
+    assert!(masked.crossed[1] < 0.10, "{}", masked.crossed[1]);
     // Masking changes only which triangles a vertex rides: the same control surface.
     assert_eq!(
         masked_bake.report.planar.as_ref().unwrap().triangles,
