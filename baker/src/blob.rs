@@ -271,6 +271,9 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
         max_displacement: stages.max_displacement,
         fill: Bytes(&stages.fill),
         anchors: Bytes(&stages.anchors),
+        head_tolerance: stages.head_tolerance,
+        max_step: stages.max_step,
+        smoothing: stages.smoothing,
         retarget: match &stages.proportional {
             Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,

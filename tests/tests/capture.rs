@@ -7,9 +7,18 @@ use facebake::stages::{StagesConfig, StateF64};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, JawMoCapRig};
 
+/// The stages without smoothing: the f64 reference has none (`tests/tests/noise.rs` and the
+/// runtime's own tests cover it).
+fn unsmoothed() -> StagesConfig {
+    StagesConfig {
+        smoothing: None,
+        ..StagesConfig::default()
+    }
+}
+
 fn rig() -> &'static JawMoCapRig {
     static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
-    CELL.get_or_init(|| jawmocap_rig(&StagesConfig::default()))
+    CELL.get_or_init(|| jawmocap_rig(&unsmoothed()))
 }
 
 fn proportional_rig() -> &'static JawMoCapRig {
@@ -17,7 +26,7 @@ fn proportional_rig() -> &'static JawMoCapRig {
     CELL.get_or_init(|| {
         jawmocap_rig(&StagesConfig {
             retarget: facebake::stages::RetargetKind::Proportional,
-            ..StagesConfig::default()
+            ..unsmoothed()
         })
     })
 }
@@ -213,10 +222,15 @@ fn knocked_out_markers_are_rebuilt() {
     let (rebuilt, reports) = play_all(&rig, &knocked);
     let missing: usize = knocked.iter().flatten().filter(|p| p.is_none()).count();
     let reported: usize = reports.iter().map(|r| r.rebuilt.len() + r.held.len()).sum();
+    // A head marker knocked out changes which markers the fit uses, which moves the far
+    // markers enough for the step gate now and then: those are rejected, and rebuilt too.
+    let rejected: usize = reports.iter().map(|r| r.rejected.len()).sum();
     assert_eq!(
-        missing, reported,
-        "every missing sample is rebuilt or held, and reported"
+        missing + rejected,
+        reported,
+        "every missing or rejected sample is rebuilt or held, and reported"
     );
+    println!("knock-out: {rejected} samples rejected besides");
     let mm = 1000.0; // FaceCap is in metres
     let errors: Vec<f64> = complete
         .iter()
@@ -258,7 +272,7 @@ fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
         let config = StagesConfig {
             head: HeadMarkers::Named(head.map(str::to_string).to_vec()),
             retarget,
-            ..StagesConfig::default()
+            ..unsmoothed()
         };
         let character: Vec<[f64; 3]> = neutral.iter().map(|p| p.map(|c| c * scale)).collect();
         let baked = bake_stages(&j.capture, &names, &character, &space, &config).expect("bakes");
@@ -310,17 +324,11 @@ fn virtual_markers_are_rebuilt_every_frame() {
         })
         .collect();
     let space = complete.space();
-    let err = bake_stages(
-        &capture,
-        &names,
-        &character,
-        &space,
-        &StagesConfig::default(),
-    );
+    let err = bake_stages(&capture, &names, &character, &space, &unsmoothed());
     assert!(matches!(err, Err(StagesError::MissingMarker { .. })));
     let config = StagesConfig {
         virtual_markers: vec!["Mouth_Up".to_string()],
-        ..StagesConfig::default()
+        ..unsmoothed()
     };
     let baked = bake_stages(&capture, &names, &character, &space, &config).expect("bakes");
     assert_eq!(baked.report.virtual_markers, ["Mouth_Up"]);
@@ -360,7 +368,7 @@ fn virtual_markers_are_rebuilt_every_frame() {
 fn anchor_markers_stay_at_rest() {
     let config = StagesConfig {
         anchor_markers: vec!["Chin_L2".to_string(), "Chin_R2".to_string()],
-        ..StagesConfig::default()
+        ..unsmoothed()
     };
     let j = facebake_tests::jawmocap_rig(&config);
     assert_eq!(j.stages.report.anchor_markers, ["Chin_L2", "Chin_R2"]);
