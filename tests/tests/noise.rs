@@ -116,7 +116,7 @@ fn measure(j: &JawMoCapRig) -> Measured {
     }
 }
 
-fn check(name: &str, bake: &BakeConfig) {
+fn measure_and_print(name: &str, bake: &BakeConfig) -> Measured {
     let j = jawmocap_rig_with(bake, &StagesConfig::default());
     let m = measure(&j);
     println!(
@@ -131,6 +131,11 @@ fn check(name: &str, bake: &BakeConfig) {
         m.lag.max,
         m.lag_frames
     );
+    m
+}
+
+fn check(name: &str, bake: &BakeConfig) {
+    let m = measure_and_print(name, bake);
     assert!(
         m.smoothed.p99 <= 2.0 && m.smoothed.max <= 4.0,
         "{name}: {:?}",
@@ -148,10 +153,26 @@ fn linear_face_stays_within_the_jitter_bar() {
     check("linear", &weights_config());
 }
 
-/// Not met yet: planar bones amplify jitter the most (unsmoothed p99 6.45 mm, max 44.8 mm), and
-/// with the default smoothing the worst frames after start-up still reach 7.5 mm (p99 1.52 mm).
+/// Not met yet: planar bones amplify jitter the most (unsmoothed p99 6.3 mm, max 34 mm after
+/// start-up), and with the default smoothing the worst frames still reach 6.5 mm (p99 1.75 mm
+/// meets the bar). Smoothing alone met it only at `--smoothing 0.5,1,1`, whose lag moved the
+/// clean take's face by 49 mm at the most: the planar deformer's own sensitivity (thin control
+/// triangles with the jaw wide open, where the lag's cost peaks too) is where it must be fixed.
 #[test]
-#[ignore = "planar misses the 4 mm max of the jitter bar (7.5 mm measured; p99 1.52 mm meets it)"]
+#[ignore = "planar misses the 4 mm max of the jitter bar: 6.5 mm measured (p99 1.75 mm meets it)"]
 fn planar_face_stays_within_the_jitter_bar() {
     check("planar", &planar_config(8));
+}
+
+/// What planar bones do meet today, pinned: p99 within the bar, max (measured 6.49 mm) within
+/// 7.5 mm, a third of the unsmoothed max at most.
+#[test]
+fn planar_face_jitter_is_pinned() {
+    let m = measure_and_print("planar", &planar_config(8));
+    assert!(
+        m.smoothed.p99 <= 2.0 && m.smoothed.max <= 7.5,
+        "{:?}",
+        m.smoothed
+    );
+    assert!(m.smoothed.max < m.unsmoothed.max / 3.0);
 }

@@ -136,7 +136,7 @@ pub struct BakeArgs {
     /// The one-euro smoothing of the compensated markers: `MIN_HZ,BETA,SPEED_HZ` (cutoff when
     /// still, Hz added per m/s of speed, cutoff of the speed estimate), or `off`. Its lag when
     /// still is rate / (2π MIN_HZ) frames.
-    #[arg(long, value_name = "PARAMS", default_value = "1,20,1", value_parser = parse_smoothing, requires = "capture")]
+    #[arg(long, value_name = "PARAMS", default_value = "1,10,1", value_parser = parse_smoothing, requires = "capture")]
     pub smoothing: SmoothingChoice,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).

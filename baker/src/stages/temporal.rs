@@ -52,7 +52,7 @@ impl Default for SmoothingConfig {
     fn default() -> Self {
         Self {
             min_cutoff_hz: 1.0,
-            beta: 20.0,
+            beta: 10.0,
             derivative_cutoff_hz: 1.0,
         }
     }

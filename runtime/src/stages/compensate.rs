@@ -164,18 +164,6 @@ impl HeadPairs {
         self.len
     }
 
-    /// The current point of pair `i` (zero past the last pair).
-    pub fn current(&self, i: usize) -> [i32; 3] {
-        self.current[..self.len].get(i).copied().unwrap_or([0; 3])
-    }
-
-    /// Replace the current point of pair `i` (ignored past the last pair).
-    pub fn set_current(&mut self, i: usize, q: [i32; 3]) {
-        if let Some(c) = self.current[..self.len].get_mut(i) {
-            *c = q;
-        }
-    }
-
     /// Keep only the pairs for which `keep(index)` holds, in order.
     pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
         let mut out = 0;
@@ -187,6 +175,23 @@ impl HeadPairs {
             }
         }
         self.len = out;
+    }
+
+    /// The pair whose leaving out gives the fit of the others with the smallest largest
+    /// residual, or `None` when no fit of the others is possible. One fit per pair.
+    pub fn best_left_out(&self) -> Option<usize> {
+        (0..self.len)
+            .filter_map(|out| {
+                let mut others = HeadPairs::new();
+                for i in (0..self.len).filter(|&i| i != out) {
+                    others.push(self.neutral[i], self.current[i]);
+                }
+                let fit = others.fit().ok()?;
+                let worst = (0..others.len).map(|i| others.residual(&fit, i)).max()?;
+                Some((worst, out))
+            })
+            .min()
+            .map(|(_, out)| out)
     }
 
     /// Whether the current points are (nearly) collinear or coincident (see [`Self::fit`]).

@@ -10,8 +10,8 @@
 //!    neutral head's shape: one whose distances to more than half of the others changed by more
 //!    than `head_tolerance` is rejected (a swapped, jumped or ghost head marker). Then the
 //!    least-squares rigid motion of the rest from the neutral frame (Horn's quaternion method in
-//!    fixed point); a head marker whose residual exceeds `max_displacement` is dropped and the
-//!    fit done once more. With fewer than three usable head markers, or collinear or coincident
+//!    fixed point); the head marker furthest from the fit, if further than `head_tolerance`, is
+//!    rejected and the fit done once more. With fewer than three usable head markers, or collinear or coincident
 //!    ones (in the neutral frame or in this one), the last good fit is held and the report says
 //!    why ([`RigidStatus::Held`]).
 //! 3. **Plausibility.** A compensated marker further than `max_displacement` from its neutral
@@ -23,7 +23,11 @@
 //!    of its present baked neighbours; with none present it holds its last good displacement
 //!    (zero if it was never seen).
 //! 5. **Smoothing** ([`smoothing`], optional): a one-euro filter on every marker's displacement,
-//!    in the head's frame; its lag when still is [`smoothing::Smoothing::still_lag_frames`].
+//!    in the head's frame; its lag when still is [`smoothing::Smoothing::still_lag_frames`]. The
+//!    head fit's own jitter moves every compensated marker rigidly and is filtered here with the
+//!    rest, so it is not multiplied by the lever arm into the face; the head markers themselves
+//!    are not smoothed before the fit, so head motion is compensated without lag (smoothing them
+//!    lagged a moving head by up to 8 mm of face on JawMoCap).
 //! 6. **Retargeting** ([`retarget`]): the baked map carries each compensated actor marker into
 //!    the character's rig space.
 //!
@@ -180,8 +184,12 @@ impl<'a> Stages<'a> {
             markers,
             head_markers: head,
             head_distance_checks: head * head.saturating_sub(1) / 2,
-            rigid_fits: if head > 0 { 2 } else { 0 },
-            horn_squarings: if head > 0 { 2 * compensate::SQUARINGS } else { 0 },
+            rigid_fits: if head > 0 { head + 2 } else { 0 },
+            horn_squarings: if head > 0 {
+                (head + 2) * compensate::SQUARINGS
+            } else {
+                0
+            },
             fill_terms: markers * crate::format::records::FILL_NEIGHBOURS,
             retarget_kernels: match self.retarget {
                 Retarget::Rbf(_) => markers * markers,
@@ -299,39 +307,6 @@ impl<'a> Stages<'a> {
         report
     }
 
-    /// With smoothing, the kept head markers' positions are smoothed (in the capture's frame,
-    /// before the fit) so that the fit does not carry their jitter, multiplied by the lever arm,
-    /// into every compensated marker. A head marker's filter restarts when it was not kept in
-    /// the frame before. `which[i]` is pair `i`'s marker and place among the rig's head
-    /// markers before the pairs were narrowed to the `kept` mask.
-    fn smooth_head(
-        &self,
-        state: &mut PlayState,
-        pairs: &mut HeadPairs,
-        which: &[(usize, usize); MAX_HEAD_MARKERS],
-        kept: u32,
-    ) {
-        let Some(smoothing) = &self.smoothing else {
-            return;
-        };
-        let mut filtering = 0u32;
-        let mut at = 0;
-        for (slot, &(_, k)) in which.iter().enumerate() {
-            if kept & (1 << slot) == 0 || at >= pairs.len() {
-                continue;
-            }
-            let first = state.head_filtering & (1 << k) == 0;
-            let Some(filter) = state.head_filters.get_mut(k) else {
-                continue;
-            };
-            let q = smoothing.step(filter, pairs.current(at), first);
-            pairs.set_current(at, q);
-            filtering |= 1 << k;
-            at += 1;
-        }
-        state.head_filtering = filtering;
-    }
-
     /// Step 2 of the module docs: the head fit of this frame, or the one held. Head markers that
     /// broke the head's shape are taken out of `present` and reported as rejected.
     fn fit_head(
@@ -346,15 +321,15 @@ impl<'a> Stages<'a> {
             return RigidFit::IDENTITY;
         }
         let mut pairs = HeadPairs::new();
-        // Per pair: its marker and its place among the rig's head markers.
-        let mut which = [(0usize, 0usize); MAX_HEAD_MARKERS];
-        for (k, &h) in self.head_markers.0.iter().enumerate() {
+        // Per pair: its marker.
+        let mut which = [0usize; MAX_HEAD_MARKERS];
+        for &h in self.head_markers.0 {
             let h = usize::from(h);
             if let (true, Some(Some(q)), Some(p)) =
                 (present.contains(h), actor.get(h), self.neutral(h))
             {
                 if let Some(slot) = which.get_mut(pairs.len()) {
-                    *slot = (h, k);
+                    *slot = h;
                 }
                 pairs.push(p, *q);
             }
@@ -364,34 +339,43 @@ impl<'a> Stages<'a> {
         } else {
             let given = pairs.len();
             let kept = pairs.rigid(self.head_tolerance);
-            for (i, &(h, _)) in which.iter().enumerate().take(given) {
+            for (i, &h) in which.iter().enumerate().take(given) {
                 if kept & (1 << i) == 0 {
                     present.remove(h);
                     report.rejected.insert(h);
                 }
             }
             pairs.retain(|i| kept & (1 << i) != 0);
+            let mut at = 0;
+            for i in 0..given {
+                if kept & (1 << i) != 0 {
+                    which[at] = which[i];
+                    at += 1;
+                }
+            }
             report.head_markers_dropped = (given - pairs.len()) as u8;
-            self.smooth_head(state, &mut pairs, &which, kept);
             match pairs.fit() {
                 Err(FitFailure::TooFew) if given >= 3 => Err(FitFailure::NotRigid),
                 other => other,
             }
         };
         if let Ok(fit) = fitted {
-            let limit = self.max_displacement;
-            let before = pairs.len();
-            let residuals: [i32; MAX_HEAD_MARKERS] = core::array::from_fn(|i| {
-                if i < before {
-                    pairs.residual(&fit, i)
-                } else {
-                    0
-                }
-            });
-            pairs.retain(|i| residuals[i] <= limit);
-            if pairs.len() < before {
-                report.head_markers_dropped += (before - pairs.len()) as u8;
-                fitted = pairs.fit();
+            // A head marker off the fit by more than the head tolerance (a jump across the
+            // other markers' distances barely changes them, but it does not move with the
+            // rest): the one whose leaving out fits the others best is dropped, and the fit
+            // done once more. The least-squares fit spreads one marker's error over all, so the
+            // furthest marker is not always the culprit.
+            let off = (0..pairs.len()).any(|i| pairs.residual(&fit, i) > self.head_tolerance);
+            if let Some(w) = off.then(|| pairs.best_left_out()).flatten() {
+                let h = which[w];
+                present.remove(h);
+                report.rejected.insert(h);
+                pairs.retain(|i| i != w);
+                report.head_markers_dropped += 1;
+                fitted = match pairs.fit() {
+                    Err(FitFailure::TooFew) => Err(FitFailure::NotRigid),
+                    other => other,
+                };
             }
         }
         match fitted {
@@ -429,7 +413,8 @@ pub struct StagesCost {
     /// Head-marker pairs whose current and neutral distances are compared (two integer square
     /// roots each).
     pub head_distance_checks: usize,
-    /// Rigid fits at most (one, plus one after dropping outlying head markers).
+    /// Rigid fits at most: one, then with a head marker off it, one per head marker left out
+    /// and one without the worst.
     pub rigid_fits: usize,
     /// 4 × 4 matrix squarings at most.
     pub horn_squarings: usize,
@@ -460,10 +445,6 @@ pub struct PlayState {
     gap: [u16; MAX_MARKERS],
     filters: [MarkerFilter; MAX_MARKERS],
     filtering: MarkerSet,
-    /// Per head marker (in the rig's head-marker order), its position filter.
-    head_filters: [MarkerFilter; MAX_HEAD_MARKERS],
-    /// Head markers whose filter ran in the last frame.
-    head_filtering: u32,
     fit: Option<RigidFit>,
 }
 
@@ -482,8 +463,6 @@ impl PlayState {
             gap: [0; MAX_MARKERS],
             filters: [MarkerFilter::ZERO; MAX_MARKERS],
             filtering: MarkerSet::EMPTY,
-            head_filters: [MarkerFilter::ZERO; MAX_HEAD_MARKERS],
-            head_filtering: 0,
             fit: None,
         }
     }
