@@ -40,8 +40,11 @@ fn take(name: &str, rig: &Rig<'_>) -> Vec<Vec<Option<[f64; 3]>>> {
         .collect()
 }
 
-/// Play `frames`: vertices (metres) and reports per frame.
-fn play(rig: &Rig<'_>, frames: &[Vec<Option<[f64; 3]>>]) -> (Vec<Vec<[f64; 3]>>, Vec<FrameReport>) {
+/// A play: vertices (metres) and reports, per frame.
+type Played = (Vec<Vec<[f64; 3]>>, Vec<FrameReport>);
+
+/// Play `frames`.
+fn play(rig: &Rig<'_>, frames: &[Vec<Option<[f64; 3]>>]) -> Played {
     let space = rig.space();
     let actor_space = rig.actor_space().unwrap();
     let mut state = PlayState::new();
@@ -70,9 +73,8 @@ fn worst(a: &[Vec<[f64; 3]>], b: &[Vec<[f64; 3]>], frames: std::ops::Range<usize
         .fold(0.0, f64::max)
 }
 
-fn clean() -> &'static (Vec<Vec<[f64; 3]>>, Vec<FrameReport>) {
-    static CELL: std::sync::OnceLock<(Vec<Vec<[f64; 3]>>, Vec<FrameReport>)> =
-        std::sync::OnceLock::new();
+fn clean() -> &'static Played {
+    static CELL: std::sync::OnceLock<Played> = std::sync::OnceLock::new();
     CELL.get_or_init(|| {
         let r = Rig::from_bytes(&rig().blob).unwrap();
         play(&r, &rig().frames)

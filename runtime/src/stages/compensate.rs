@@ -223,7 +223,7 @@ impl HeadPairs {
             }
         }
         (0..n)
-            .filter(|&i| 2 * usize::from(broken[i]) <= n - 1)
+            .filter(|&i| 2 * usize::from(broken[i]) < n)
             .fold(0, |mask, i| mask | (1 << i))
     }
 
