@@ -275,12 +275,15 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                     * f64::from(st.actor_space.half_extent),
                 smoothing_lag_frames: st.smoothing.map(|f| f.still_lag_frames()),
                 cost: format!(
-                    "{} markers: at most {} rigid fits of {} head markers ({} 4×4 squarings), {} fill terms, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
+                    "{} markers: {} head-marker distance checks, at most {} rigid fits of {} head markers ({} 4×4 squarings), {} step checks, {} fill terms, {} smoothed markers, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
                     c.markers,
+                    c.head_distance_checks,
                     c.rigid_fits,
                     c.head_markers,
                     c.horn_squarings,
+                    c.step_checks,
                     c.fill_terms,
+                    c.smoothed_markers,
                     match st.retarget {
                         Retarget::Rbf(_) => "RBF",
                         Retarget::Proportional(_) => "proportional",
