@@ -80,8 +80,11 @@ pub fn run(
     } else {
         HeadMarkers::MostRigid(4)
     };
+    // No smoothing: the demo measures the runtime against the f64 reference, which has none
+    // (and a clean capture needs none).
     let config = StagesConfig {
         head,
+        smoothing: None,
         ..StagesConfig::default()
     };
     let stages = bake_stages(&capture, &names, &character, &space, &config)
