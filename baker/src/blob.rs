@@ -132,6 +132,9 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
         max_displacement: stages.max_displacement,
         fill: Bytes(&stages.fill),
         anchors: Bytes(&stages.anchors),
+        head_tolerance: stages.head_tolerance,
+        max_step: stages.max_step,
+        smoothing: stages.smoothing,
         retarget: match &stages.proportional {
             Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,

@@ -25,7 +25,7 @@
 //! |---|---|
 //! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`] |
 //! | `deformer/` | one module per deformer (`linear`, `rbf`, `planar`), each owning its section, validation, cost and per-frame code; `mod.rs` dispatches |
-//! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `retarget`, `report` |
+//! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `smoothing`, `retarget`, `report` |
 //! | `format/` | the blob: `header`, `records` (every record size), `error` ([`LoadError`]), `RigData` (the docs of every section) |
 //! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
 //! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |

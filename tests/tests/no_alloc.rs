@@ -105,3 +105,39 @@ fn loading_and_deforming_never_allocate() {
     }
     assert_eq!(played, 4 * 3 * 39);
 }
+
+const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
+const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
+
+/// `Rig::play` on the capture golden (compensation with the head-marker distance check and
+/// smoothing, the step gate, fill, smoothing, retargeting, deformation) never allocates, the
+/// `PlayState` included.
+#[test]
+fn playing_captured_frames_never_allocates() {
+    let record = 13;
+    let m = Rig::from_bytes(CAPTURE).unwrap().marker_count();
+    let frames: Vec<Vec<Option<[i32; 3]>>> = ACTOR
+        .chunks_exact(m * record)
+        .map(|f| {
+            f.chunks_exact(record)
+                .map(|r| {
+                    let w = |i: usize| i32::from_le_bytes([r[i], r[i + 1], r[i + 2], r[i + 3]]);
+                    (r[0] == 1).then(|| [w(1), w(5), w(9)])
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = vec![[0i32; 3]; 4096];
+    let mut played = 0usize;
+    let (n, ()) = allocations_in(|| {
+        let rig = Rig::from_bytes(CAPTURE).expect("capture golden loads");
+        let out = &mut out[..rig.vertex_count()];
+        let mut state = facebake_runtime::PlayState::new();
+        for actor in frames.iter().cycle().take(3 * frames.len()) {
+            rig.play(&mut state, actor, out).unwrap();
+            played += 1;
+        }
+    });
+    assert_eq!(n, 0, "the runtime allocated {n} times");
+    assert_eq!(played, 3 * frames.len());
+}

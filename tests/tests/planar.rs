@@ -324,7 +324,11 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
     use facebake_runtime::PlayState;
     let j = facebake_tests::jawmocap_rig_with(
         &facebake_tests::planar_config(8),
-        &StagesConfig::default(),
+        // The f64 chain has no smoothing.
+        &StagesConfig {
+            smoothing: None,
+            ..StagesConfig::default()
+        },
     );
     let rig = Rig::from_bytes(&j.baked.blob).unwrap();
     assert!(matches!(rig.deformer(), Deformer::Planar(_)));

@@ -105,6 +105,50 @@ fn every_stages_error_is_distinct() {
             StagesLoadError::BadMaxDisplacement
         );
     }
+    for bad in [0, -1, (1 << 30) + 1] {
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().head_tolerance = bad),
+            StagesLoadError::BadHeadTolerance
+        );
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().max_step = bad),
+            StagesLoadError::BadMaxStep
+        );
+    }
+    let smoothing = s.smoothing.expect("the default bake smooths");
+    use facebake_runtime::stages::smoothing::{MAX_CUTOFF, MAX_SPEED_GAIN};
+    for bad in [0, MAX_CUTOFF + 1] {
+        assert_eq!(
+            with(&|d| {
+                d.stages.as_mut().unwrap().smoothing =
+                    Some(facebake_runtime::stages::smoothing::Smoothing {
+                        min_cutoff: bad,
+                        ..smoothing
+                    })
+            }),
+            StagesLoadError::BadMinCutoff
+        );
+        assert_eq!(
+            with(&|d| {
+                d.stages.as_mut().unwrap().smoothing =
+                    Some(facebake_runtime::stages::smoothing::Smoothing {
+                        derivative_cutoff: bad,
+                        ..smoothing
+                    })
+            }),
+            StagesLoadError::BadDerivativeCutoff
+        );
+    }
+    assert_eq!(
+        with(&|d| {
+            d.stages.as_mut().unwrap().smoothing =
+                Some(facebake_runtime::stages::smoothing::Smoothing {
+                    speed_gain: MAX_SPEED_GAIN + 1,
+                    ..smoothing
+                })
+        }),
+        StagesLoadError::BadSpeedGain
+    );
     let mut fill = s.fill.0.to_vec();
     fill[16..20].copy_from_slice(&((1u32 << 16) << 8 | 1).to_le_bytes()); // marker 1 from itself
     let fill: &'static [u8] = fill.leak();

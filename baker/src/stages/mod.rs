@@ -10,6 +10,8 @@
 //! [`StagesF64`] runs the same steps in f64 with the unquantised map and Kabsch fits: the
 //! reference the runtime is compared with.
 
+pub mod temporal;
+
 use std::ops::Range;
 
 use facebake_runtime::fixed::pack_influence;
@@ -17,6 +19,7 @@ use facebake_runtime::format::records::FILL_NEIGHBOURS;
 use facebake_runtime::stages::compensate::MAX_HEAD_MARKERS;
 use facebake_runtime::stages::fill::FILL_FRAC_BITS;
 use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
+use facebake_runtime::stages::smoothing::Smoothing;
 use facebake_runtime::Space;
 
 pub mod reference;
@@ -84,6 +87,15 @@ pub struct StagesConfig {
     /// With [`HeadMarkers::MostRigid`]: the markers it may pick from (the skull markers the
     /// bake found clear of the mouth and eyes); `None`: every marker the capture has.
     pub head_candidates: Option<Vec<String>>,
+    /// How far a head-marker pair's distance may stray from the neutral frame before the
+    /// marker that broke the head's shape is rejected, as a fraction of the actor's half
+    /// extent; `None`: learned from the capture ([`temporal`]).
+    pub head_tolerance: Option<f64>,
+    /// Largest plausible movement of a compensated marker from one frame to the next, as a
+    /// fraction of the actor's half extent; `None`: learned from the capture ([`temporal`]).
+    pub max_step: Option<f64>,
+    /// The smoothing filter, or `None` for none.
+    pub smoothing: Option<temporal::SmoothingConfig>,
 }
 
 impl Default for StagesConfig {
@@ -97,6 +109,9 @@ impl Default for StagesConfig {
             anchor_markers: Vec::new(),
             marker_distances: None,
             head_candidates: None,
+            head_tolerance: None,
+            max_step: None,
+            smoothing: Some(temporal::SmoothingConfig::default()),
         }
     }
 }
@@ -216,6 +231,14 @@ pub struct StagesReport {
     pub retarget_condition: f64,
     /// Largest rounding of a retarget coefficient, character rig units.
     pub max_alpha_rounding: f64,
+    /// Head-marker distance tolerance, metres.
+    pub head_tolerance: f64,
+    /// Largest plausible movement of a compensated marker per frame, metres.
+    pub max_step: f64,
+    /// The smoothing filter, if any.
+    pub smoothing: Option<temporal::SmoothingConfig>,
+    /// The smoothing's lag when still, frames (0 without smoothing).
+    pub smoothing_lag_frames: u32,
 }
 
 /// The stages' sections, encoded for the blob (see [`crate::blob::with_stages`]).
@@ -248,6 +271,12 @@ pub struct StagesBytes {
     pub proportional: Option<(u8, Vec<u8>, Vec<u8>)>,
     /// Anchor marker indices, ascending.
     pub anchors: Vec<u8>,
+    /// Head-marker distance tolerance, Q8.24 actor units.
+    pub head_tolerance: i32,
+    /// Step gate, Q8.24 actor units per frame.
+    pub max_step: i32,
+    /// The smoothing filter, per frame.
+    pub smoothing: Option<Smoothing>,
 }
 
 /// The baked stages: bytes for the blob, the f64 reference and a report.
@@ -512,6 +541,41 @@ pub fn bake_stages(
         map,
         proportional,
     };
+    let half_extent = f64::from(actor_space.half_extent);
+    let head_tolerance = match config.head_tolerance {
+        Some(t) => t,
+        None => {
+            let in_real: Vec<usize> = head
+                .iter()
+                .filter_map(|j| real.iter().position(|r| r == j))
+                .collect();
+            let change = temporal::head_distance_change(
+                &complete_sample(capture, &real_columns),
+                &real_neutral,
+                &in_real,
+            );
+            (temporal::HEAD_TOLERANCE_FACTOR * change / half_extent)
+                .max(temporal::MIN_HEAD_TOLERANCE)
+        }
+    };
+    let max_step = match config.max_step {
+        Some(s) => s,
+        None => {
+            let frames: Vec<Vec<Option<[f64; 3]>>> = capture
+                .frames
+                .iter()
+                .map(|f| columns.iter().map(|c| c.and_then(|c| f[c])).collect())
+                .collect();
+            let step = temporal::step_percentile(&reference, &frames, temporal::STEP_PERCENTILE);
+            (temporal::STEP_FACTOR * step).max(temporal::MIN_STEP)
+        }
+    };
+    bytes.head_tolerance = temporal::encode_bound(head_tolerance, "head tolerance")?;
+    bytes.max_step = temporal::encode_bound(max_step, "max step")?;
+    bytes.smoothing = config
+        .smoothing
+        .map(|s| s.encode(capture.rate_hz, half_extent))
+        .transpose()?;
     let report = StagesReport {
         head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
         head_markers_picked: picked,
@@ -533,6 +597,10 @@ pub fn bake_stages(
         retarget: config.retarget,
         retarget_condition: reference.map.condition(),
         max_alpha_rounding,
+        head_tolerance: head_tolerance * half_extent,
+        max_step: max_step * half_extent,
+        smoothing: config.smoothing,
+        smoothing_lag_frames: bytes.smoothing.map_or(0, |s| s.still_lag_frames()),
     };
     Ok(BakedStages {
         bytes,
@@ -733,6 +801,10 @@ fn encode(
         offset,
         proportional: None,
         anchors: Vec::new(),
+        // Set by `bake_stages` once the reference is built.
+        head_tolerance: 1,
+        max_step: 1,
+        smoothing: None,
     })
 }
 

@@ -1,5 +1,5 @@
-//! A harness that links exactly the runtime's load and per-frame path (`Rig::from_bytes` and
-//! `Rig::deform`, both deformer kinds) and nothing else, for `.ci/cross.sh` to build for
+//! A harness that links exactly the runtime's load and per-frame path (`Rig::from_bytes`,
+//! `Rig::deform` for every deformer, and `Rig::play`: the capture stages) and nothing else, for `.ci/cross.sh` to build for
 //! `thumbv6m-none-eabi` (no FPU) and check that no soft-float routine (`__aeabi_f*`,
 //! `__aeabi_d*`, `__addsf3`, …) is linked: any float operation on that path would call one.
 //!
@@ -12,7 +12,7 @@ use core::panic::PanicInfo;
 
 use cortex_m_rt::entry;
 use facebake_runtime::format::records::MAX_MARKERS;
-use facebake_runtime::Rig;
+use facebake_runtime::{PlayState, Rig};
 
 /// Output room: the harness is never run, so a few vertices are enough to link the path.
 const VERTICES: usize = 16;
@@ -26,6 +26,9 @@ fn main() -> ! {
         let m = rig.marker_count().min(MAX_MARKERS);
         let v = rig.vertex_count().min(VERTICES);
         black_box(rig.deform(&markers[..m], &mut out[..v]).is_ok());
+        let actor = black_box([None; MAX_MARKERS]);
+        let mut state = PlayState::new();
+        black_box(rig.play(&mut state, &actor[..m], &mut out[..v]).is_ok());
         black_box(&out);
     }
     #[cfg(feature = "float-canary")]

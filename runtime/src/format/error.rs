@@ -289,6 +289,16 @@ pub enum StagesLoadError {
     },
     /// `alpha_shift` above `MAX_ALPHA_SHIFT` or `linear_shift` outside `LINEAR_SHIFTS`.
     BadShift,
+    /// `head_tolerance` is not in (0, `INPUT_LIMIT`].
+    BadHeadTolerance,
+    /// `max_step` is not in (0, `INPUT_LIMIT`].
+    BadMaxStep,
+    /// The smoothing's `min_cutoff` is not in [1, `MAX_CUTOFF`].
+    BadMinCutoff,
+    /// The smoothing's `speed_gain` is above `MAX_SPEED_GAIN`.
+    BadSpeedGain,
+    /// The smoothing's `derivative_cutoff` is not in [1, `MAX_CUTOFF`].
+    BadDerivativeCutoff,
 }
 
 /// A section of the capture stages, for [`StagesLoadError::SectionLength`].
@@ -355,6 +365,15 @@ impl core::fmt::Display for StagesLoadError {
                 )
             }
             Self::BadShift => f.write_str("retarget scale exponent out of range"),
+            Self::BadHeadTolerance => {
+                f.write_str("head-marker distance tolerance must be in (0, 64] actor units")
+            }
+            Self::BadMaxStep => f.write_str("max step must be in (0, 64] actor units per frame"),
+            Self::BadMinCutoff => f.write_str("smoothing minimum cutoff must be in (0, 256]"),
+            Self::BadSpeedGain => f.write_str("smoothing speed gain must be at most 2^14"),
+            Self::BadDerivativeCutoff => {
+                f.write_str("smoothing speed cutoff must be in (0, 256]")
+            }
         }
     }
 }

@@ -26,7 +26,7 @@ use crate::format::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 2): every section, in encoding order.
+/// The payload of a rig blob (format version 3): every section, in encoding order.
 ///
 /// # Shared sections
 ///
@@ -102,6 +102,9 @@ use crate::stages::Stages;
 /// | `fill` | marker | [`records::FILL_NEIGHBOURS`] packed words: neighbour index, Q8.16 weight ≥ 0 (0: unused) |
 /// | `retarget` | — | one of [`crate::stages::retarget::Retarget`], below |
 /// | `anchors` | anchor | `u8` marker index, strictly ascending, not a head marker, no fill neighbours |
+/// | `head_tolerance` | — | varint `i32`, Q8.24 actor units, in (0, 64]: how far a head-marker pair's distance may stray from neutral |
+/// | `max_step` | — | varint `i32`, Q8.24 actor units per frame, in (0, 64]: the step gate |
+/// | `smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`], below |
 ///
 /// Retargeting, variant 0, **rbf** ([`crate::stages::retarget::RbfRetarget`]):
 ///
@@ -122,8 +125,17 @@ use crate::stages::Stages;
 /// | `matrices` | marker | 9 × `i32` LE, row-major, scale `2^−shift` ([`records::MATRIX3_BYTES`]) |
 /// | `rest` | marker | 3 × `i32` LE, Q8.24 rig units |
 ///
-/// Version 2 added the optional capture stages; version 1 blobs are rejected with
-/// [`LoadError::UnsupportedVersion`] (re-bake them).
+/// Smoothing ([`crate::stages::smoothing::Smoothing`], per frame at the capture's rate):
+///
+/// | section | per item | contents |
+/// |---|---|---|
+/// | `min_cutoff` | — | varint `u32`, Q16.16, in [1, 2²⁴]: 2π f_min / rate |
+/// | `speed_gain` | — | varint `u32`, Q16.16, at most 2³⁰: cutoff added per actor unit per frame of speed |
+/// | `derivative_cutoff` | — | varint `u32`, Q16.16, in [1, 2²⁴]: 2π f_d / rate |
+///
+/// Version 2 added the optional capture stages, version 3 their `head_tolerance`, `max_step`
+/// and `smoothing`; older blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
+/// them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigData<'a> {
     /// Rig units in the asset's space.

@@ -116,9 +116,13 @@ fn transform(
 pub enum FitFailure {
     /// Fewer than three head markers present.
     TooFew,
-    /// The present head markers are (nearly) collinear in the neutral frame: a rotation about
-    /// their line is undetermined.
+    /// The present head markers are (nearly) collinear or coincident, in the neutral frame or
+    /// in this one: a rotation about their line is undetermined.
     Collinear,
+    /// Fewer than three of the present head markers kept their mutual distances from the
+    /// neutral frame (within the rig's `head_tolerance`): the others were swapped, jumped or
+    /// ghosts, and no rigid motion can be trusted.
+    NotRigid,
 }
 
 /// Corresponding head-marker positions: neutral and current, Q8.24, at most
@@ -173,6 +177,56 @@ impl HeadPairs {
         self.len = out;
     }
 
+    /// The pair whose leaving out gives the fit of the others with the smallest largest
+    /// residual, or `None` when no fit of the others is possible. One fit per pair.
+    pub fn best_left_out(&self) -> Option<usize> {
+        (0..self.len)
+            .filter_map(|out| {
+                let mut others = HeadPairs::new();
+                for i in (0..self.len).filter(|&i| i != out) {
+                    others.push(self.neutral[i], self.current[i]);
+                }
+                let fit = others.fit().ok()?;
+                let worst = (0..others.len).map(|i| others.residual(&fit, i)).max()?;
+                Some((worst, out))
+            })
+            .min()
+            .map(|(_, out)| out)
+    }
+
+    /// Whether the current points are (nearly) collinear or coincident (see [`Self::fit`]).
+    pub fn current_collinear(&self) -> bool {
+        let cq = centroid(&self.current[..self.len]);
+        collinear(self.current[..self.len].iter().map(|&q| {
+            [0, 1, 2]
+                .map(|k| (i64::from(q[k]) - i64::from(cq[k])).clamp(-CENTRED_LIMIT, CENTRED_LIMIT))
+        }))
+    }
+
+    /// Which pairs keep the shape of the neutral head: pair `i` is kept unless the distances
+    /// from it to more than half of the other pairs changed by more than `tolerance` (Q8.24)
+    /// from the neutral frame. A rigid motion keeps every distance, so a swapped, jumped or
+    /// ghost head marker breaks most of its own distances and few of anyone else's. Bit `i` of
+    /// the result is set for a kept pair. Cost: one comparison of two integer distances per
+    /// pair of pairs (at most 32 · 31 / 2).
+    pub fn rigid(&self, tolerance: i32) -> u32 {
+        let n = self.len;
+        let mut broken = [0u8; MAX_HEAD_MARKERS];
+        for i in 0..n {
+            for k in i + 1..n {
+                let dn = distance(self.neutral[i], self.neutral[k]);
+                let dc = distance(self.current[i], self.current[k]);
+                if (i64::from(dc) - i64::from(dn)).abs() > i64::from(tolerance) {
+                    broken[i] += 1;
+                    broken[k] += 1;
+                }
+            }
+        }
+        (0..n)
+            .filter(|&i| 2 * usize::from(broken[i]) < n)
+            .fold(0, |mask, i| mask | (1 << i))
+    }
+
     /// Per pair, the distance between the fitted neutral point and the current one, Q8.24
     /// (saturated to 2²⁸).
     pub fn residual(&self, fit: &RigidFit, i: usize) -> i32 {
@@ -214,7 +268,9 @@ impl HeadPairs {
             [0, 1, 2]
                 .map(|k| (i64::from(p[k]) - i64::from(c[k])).clamp(-CENTRED_LIMIT, CENTRED_LIMIT))
         };
-        if collinear(self.neutral[..n].iter().map(|&p| centred(p, cn))) {
+        if collinear(self.neutral[..n].iter().map(|&p| centred(p, cn)))
+            || collinear(self.current[..n].iter().map(|&q| centred(q, cq)))
+        {
             return Err(FitFailure::Collinear);
         }
         let mut s = [[0i64; 3]; 3];
@@ -234,6 +290,18 @@ impl HeadPairs {
             current_centroid: cq,
         })
     }
+}
+
+/// ⌊‖a − b‖⌋ for positions within the `i32` range: each squared difference is below 2⁶², their
+/// sum below 3 · 2⁶² < 2⁶⁴.
+fn distance(a: [i32; 3], b: [i32; 3]) -> u32 {
+    let sq: u64 = (0..3)
+        .map(|c| {
+            let d = i64::from(a[c]) - i64::from(b[c]);
+            (d * d) as u64
+        })
+        .sum();
+    isqrt_u64(sq)
 }
 
 /// Mean of at most 32 points, rounded to nearest.
@@ -455,6 +523,56 @@ mod tests {
         assert_eq!(pairs.fit(), Err(FitFailure::Collinear));
         pairs.push([0, 1 << 24, 0], [0, 1 << 24, 0]);
         assert!(pairs.fit().is_ok());
+    }
+
+    /// Spread neutral markers whose current positions lie on one line (or on one point) are
+    /// refused: the neutral check alone let them through.
+    #[test]
+    fn collinear_or_coincident_current_markers_are_reported() {
+        let neutral = [[0, 0, 0], [1 << 24, 0, 0], [0, 1 << 24, 0], [0, 0, 1 << 24]];
+        for current in [
+            [[0, 0, 0], [1 << 24, 0, 0], [2 << 24, 0, 0], [3 << 24, 1, 0]],
+            [[5 << 20, 0, 0]; 4],
+        ] {
+            let mut pairs = HeadPairs::new();
+            for (p, q) in neutral.iter().zip(&current) {
+                pairs.push(*p, *q);
+            }
+            assert!(pairs.current_collinear());
+            assert_eq!(pairs.fit(), Err(FitFailure::Collinear));
+        }
+    }
+
+    /// A head marker moved off the rigid shape is the only one the distance check drops, for
+    /// four markers and for three; under a rigid motion every marker is kept.
+    #[test]
+    fn the_distance_check_drops_the_marker_that_broke_the_shape() {
+        let neutral = [
+            [0, 0, 0],
+            [1 << 24, 0, 0],
+            [0, 1 << 24, 0],
+            [0, 0, 1 << 24],
+        ];
+        let tolerance = 1 << 20;
+        for n in [3, 4] {
+            for moved in 0..n {
+                let mut pairs = HeadPairs::new();
+                for (i, p) in neutral.iter().enumerate().take(n) {
+                    // Turned 90° about z and shifted; marker `moved` also jumps 0.5 units.
+                    let mut q = [-p[1] + (3 << 24), p[0], p[2] - (1 << 23)];
+                    if i == moved {
+                        q[2] += 8 << 20;
+                    }
+                    pairs.push(*p, q);
+                }
+                assert_eq!(pairs.rigid(tolerance), ((1 << n) - 1) & !(1 << moved), "{n} {moved}");
+            }
+        }
+        let mut pairs = HeadPairs::new();
+        for p in neutral {
+            pairs.push(p, [p[2], p[0], p[1]]);
+        }
+        assert_eq!(pairs.rigid(tolerance), 0b1111);
     }
 
     #[test]

@@ -6,17 +6,33 @@
 //! 1. **Input check.** A marker is missing when the caller says so (`None`) or when a coordinate
 //!    lies beyond ±64 actor units ([`INPUT_LIMIT`]); the latter is reported as rejected. Static
 //!    anchors ignore their samples.
-//! 2. **Head-motion compensation** ([`compensate`]): the least-squares rigid motion of the present
-//!    head markers from the neutral frame (Horn's quaternion method in fixed point). A head
-//!    marker whose residual exceeds `max_displacement` is dropped and the fit done once more.
-//!    With fewer than three usable head markers, or collinear ones, the last good fit is held.
+//! 2. **Head-motion compensation** ([`compensate`]): the present head markers must keep the
+//!    neutral head's shape: one whose distances to more than half of the others changed by more
+//!    than `head_tolerance` is rejected (a swapped, jumped or ghost head marker). Then the
+//!    least-squares rigid motion of the rest from the neutral frame (Horn's quaternion method in
+//!    fixed point); the head marker furthest from the fit, if further than `head_tolerance`, is
+//!    rejected and the fit done once more. With fewer than three usable head markers, or collinear or coincident
+//!    ones (in the neutral frame or in this one), the last good fit is held and the report says
+//!    why ([`RigidStatus::Held`]).
 //! 3. **Plausibility.** A compensated marker further than `max_displacement` from its neutral
-//!    position is rejected (a swapped or ghost marker).
+//!    position is rejected (a ghost marker), and so is one that moved further than
+//!    `max_step` × the frames since its last good displacement (a swap or a jump: reported in
+//!    [`FrameReport::jumped`] too). The growing bound lets a marker that really moved that far
+//!    back in after a few frames.
 //! 4. **Fill** ([`fill`]): a missing or rejected marker moves with the weighted mean displacement
 //!    of its present baked neighbours; with none present it holds its last good displacement
 //!    (zero if it was never seen).
-//! 5. **Retargeting** ([`retarget`]): the baked map carries each compensated actor marker into
+//! 5. **Smoothing** ([`smoothing`], optional): a one-euro filter on every marker's displacement,
+//!    in the head's frame; its lag when still is [`smoothing::Smoothing::still_lag_frames`]. The
+//!    head fit's own jitter moves every compensated marker rigidly and is filtered here with the
+//!    rest, so it is not multiplied by the lever arm into the face; the head markers themselves
+//!    are not smoothed before the fit, so head motion is compensated without lag (smoothing them
+//!    lagged a moving head by up to 8 mm of face on JawMoCap).
+//! 6. **Retargeting** ([`retarget`]): the baked map carries each compensated actor marker into
 //!    the character's rig space.
+//!
+//! `max_step` and the smoothing are per frame at the rate of the capture the stages were baked
+//! from; a stream at another rate plays, with the bound and the lag scaled by the ratio.
 //!
 //! [`report`] says what happened to each marker. Each step's module validates its part of the
 //! section at load ([`crate::format::error::StagesLoadError`]). Every loop runs a number of times
@@ -26,6 +42,7 @@ pub mod compensate;
 pub mod fill;
 pub mod report;
 pub mod retarget;
+pub mod smoothing;
 
 use serde::{Deserialize, Serialize};
 
@@ -34,9 +51,10 @@ use crate::format::records::{
     read_position, Bytes, FILL_BYTES, MAX_MARKERS, POSITION_BYTES,
 };
 use crate::space::Space;
-use crate::stages::compensate::{HeadPairs, RigidFit, MAX_HEAD_MARKERS};
+use crate::stages::compensate::{FitFailure, HeadPairs, RigidFit, MAX_HEAD_MARKERS};
 use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
 use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
+use crate::stages::smoothing::{MarkerFilter, Smoothing};
 
 /// Largest accepted input coordinate magnitude: 64 actor units in Q8.24.
 pub const INPUT_LIMIT: i32 = 1 << 30;
@@ -69,6 +87,14 @@ pub struct Stages<'a> {
     /// displacement: the character's markers stay at rest and pin the skin around them.
     #[serde(borrow)]
     pub anchors: Bytes<'a>,
+    /// Largest change of a head-marker pair's distance from the neutral frame that keeps the
+    /// pair rigid, Q8.24 actor units, in (0, [`INPUT_LIMIT`]].
+    pub head_tolerance: i32,
+    /// Largest plausible movement of a compensated marker from one frame to the next, Q8.24
+    /// actor units per frame, in (0, [`INPUT_LIMIT`]].
+    pub max_step: i32,
+    /// The smoothing filter, or none.
+    pub smoothing: Option<Smoothing>,
 }
 
 
@@ -111,6 +137,15 @@ impl<'a> Stages<'a> {
         if !(1..=INPUT_LIMIT).contains(&self.max_displacement) {
             return Err(StagesLoadError::BadMaxDisplacement);
         }
+        if !(1..=INPUT_LIMIT).contains(&self.head_tolerance) {
+            return Err(StagesLoadError::BadHeadTolerance);
+        }
+        if !(1..=INPUT_LIMIT).contains(&self.max_step) {
+            return Err(StagesLoadError::BadMaxStep);
+        }
+        if let Some(smoothing) = &self.smoothing {
+            smoothing.validate()?;
+        }
         fill::validate(self.fill, markers)?;
         if !anchors
             .iter()
@@ -148,8 +183,13 @@ impl<'a> Stages<'a> {
         StagesCost {
             markers,
             head_markers: head,
-            rigid_fits: if head > 0 { 2 } else { 0 },
-            horn_squarings: if head > 0 { 2 * compensate::SQUARINGS } else { 0 },
+            head_distance_checks: head * head.saturating_sub(1) / 2,
+            rigid_fits: if head > 0 { head + 2 } else { 0 },
+            horn_squarings: if head > 0 {
+                (head + 2) * compensate::SQUARINGS
+            } else {
+                0
+            },
             fill_terms: markers * crate::format::records::FILL_NEIGHBOURS,
             retarget_kernels: match self.retarget {
                 Retarget::Rbf(_) => markers * markers,
@@ -159,6 +199,8 @@ impl<'a> Stages<'a> {
                 Retarget::Rbf(_) => 3 * markers * markers + 9 * markers,
                 Retarget::Proportional(_) => 9 * markers,
             },
+            step_checks: markers,
+            smoothed_markers: if self.smoothing.is_some() { markers } else { 0 },
         }
     }
 
@@ -185,7 +227,7 @@ impl<'a> Stages<'a> {
             }
         }
 
-        let fit = self.fit_head(state, actor, &present, &mut report);
+        let fit = self.fit_head(state, actor, &mut present, &mut report);
 
         let mut displacement = [[0i32; 3]; MAX_MARKERS];
         let limit = i64::from(self.max_displacement);
@@ -198,12 +240,22 @@ impl<'a> Stages<'a> {
             };
             let a = fit.compensate(*p);
             let d = [0, 1, 2].map(|c| i64::from(a[c]) - i64::from(u[c]));
-            // The squares are only formed once every |d| ≤ limit ≤ 2^30: below 2^62 in all.
-            let far = d.iter().any(|v| v.abs() > limit)
-                || d.iter().map(|v| v * v).sum::<i64>() > limit * limit;
-            if far {
+            let far = beyond(d, limit);
+            // The bound grows with the frames since the last good displacement, so a marker
+            // that really moved that far is let back in after a few frames.
+            let gap = i64::from(state.gap[j]) + 1;
+            let step = (i64::from(self.max_step) * gap).min(i64::from(INPUT_LIMIT));
+            let last = state.last[j];
+            // Both |d| and |last| are at most max_displacement ≤ 2^30 here.
+            let jumped = !far
+                && state.seen.contains(j)
+                && beyond([0, 1, 2].map(|c| d[c] - i64::from(last[c])), step);
+            if far || jumped {
                 present.remove(j);
                 report.rejected.insert(j);
+                if jumped {
+                    report.jumped.insert(j);
+                }
             } else {
                 // |d| ≤ max_displacement ≤ 2^30.
                 *slot = d.map(|v| v as i32);
@@ -214,8 +266,10 @@ impl<'a> Stages<'a> {
             if present.contains(j) {
                 state.last[j] = displacement[j];
                 state.seen.insert(j);
+                state.gap[j] = 0;
                 continue;
             }
+            state.gap[j] = state.gap[j].saturating_add(1);
             let words = self
                 .fill
                 .0
@@ -234,6 +288,18 @@ impl<'a> Stages<'a> {
             }
         }
 
+        if let Some(smoothing) = &self.smoothing {
+            for (j, (d, filter)) in displacement
+                .iter_mut()
+                .zip(state.filters.iter_mut())
+                .enumerate()
+                .take(markers)
+            {
+                *d = smoothing.step(filter, *d, !state.filtering.contains(j));
+                state.filtering.insert(j);
+            }
+        }
+
         for (j, (o, d)) in out.iter_mut().zip(&displacement).enumerate().take(markers) {
             let u = self.neutral(j).unwrap_or([0; 3]);
             *o = self.retarget.map(self.actor_neutral.0, j, u, *d);
@@ -241,12 +307,13 @@ impl<'a> Stages<'a> {
         report
     }
 
-    /// Step 2 of the module docs: the head fit of this frame, or the one held.
+    /// Step 2 of the module docs: the head fit of this frame, or the one held. Head markers that
+    /// broke the head's shape are taken out of `present` and reported as rejected.
     fn fit_head(
         &self,
         state: &mut PlayState,
         actor: &[Option<[i32; 3]>],
-        present: &MarkerSet,
+        present: &mut MarkerSet,
         report: &mut FrameReport,
     ) -> RigidFit {
         if self.head_markers.0.is_empty() {
@@ -254,29 +321,61 @@ impl<'a> Stages<'a> {
             return RigidFit::IDENTITY;
         }
         let mut pairs = HeadPairs::new();
+        // Per pair: its marker.
+        let mut which = [0usize; MAX_HEAD_MARKERS];
         for &h in self.head_markers.0 {
             let h = usize::from(h);
             if let (true, Some(Some(q)), Some(p)) =
                 (present.contains(h), actor.get(h), self.neutral(h))
             {
+                if let Some(slot) = which.get_mut(pairs.len()) {
+                    *slot = h;
+                }
                 pairs.push(p, *q);
             }
         }
-        let mut fitted = pairs.fit();
-        if let Ok(fit) = fitted {
-            let limit = self.max_displacement;
-            let before = pairs.len();
-            let residuals: [i32; MAX_HEAD_MARKERS] = core::array::from_fn(|i| {
-                if i < before {
-                    pairs.residual(&fit, i)
-                } else {
-                    0
+        let mut fitted = if pairs.len() >= 3 && pairs.current_collinear() {
+            Err(FitFailure::Collinear)
+        } else {
+            let given = pairs.len();
+            let kept = pairs.rigid(self.head_tolerance);
+            for (i, &h) in which.iter().enumerate().take(given) {
+                if kept & (1 << i) == 0 {
+                    present.remove(h);
+                    report.rejected.insert(h);
                 }
-            });
-            pairs.retain(|i| residuals[i] <= limit);
-            if pairs.len() < before {
-                report.head_markers_dropped = (before - pairs.len()) as u8;
-                fitted = pairs.fit();
+            }
+            pairs.retain(|i| kept & (1 << i) != 0);
+            let mut at = 0;
+            for i in 0..given {
+                if kept & (1 << i) != 0 {
+                    which[at] = which[i];
+                    at += 1;
+                }
+            }
+            report.head_markers_dropped = (given - pairs.len()) as u8;
+            match pairs.fit() {
+                Err(FitFailure::TooFew) if given >= 3 => Err(FitFailure::NotRigid),
+                other => other,
+            }
+        };
+        if let Ok(fit) = fitted {
+            // A head marker off the fit by more than the head tolerance (a jump across the
+            // other markers' distances barely changes them, but it does not move with the
+            // rest): the one whose leaving out fits the others best is dropped, and the fit
+            // done once more. The least-squares fit spreads one marker's error over all, so the
+            // furthest marker is not always the culprit.
+            let off = (0..pairs.len()).any(|i| pairs.residual(&fit, i) > self.head_tolerance);
+            if let Some(w) = off.then(|| pairs.best_left_out()).flatten() {
+                let h = which[w];
+                present.remove(h);
+                report.rejected.insert(h);
+                pairs.retain(|i| i != w);
+                report.head_markers_dropped += 1;
+                fitted = match pairs.fit() {
+                    Err(FitFailure::TooFew) => Err(FitFailure::NotRigid),
+                    other => other,
+                };
             }
         }
         match fitted {
@@ -297,6 +396,12 @@ impl<'a> Stages<'a> {
 }
 
 
+/// Whether the vector `d` is longer than `limit` (at most 2³⁰). The squares are only formed
+/// once every |dᵢ| ≤ limit: below 2⁶² in all.
+fn beyond(d: [i64; 3], limit: i64) -> bool {
+    d.iter().any(|v| v.abs() > limit) || d.iter().map(|v| v * v).sum::<i64>() > limit * limit
+}
+
 /// The work of one frame of the capture stages.
 #[cfg(feature = "format")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -305,7 +410,11 @@ pub struct StagesCost {
     pub markers: usize,
     /// Head markers.
     pub head_markers: usize,
-    /// Rigid fits at most (one, plus one after dropping outlying head markers).
+    /// Head-marker pairs whose current and neutral distances are compared (two integer square
+    /// roots each).
+    pub head_distance_checks: usize,
+    /// Rigid fits at most: one, then with a head marker off it, one per head marker left out
+    /// and one without the worst.
     pub rigid_fits: usize,
     /// 4 × 4 matrix squarings at most.
     pub horn_squarings: usize,
@@ -318,14 +427,24 @@ pub struct StagesCost {
     /// Multiply-adds: the RBF map's radial terms (3 per evaluation) and affine part, or the
     /// per-marker matrices.
     pub retarget_multiply_adds: usize,
+    /// Markers checked against `max_step` (one squared distance each).
+    pub step_checks: usize,
+    /// Markers smoothed (one integer square root and two divisions each; 0 without
+    /// smoothing).
+    pub smoothed_markers: usize,
 }
 
-/// What the capture stages remember between frames: the last good displacement of every marker
-/// and the last good head fit. About 3 KB; no allocation.
+/// What the capture stages remember between frames: the last good displacement of every marker,
+/// the frames since it, the smoothing filter's state and the last good head fit. About 10 KB; no
+/// allocation.
 #[derive(Clone, Debug)]
 pub struct PlayState {
     last: [[i32; 3]; MAX_MARKERS],
     seen: MarkerSet,
+    /// Per marker, frames since its last good displacement (saturating).
+    gap: [u16; MAX_MARKERS],
+    filters: [MarkerFilter; MAX_MARKERS],
+    filtering: MarkerSet,
     fit: Option<RigidFit>,
 }
 
@@ -341,6 +460,9 @@ impl PlayState {
         Self {
             last: [[0; 3]; MAX_MARKERS],
             seen: MarkerSet::EMPTY,
+            gap: [0; MAX_MARKERS],
+            filters: [MarkerFilter::ZERO; MAX_MARKERS],
+            filtering: MarkerSet::EMPTY,
             fit: None,
         }
     }

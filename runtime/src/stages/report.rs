@@ -70,10 +70,15 @@ pub struct FrameReport {
     pub rigid: RigidStatus,
     /// RMS distance of the fitted head markers from their rigid positions, Q8.24 actor units.
     pub rigid_residual: i32,
-    /// Head markers dropped from the fit for a residual above `max_displacement`.
+    /// Head markers dropped from the fit (also in [`Self::rejected`]): for breaking the head's
+    /// shape, or for a residual above `head_tolerance`.
     pub head_markers_dropped: u8,
-    /// Markers given but rejected (coordinates out of range, or implausibly far from neutral).
+    /// Markers given but rejected (coordinates out of range, a head marker that broke the
+    /// head's shape, implausibly far from neutral, or a jump).
     pub rejected: MarkerSet,
+    /// Of [`Self::rejected`], the markers that moved further than `max_step` × the frames since
+    /// their last good displacement (a swap or a jump).
+    pub jumped: MarkerSet,
     /// Markers rebuilt from their neighbours.
     pub rebuilt: MarkerSet,
     /// Markers held at their last good displacement (or neutral if never seen).

@@ -17,6 +17,7 @@ use facebake::io::mask_sides::read_vertex_sides;
 use facebake::model::{
     place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
+use facebake::stages::temporal::SmoothingConfig;
 use facebake::surface::SideRule;
 use facebake::{
     BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
@@ -128,6 +129,21 @@ pub struct BakeArgs {
     /// rebuilt, as a fraction of the actor's half extent.
     #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, value_parser = parse_positive, requires = "capture")]
     pub max_displacement: f64,
+    /// How far a head-marker pair's distance may stray from the neutral frame before the head
+    /// marker that broke the head's shape is rejected, as a fraction of the actor's half extent
+    /// (default: learned, twice the capture's largest such change, at least 0.02).
+    #[arg(long, value_name = "F", requires = "capture")]
+    pub head_tolerance: Option<f64>,
+    /// A compensated marker that moves further than this in one frame (a swap or a jump) is
+    /// rejected and rebuilt, as a fraction of the actor's half extent (default: learned, 8 × the
+    /// capture's 99.9th percentile per-frame movement, at least 0.02).
+    #[arg(long, value_name = "F", requires = "capture")]
+    pub max_step: Option<f64>,
+    /// The one-euro smoothing of the compensated markers: `MIN_HZ,BETA,SPEED_HZ` (cutoff when
+    /// still, Hz added per m/s of speed, cutoff of the speed estimate), or `off`. Its lag when
+    /// still is rate / (2π MIN_HZ) frames.
+    #[arg(long, value_name = "PARAMS", default_value = "1,10,1", value_parser = parse_smoothing, requires = "capture")]
+    pub smoothing: SmoothingChoice,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
     #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
@@ -191,6 +207,9 @@ impl BakeArgs {
                 retarget: self.retarget.into(),
                 virtual_markers: self.virtual_markers.clone(),
                 anchor_markers: self.anchor_markers.clone(),
+                head_tolerance: self.head_tolerance,
+                max_step: self.max_step,
+                smoothing: self.smoothing.0,
                 ..StagesConfig::default()
             },
             anchoring: if self.no_anchoring { None } else { d.anchoring },
@@ -540,6 +559,19 @@ fn print_text(s: &BakeSummary) {
             st.retarget_condition,
             st.max_alpha_rounding
         );
+        outln!(
+            out,
+            "  checks        head-marker distances within {:.2} mm; steps over {:.2} mm per frame rejected; smoothing {}",
+            st.head_tolerance * 1000.0,
+            st.max_step * 1000.0,
+            match &st.smoothing {
+                Some(f) => format!(
+                    "one-euro {} Hz, beta {}, speed {} Hz (lag when still {} frames)",
+                    f.min_cutoff_hz, f.beta, f.derivative_cutoff_hz, st.smoothing_lag_frames
+                ),
+                None => "off".to_string(),
+            }
+        );
         if !st.virtual_markers.is_empty() {
             outln!(
                 out,
@@ -592,6 +624,36 @@ pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
                 .ok_or_else(|| format!("{s}: frame number too large"))?;
             Ok(n..end)
         }
+    }
+}
+
+/// `--smoothing`: the filter's parameters, or `None` for `off`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmoothingChoice(pub Option<SmoothingConfig>);
+
+/// Parse `--smoothing`: `off` or `MIN_HZ,BETA,SPEED_HZ`, each finite and non-negative.
+pub fn parse_smoothing(s: &str) -> Result<SmoothingChoice, String> {
+    if s.trim() == "off" {
+        return Ok(SmoothingChoice(None));
+    }
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{s:?} is not `off` or three numbers MIN_HZ,BETA,SPEED_HZ"))?;
+    match v[..] {
+        [min_cutoff_hz, beta, derivative_cutoff_hz]
+            if v.iter().all(|x| x.is_finite() && *x >= 0.0) =>
+        {
+            Ok(SmoothingChoice(Some(SmoothingConfig {
+                min_cutoff_hz,
+                beta,
+                derivative_cutoff_hz,
+            })))
+        }
+        _ => Err(format!(
+            "{s:?} is not `off` or three non-negative numbers MIN_HZ,BETA,SPEED_HZ"
+        )),
     }
 }
 

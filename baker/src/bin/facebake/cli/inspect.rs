@@ -158,6 +158,12 @@ pub struct CaptureSummary {
     pub actor_half_extent_m: f32,
     /// Largest plausible compensated displacement, metres.
     pub max_displacement_m: f64,
+    /// Head-marker distance tolerance, metres.
+    pub head_tolerance_m: f64,
+    /// Largest plausible movement per frame, metres.
+    pub max_step_m: f64,
+    /// The smoothing's lag when still, frames; `None` without smoothing.
+    pub smoothing_lag_frames: Option<u32>,
     /// Per-frame work.
     pub cost: String,
 }
@@ -263,13 +269,21 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                 actor_half_extent_m: st.actor_space.half_extent,
                 max_displacement_m: f64::from(st.max_displacement) / f64::from(1u32 << 24)
                     * f64::from(st.actor_space.half_extent),
+                head_tolerance_m: f64::from(st.head_tolerance) / f64::from(1u32 << 24)
+                    * f64::from(st.actor_space.half_extent),
+                max_step_m: f64::from(st.max_step) / f64::from(1u32 << 24)
+                    * f64::from(st.actor_space.half_extent),
+                smoothing_lag_frames: st.smoothing.map(|f| f.still_lag_frames()),
                 cost: format!(
-                    "{} markers: at most {} rigid fits of {} head markers ({} 4×4 squarings), {} fill terms, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
+                    "{} markers: {} head-marker distance checks, at most {} rigid fits of {} head markers ({} 4×4 squarings), {} step checks, {} fill terms, {} smoothed markers, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
                     c.markers,
+                    c.head_distance_checks,
                     c.rigid_fits,
                     c.head_markers,
                     c.horn_squarings,
+                    c.step_checks,
                     c.fill_terms,
+                    c.smoothed_markers,
                     match st.retarget {
                         Retarget::Rbf(_) => "RBF",
                         Retarget::Proportional(_) => "proportional",
@@ -378,6 +392,14 @@ fn print_text(s: &InspectSummary) {
             c.actor_half_extent_m * 1000.0,
             c.max_displacement_m * 1000.0,
             sec.stages
+        );
+        outln!(
+            out,
+            "  checks        head-marker distances within {:.2} mm; steps over {:.2} mm per frame rejected; smoothing {}",
+            c.head_tolerance_m * 1000.0,
+            c.max_step_m * 1000.0,
+            c.smoothing_lag_frames
+                .map_or("off".to_string(), |l| format!("one-euro, lag when still {l} frames"))
         );
         outln!(out, "  per frame     + capture stages: {}", c.cost);
     }

@@ -76,7 +76,10 @@ pub fn run(
     scene.capture = Some(&capture);
     // What `facebake bake --capture` does with no other flag: the product's default rig, head
     // markers picked among the skull markers.
-    let options = BakeOptions::for_method(facebake::Method::Geodesic, false);
+    let mut options = BakeOptions::for_method(facebake::Method::Geodesic, false);
+    // No smoothing: the demo measures the runtime against the f64 reference, which has none
+    // (and a clean capture needs none).
+    options.stages.smoothing = None;
     let baked = facebake::bake(&scene, &options).map_err(|e| match e {
         BakeError::Stages(_) => CliError::input(&capture_path, e.to_string()),
         _ => CliError::Bake {
