@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The C ABI from C and C++: builds facebake-ffi (release), compiles ffi/examples/c and
-# ffi/examples/cpp with the system compilers against the static library and the checked-in
-# header, plays every golden rig and take through them, and compares their per-frame hashes
-# with fixtures/golden/hashes.txt and hashes_planar.txt (exact match of every frame and
-# sequence line; the files are read at run time, so a re-bless of the goldens needs no change
-# here). Exits non-zero on any difference.
+# ffi/examples/cpp with the system compilers against the checked-in header and the static
+# library (the C one against the shared library too), plays every golden rig and take through
+# them, and compares their per-frame hashes with fixtures/golden/hashes.txt and
+# hashes_planar.txt (exact match of every frame and sequence line; the files are read at run
+# time, so a re-bless of the goldens needs no change here). Also compiles the README's C
+# example. Exits non-zero on any difference.
 set -euo pipefail
 export LC_ALL=C
 cd "$(dirname "$0")/.."
@@ -21,8 +22,19 @@ libs=(-lpthread -ldl -lm)
 
 "$CC" -std=c11 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
   ffi/examples/c/play_golden.c "$lib" "${libs[@]}" -o "$out/play_golden_c"
+# The same C program against the shared library, to show the dynamic build works too.
+"$CC" -std=c11 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
+  ffi/examples/c/play_golden.c -L target/release -lfacebake_ffi -Wl,-rpath,"$PWD/target/release" \
+  -o "$out/play_golden_c_shared"
 "$CXX" -std=c++17 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
   ffi/examples/cpp/play_golden.cpp "$lib" "${libs[@]}" -o "$out/play_golden_cpp"
+
+# The README's C example compiles as printed (with a main added).
+awk '/^## From C/ {c = 1} c && /^```c$/ {p = 1; next} p && /^```$/ {exit} p' ffi/README.md \
+  > "$out/readme.c"
+printf 'int main(void) { return 0; }\n' >> "$out/readme.c"
+"$CC" -std=c11 -Wall -Wextra -Wpedantic -Werror -I ffi/include "$out/readme.c" "$lib" \
+  "${libs[@]}" -o "$out/readme_c"
 
 # The golden lines the examples must reproduce, in file order.
 pattern='^(coefficients|weights|coefficients_k4|planar|capture) (frame [0-9]+|sequence) [0-9a-f]{16}$'
@@ -31,7 +43,7 @@ cat fixtures/golden/hashes.txt fixtures/golden/hashes_planar.txt | grep -E "$pat
 expected_lines=$(wc -l < "$out/expected.txt")
 
 status=0
-for lang in c cpp; do
+for lang in c c_shared cpp; do
   "$out/play_golden_$lang" fixtures/golden > "$out/$lang.txt" 2> "$out/$lang.log" || {
     cat "$out/$lang.log" >&2
     echo "ffi: the $lang example failed" >&2
