@@ -5,7 +5,8 @@
 # them, and compares their per-frame hashes with fixtures/golden/hashes.txt and
 # hashes_planar.txt (exact match of every frame and sequence line; the files are read at run
 # time, so a re-bless of the goldens needs no change here). Also compiles the README's C
-# example. Exits non-zero on any difference.
+# example, and builds the no_std static library for thumbv7em-none-eabihf (firmware in C).
+# Exits non-zero on any difference.
 set -euo pipefail
 export LC_ALL=C
 cd "$(dirname "$0")/.."
@@ -35,6 +36,21 @@ awk '/^## From C/ {c = 1} c && /^```c$/ {p = 1; next} p && /^```$/ {exit} p' ffi
 printf 'int main(void) { return 0; }\n' >> "$out/readme.c"
 "$CC" -std=c11 -Wall -Wextra -Wpedantic -Werror -I ffi/include "$out/readme.c" "$lib" \
   "${libs[@]}" -o "$out/readme_c"
+
+# Firmware: the no_std build for a Cortex-M4F. Both static libraries define every function the
+# header declares.
+rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
+cargo build -p facebake-ffi --release --no-default-features --target thumbv7em-none-eabihf
+declared=$(grep -oE '\bfb_[a-z0-9_]+\(' ffi/include/facebake.h | tr -d '(' | sort -u)
+for archive in "$lib" target/thumbv7em-none-eabihf/release/libfacebake_ffi.a; do
+  defined=$(nm -g --defined-only "$archive" 2>/dev/null | awk '$2 == "T" && $3 ~ /^fb_/ {print $3}' | sort -u)
+  if [ "$declared" != "$defined" ]; then
+    diff <(echo "$declared") <(echo "$defined") >&2 || true
+    echo "ffi: $archive does not define exactly the functions facebake.h declares" >&2
+    exit 1
+  fi
+done
+echo "ffi: $(echo "$declared" | wc -l) functions declared, defined by the host and thumbv7em static libraries"
 
 # The golden lines the examples must reproduce, in file order.
 pattern='^(coefficients|weights|coefficients_k4|planar|capture) (frame [0-9]+|sequence) [0-9a-f]{16}$'

@@ -22,9 +22,17 @@
 //!
 //! # Panics
 //!
-//! None are expected: the runtime never panics and this crate indexes nothing unchecked. Every
-//! function that does work still runs inside `catch_unwind`, so a bug would return
-//! `FB_ERROR_INTERNAL` instead of unwinding into C.
+//! None are expected: the runtime never panics and this crate indexes nothing unchecked (every
+//! slice it cuts is bounded by the rig's marker count, at most `FB_MAX_MARKERS`). With the
+//! default `std` feature every function that does work still runs inside `catch_unwind`, so a
+//! bug would return `FB_ERROR_INTERNAL` instead of unwinding into C.
+//!
+//! # Firmware
+//!
+//! Without the `std` feature the crate is `#![no_std]` and allocation-free, for firmware written
+//! in C: `cargo build -p facebake-ffi --release --no-default-features --target
+//! thumbv7em-none-eabihf` builds `libfacebake_ffi.a` for a Cortex-M4F, with a panic handler that
+//! halts (it cannot be reached by construction). `.ci/ffi.sh` builds it.
 //!
 //! # Threads
 //!
@@ -33,6 +41,7 @@
 //! and must not be used by two threads at once; give every character its own. Functions that
 //! fill a storage (`fb_rig_load`, `fb_play_state_init`) need it to themselves.
 
+#![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
@@ -65,6 +74,17 @@ pub const FB_MARKER_WORDS: usize = 8;
 
 const _: () = assert!(FB_MAX_MARKERS == facebake_runtime::MAX_MARKERS);
 const _: () = assert!(FB_MARKER_WORDS * 32 == FB_MAX_MARKERS);
+
+/// Without `std` (firmware), a panic halts the core: none can happen by construction (see
+/// "Panics" above), and none may unwind into C. Rust firmware uses the runtime crate directly
+/// rather than this one.
+#[cfg(all(not(feature = "std"), not(test)))]
+#[panic_handler]
+fn halt(_: &core::panic::PanicInfo) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
 
 /// `FB_ABI_VERSION` of the library actually linked or loaded.
 #[no_mangle]

@@ -2,18 +2,27 @@
 //! storage, and the guard that keeps a panic from crossing into C.
 
 use core::mem::size_of;
-use core::panic::AssertUnwindSafe;
 
 use crate::error::FbError;
 
 /// Run `body`, turning a panic into [`FbError::Internal`]. The library is written not to panic
 /// (every index is checked, the runtime never panics); this is the last line of defence, so
 /// that no unwind ever crosses the C boundary.
+#[cfg(feature = "std")]
 pub(crate) fn guard(body: impl FnOnce() -> Result<(), FbError>) -> FbError {
-    match std::panic::catch_unwind(AssertUnwindSafe(body)) {
+    match std::panic::catch_unwind(core::panic::AssertUnwindSafe(body)) {
         Ok(Ok(())) => FbError::None,
         Ok(Err(e)) => e,
         Err(_) => FbError::Internal,
+    }
+}
+
+/// Run `body` (`no_std`: panics abort through the crate's panic handler, so none unwinds).
+#[cfg(not(feature = "std"))]
+pub(crate) fn guard(body: impl FnOnce() -> Result<(), FbError>) -> FbError {
+    match body() {
+        Ok(()) => FbError::None,
+        Err(e) => e,
     }
 }
 
