@@ -169,9 +169,10 @@ unsafe fn play<T: Copy>(
             }
         }
     }
-    let markers_out = match markers_out.is_null() {
-        true => None,
-        false => Some(unsafe { positions_out(markers_out, m, m)? }),
+    let markers_out = if markers_out.is_null() {
+        None
+    } else {
+        Some(unsafe { positions_out(markers_out, m, m)? })
     };
     let out = unsafe { positions_out(out, vertex_capacity, rig.vertex_count())? };
     if !report.is_null() {
