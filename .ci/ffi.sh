@@ -13,6 +13,10 @@ cd "$(dirname "$0")/.."
 
 CC=${CC:-cc}
 CXX=${CXX:-c++}
+# A fresh machine may lack the system compilers: install Debian's.
+if ! command -v "$CC" >/dev/null || ! command -v "$CXX" >/dev/null || ! command -v nm >/dev/null; then
+  apt-get update -qq && apt-get install -y -qq gcc g++ binutils >/dev/null
+fi
 out=target/ffi-examples
 mkdir -p "$out"
 
