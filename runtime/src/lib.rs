@@ -72,6 +72,9 @@ mod sqrt;
 pub use cost::Cost;
 pub use deformer::DegenerateTriangles;
 pub use format::error::{LoadError, Section, StagesLoadError, StagesSection};
+/// The most markers a rig can have (the loader rejects more): a bound for callers that keep
+/// per-marker buffers of a fixed size, such as the C ABI's marker sets.
+pub use format::records::MAX_MARKERS;
 pub use rig::{FrameError, Rig};
 pub use space::{ConvertError, Space};
 pub use stages::compensate::{FitFailure, RigidFit};

@@ -204,23 +204,36 @@ impl<'a> Rig<'a> {
         actor: &[Option<[i32; 3]>],
         out: &mut [[i32; 3]],
     ) -> Result<FrameReport, FrameError> {
-        let stages = self.data.stages.as_ref().ok_or(FrameError::NoStages)?;
-        let m = self.marker_count();
-        if actor.len() != m {
-            return Err(FrameError::MarkerCount {
-                expected: m,
-                found: actor.len(),
-            });
-        }
         if out.len() != self.vertex_count() {
             return Err(FrameError::OutputLength {
                 expected: self.vertex_count(),
                 found: out.len(),
             });
         }
+        let m = self.marker_count();
         let mut markers = [[0i32; 3]; MAX_MARKERS];
-        let report = stages.solve(state, actor, &mut markers[..m]);
+        let report = self.play_markers(state, actor, &mut markers[..m])?;
         self.deform(&markers[..m], out)?;
         Ok(report)
+    }
+
+    /// The capture stages of [`Self::play`] alone: `markers` receives the character's markers
+    /// (Q8.24 rig units, one per rig marker), the input [`Self::deform`] takes. For a caller
+    /// that records or hashes the character's markers (the C ABI's `fb_play` returns them), or
+    /// that deforms them elsewhere. Nothing was written when this returns an error.
+    pub fn play_markers(
+        &self,
+        state: &mut PlayState,
+        actor: &[Option<[i32; 3]>],
+        markers: &mut [[i32; 3]],
+    ) -> Result<FrameReport, FrameError> {
+        let stages = self.data.stages.as_ref().ok_or(FrameError::NoStages)?;
+        let m = self.marker_count();
+        for found in [actor.len(), markers.len()] {
+            if found != m {
+                return Err(FrameError::MarkerCount { expected: m, found });
+            }
+        }
+        Ok(stages.solve(state, actor, markers))
     }
 }
