@@ -158,6 +158,11 @@ enum FbRigidStatus
    * The present head markers are (nearly) collinear: the last good fit (or none) was held.
    */
   FB_RIGID_STATUS_HELD_COLLINEAR = 3,
+  /**
+   * Fewer than three head markers kept their mutual distances from the neutral frame (the
+   * others swapped, jumped or ghosts): the last good fit (or none) was held.
+   */
+  FB_RIGID_STATUS_HELD_NOT_RIGID = 4,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

@@ -41,6 +41,9 @@ pub enum FbRigidStatus {
     HeldTooFew = 2,
     /// The present head markers are (nearly) collinear: the last good fit (or none) was held.
     HeldCollinear = 3,
+    /// Fewer than three head markers kept their mutual distances from the neutral frame (the
+    /// others swapped, jumped or ghosts): the last good fit (or none) was held.
+    HeldNotRigid = 4,
 }
 
 /// What the capture stages did with one frame. Marker sets are bitsets: marker `j` is in the
@@ -86,6 +89,7 @@ impl From<&FrameReport> for FbFrameReport {
             RigidStatus::Fitted { head_markers } => (FbRigidStatus::Fitted, head_markers),
             RigidStatus::Held(FitFailure::TooFew) => (FbRigidStatus::HeldTooFew, 0),
             RigidStatus::Held(FitFailure::Collinear) => (FbRigidStatus::HeldCollinear, 0),
+            RigidStatus::Held(FitFailure::NotRigid) => (FbRigidStatus::HeldNotRigid, 0),
         };
         let count = |s: &MarkerSet| s.len() as u32;
         Self {
