@@ -145,9 +145,16 @@ impl JawMoCapRig {
 }
 
 /// Bake FaceCap with `fixtures/facecap_jawmocap_layout.toml` and the JawMoCap capture's stages
-/// (neutral frame 0, the baker's own choice of head markers unless `stages` names them).
+/// (neutral frame 0, the baker's own choice of head markers unless `stages` names them), with
+/// the command line's default bake.
 pub fn jawmocap_rig(stages: &facebake::StagesConfig) -> JawMoCapRig {
-    jawmocap_rig_with(&BakeOptions::default(), stages)
+    jawmocap_rig_with(&product_default(), stages)
+}
+
+/// What `facebake bake` builds with no options: geodesic distances, the linear deformer, static
+/// anchoring ([`BakeOptions::for_method`]).
+pub fn product_default() -> BakeOptions {
+    BakeOptions::for_method(facebake::Method::Geodesic, false)
 }
 
 /// [`jawmocap_rig`] with the deformation baked with `options` (any deformer, planar bones
