@@ -26,12 +26,13 @@
 //! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`] |
 //! | `deformer/` | one module per deformer (`linear`, `rbf`, `planar`), each owning its section, validation, cost and per-frame code; `mod.rs` dispatches |
 //! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `smoothing`, `retarget`, `report` |
-//! | `format/` | the blob: `header`, `records` (every record size), `error` ([`LoadError`]), `RigData` (the docs of every section) |
+//! | `format/` | the blob: `header` and `RigData` (the docs of every section) |
+//! | `records`, `error` | every record size, named once; [`LoadError`] and the other load errors |
 //! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
 //! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |
 //!
 //! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
-//! crate; `format/records` imports only `fixed`, `format/error` only `fixed` and `records`; the
+//! crate; `records` imports only `fixed`, `error` only `fixed` and `records`; the
 //! deformers and the stages build on those; `format` (the payload) imports the deformers and the
 //! stages; `rig` sits on top. `.ci/module-cycles.sh` checks the graph in CI.
 //!
@@ -60,8 +61,10 @@ macro_rules! format_internals {
 format_internals! {
     mod checksum;
     mod deformer;
+    mod error;
     mod fixed;
     mod format;
+    mod records;
     mod stages;
 }
 mod cost;
@@ -71,10 +74,10 @@ mod sqrt;
 
 pub use cost::Cost;
 pub use deformer::DegenerateTriangles;
-pub use format::error::{LoadError, Section, StagesLoadError, StagesSection};
+pub use error::{LoadError, Section, StagesLoadError, StagesSection};
 /// The most markers a rig can have (the loader rejects more): a bound for callers that keep
 /// per-marker buffers of a fixed size, such as the C ABI's marker sets.
-pub use format::records::MAX_MARKERS;
+pub use records::MAX_MARKERS;
 pub use rig::{FrameError, Rig};
 pub use space::{ConvertError, Space};
 pub use stages::compensate::{FitFailure, RigidFit};

@@ -4,10 +4,10 @@ use crate::cost::Cost;
 #[cfg(feature = "format")]
 use crate::deformer::Deformer;
 use crate::deformer::DegenerateTriangles;
-use crate::format::error::LoadError;
+use crate::error::LoadError;
 use crate::format::header;
-use crate::format::records::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::format::{self, RigData};
+use crate::records::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::report::FrameReport;
 use crate::stages::PlayState;

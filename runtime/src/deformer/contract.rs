@@ -7,8 +7,8 @@
 
 use crate::cost::Cost;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
-use crate::format::error::{expect_len, LoadError, Section};
-use crate::format::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES};
+use crate::error::{expect_len, LoadError, Section};
+use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES};
 
 /// The rig's counts and the sections every deformer reads besides its own.
 #[derive(Clone, Copy, Debug)]

@@ -44,8 +44,8 @@ use crate::fixed::{
     linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
     LINEAR_WEIGHT_ABS_SUM_MAX,
 };
-use crate::format::error::LoadError;
-use crate::format::records::{
+use crate::error::LoadError;
+use crate::records::{
     read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
     POSITION_BYTES, REST_BYTES,
 };

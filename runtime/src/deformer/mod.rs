@@ -22,7 +22,7 @@ use crate::cost::Cost;
 use crate::deformer::linear::LinearDeformer;
 use crate::deformer::planar::PlanarDeformer;
 use crate::deformer::rbf::RbfDeformer;
-use crate::format::error::LoadError;
+use crate::error::LoadError;
 
 pub(crate) use contract::{DeformerSection, Shared};
 pub use contract::DegenerateTriangles;

@@ -43,8 +43,8 @@ use serde::{Deserialize, Serialize};
 use crate::cost::Cost;
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
 use crate::fixed::round_shift_bounded;
-use crate::format::error::{expect_len, LoadError, Section};
-use crate::format::records::{
+use crate::error::{expect_len, LoadError, Section};
+use crate::records::{
     read_position, Bytes, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, POSITION_BYTES,
     TRIANGLE_BYTES,
 };

@@ -25,8 +25,8 @@ use crate::fixed::{
     mul_acc, round_shift_bounded, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS, MIN_ROW_SHIFT,
     POS_FRAC_BITS,
 };
-use crate::format::error::{expect_len, LoadError, Section};
-use crate::format::records::{
+use crate::error::{expect_len, LoadError, Section};
+use crate::records::{
     read_influence, read_matrix_entry, read_position, read_rest, Bytes, INFLUENCE_BYTES,
     MATRIX_ENTRY_BYTES, MAX_MARKERS, POSITION_BYTES, REST_BYTES, ROW_SHIFT_BYTES,
 };

@@ -11,8 +11,8 @@
 //! ```
 
 use crate::checksum::crc32;
-use crate::format::error::LoadError;
-use crate::format::records::{HEADER_LEN, MAGIC, VERSION};
+use crate::error::LoadError;
+use crate::records::{HEADER_LEN, MAGIC, VERSION};
 
 // Where each header field starts.
 const VERSION_AT: usize = MAGIC.len();

@@ -14,15 +14,17 @@
 //!   shares; each deformer validates its own section ([`crate::deformer`]), the capture stages
 //!   theirs ([`crate::stages`]).
 
-pub mod error;
 pub mod header;
-pub mod records;
+/// The blob's errors and byte records, leaves that the deformers and the stages build on, so
+/// that `format` (the payload over them) imports them and none of them imports `format`.
+#[cfg(feature = "format")]
+pub use crate::{error, records};
 
 use serde::{Deserialize, Serialize};
 
 use crate::deformer::{Deformer, Shared};
-use crate::format::error::{expect_len, LoadError, Section};
-use crate::format::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
+use crate::error::{expect_len, LoadError, Section};
+use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 

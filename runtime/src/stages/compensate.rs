@@ -19,8 +19,8 @@
 //! rotation matrix Q1.30.
 
 use crate::fixed::round_shift_sat;
-use crate::format::error::StagesLoadError;
-use crate::format::records::Bytes;
+use crate::error::StagesLoadError;
+use crate::records::Bytes;
 use crate::sqrt::{isqrt_u64, normalize, UNIT_FRAC_BITS};
 
 /// Most head markers a rig may name.

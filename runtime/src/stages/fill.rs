@@ -3,14 +3,14 @@
 //! neighbours that are present in this frame. Neighbours that are themselves missing are
 //! skipped (never chained), so the cost is fixed: [`FILL_NEIGHBOURS`] terms per marker.
 //!
-//! [`FILL_NEIGHBOURS`]: crate::format::records::FILL_NEIGHBOURS
+//! [`FILL_NEIGHBOURS`]: crate::records::FILL_NEIGHBOURS
 //!
 //! Formats: displacements Q8.24 (`i32`), weights Q8.16 non-negative (24-bit field of a packed
 //! influence word); Σ w·d over four terms is below 2⁵⁷, one rounded division by Σ w.
 
 use crate::fixed::unpack_influence;
-use crate::format::error::{expect_stages_len, StagesLoadError, StagesSection};
-use crate::format::records::{read_influence, Bytes, FILL_BYTES, INFLUENCE_BYTES};
+use crate::error::{expect_stages_len, StagesLoadError, StagesSection};
+use crate::records::{read_influence, Bytes, FILL_BYTES, INFLUENCE_BYTES};
 use crate::stages::report::MarkerSet;
 
 /// Fractional bits of a fill weight.

@@ -35,7 +35,7 @@
 //! from; a stream at another rate plays, with the bound and the lag scaled by the ratio.
 //!
 //! [`report`] says what happened to each marker. Each step's module validates its part of the
-//! section at load ([`crate::format::error::StagesLoadError`]). Every loop runs a number of times
+//! section at load ([`crate::error::StagesLoadError`]). Every loop runs a number of times
 //! fixed by the rig; [`Stages::cost`] states it.
 
 pub mod compensate;
@@ -46,8 +46,8 @@ pub mod smoothing;
 
 use serde::{Deserialize, Serialize};
 
-use crate::format::error::{expect_stages_len, StagesLoadError, StagesSection};
-use crate::format::records::{
+use crate::error::{expect_stages_len, StagesLoadError, StagesSection};
+use crate::records::{
     read_position, Bytes, FILL_BYTES, MAX_MARKERS, POSITION_BYTES,
 };
 use crate::space::Space;
@@ -75,7 +75,7 @@ pub struct Stages<'a> {
     /// Largest plausible displacement of a compensated marker from its neutral position,
     /// Q8.24 actor units, in (0, [`INPUT_LIMIT`]].
     pub max_displacement: i32,
-    /// Per marker, [`FILL_NEIGHBOURS`](crate::format::records::FILL_NEIGHBOURS) packed words (neighbour index, Q8.16 weight ≥ 0; weight 0
+    /// Per marker, [`FILL_NEIGHBOURS`](crate::records::FILL_NEIGHBOURS) packed words (neighbour index, Q8.16 weight ≥ 0; weight 0
     /// marks an unused slot), `u32` LE.
     #[serde(borrow)]
     pub fill: Bytes<'a>,
@@ -190,7 +190,7 @@ impl<'a> Stages<'a> {
             } else {
                 0
             },
-            fill_terms: markers * crate::format::records::FILL_NEIGHBOURS,
+            fill_terms: markers * crate::records::FILL_NEIGHBOURS,
             retarget_kernels: match self.retarget {
                 Retarget::Rbf(_) => markers * markers,
                 Retarget::Proportional(_) => 0,

@@ -1,7 +1,7 @@
 //! What the capture stages did with one frame ([`FrameReport`]), and the marker sets it is made
 //! of.
 
-use crate::format::records::MAX_MARKERS;
+use crate::records::MAX_MARKERS;
 use crate::stages::compensate::FitFailure;
 
 /// A set of marker indices (0..256), as a bitset.

@@ -28,8 +28,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::fixed::{round_shift_sat, POS_FRAC_BITS};
-use crate::format::error::{expect_stages_len, StagesLoadError, StagesSection};
-use crate::format::records::{
+use crate::error::{expect_stages_len, StagesLoadError, StagesSection};
+use crate::records::{
     read_i32, read_position, Bytes, ALPHA_BYTES, MATRIX3_BYTES, POSITION_BYTES, RADIUS_BYTES,
 };
 use crate::sqrt::rsqrt_u64;

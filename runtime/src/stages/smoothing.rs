@@ -29,7 +29,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::fixed::round_shift_sat;
-use crate::format::error::StagesLoadError;
+use crate::error::StagesLoadError;
 use crate::sqrt::isqrt_u64;
 
 /// Fractional bits of a cutoff and of the speed gain.
@@ -90,6 +90,7 @@ impl Smoothing {
     }
 
     /// The filter's lag when still, in frames (1/c_min), rounded to the nearest frame.
+    #[cfg(feature = "format")]
     pub fn still_lag_frames(&self) -> u32 {
         let c = self.min_cutoff.max(1);
         ((1u32 << CUTOFF_FRAC_BITS) + c / 2) / c

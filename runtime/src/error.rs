@@ -1,14 +1,14 @@
 //! Why a byte string is not a loadable rig: [`LoadError`], with [`StagesLoadError`] for the
 //! capture stages section. Both implement [`core::error::Error`].
 //!
-//! Depends only on the leaves `fixed` and `format::records` (for the bounds its messages state),
+//! Depends only on the leaves `fixed` and `records` (for the bounds its messages state),
 //! so every module that validates a section can use it.
 
 use crate::fixed::{
     LINEAR_WEIGHT_ABS_SUM_MAX, MAX_INFLUENCES, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS,
     MIN_ROW_SHIFT, MIN_WEIGHT_FRAC_BITS,
 };
-use crate::format::records::{Bytes, MAX_MARKERS, MAX_TRIANGLES, VERSION};
+use crate::records::{Bytes, MAX_MARKERS, MAX_TRIANGLES, VERSION};
 
 /// Why a byte string is not a loadable rig. Every variant is a distinct failure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
