@@ -560,18 +560,7 @@ pub fn mean_spacing(markers: &[[f64; 3]]) -> f64 {
     if markers.len() < 2 {
         return 0.0;
     }
-    let sum: f64 = markers
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            markers
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, q)| distance(p, q))
-                .fold(f64::INFINITY, f64::min)
-        })
-        .sum();
+    let sum: f64 = crate::rbf::radial::nearest_distances(markers).iter().sum();
     sum / markers.len() as f64
 }
 

@@ -626,18 +626,7 @@ fn check_neutral_frame(markers: &[[f64; 3]]) -> Result<(), (usize, f64, f64)> {
     if markers.len() < 3 {
         return Ok(());
     }
-    let nearest: Vec<f64> = markers
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            markers
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, q)| distance(p, q))
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
+    let nearest = crate::rbf::radial::nearest_distances(markers);
     let mut sorted = nearest.clone();
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2];
