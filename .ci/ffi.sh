@@ -17,11 +17,13 @@ CXX=${CXX:-c++}
 if ! command -v "$CC" >/dev/null || ! command -v "$CXX" >/dev/null || ! command -v nm >/dev/null; then
   apt-get update -qq && apt-get install -y -qq gcc g++ binutils >/dev/null
 fi
-out=target/ffi-examples
+# Cargo's output folder: the one CARGO_TARGET_DIR names, if set, else target/.
+tdir=${CARGO_TARGET_DIR:-$PWD/target}
+out=$tdir/ffi-examples
 mkdir -p "$out"
 
 cargo build -p facebake-ffi --release
-lib=target/release/libfacebake_ffi.a
+lib=$tdir/release/libfacebake_ffi.a
 # What the static library needs from the system on Linux (std's threads, dynamic loading, libm).
 libs=(-lpthread -ldl -lm)
 
@@ -29,7 +31,7 @@ libs=(-lpthread -ldl -lm)
   ffi/examples/c/play_golden.c "$lib" "${libs[@]}" -o "$out/play_golden_c"
 # The same C program against the shared library, to show the dynamic build works too.
 "$CC" -std=c11 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
-  ffi/examples/c/play_golden.c -L target/release -lfacebake_ffi -Wl,-rpath,"$PWD/target/release" \
+  ffi/examples/c/play_golden.c -L "$tdir/release" -lfacebake_ffi -Wl,-rpath,"$tdir/release" \
   -o "$out/play_golden_c_shared"
 "$CXX" -std=c++17 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
   ffi/examples/cpp/play_golden.cpp "$lib" "${libs[@]}" -o "$out/play_golden_cpp"
@@ -46,7 +48,7 @@ printf 'int main(void) { return 0; }\n' >> "$out/readme.c"
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
 cargo build -p facebake-ffi --release --no-default-features --target thumbv7em-none-eabihf
 declared=$(grep -oE '\bfb_[a-z0-9_]+\(' ffi/include/facebake.h | tr -d '(' | sort -u)
-for archive in "$lib" target/thumbv7em-none-eabihf/release/libfacebake_ffi.a; do
+for archive in "$lib" "$tdir/thumbv7em-none-eabihf/release/libfacebake_ffi.a"; do
   defined=$(nm -g --defined-only "$archive" 2>/dev/null | awk '$2 == "T" && $3 ~ /^fb_/ {print $3}' | sort -u)
   if [ "$declared" != "$defined" ]; then
     diff <(echo "$declared") <(echo "$defined") >&2 || true
