@@ -4,7 +4,8 @@
 
 mod common;
 
-use facebake::io::capture::{read_capture_with_units, write_csv, Units};
+use facebake::io::capture::{read_capture_with_units, write_csv};
+use facebake::model::Units;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
