@@ -92,12 +92,12 @@ fi
 mapfile -t QEMU_LIBS < <(apt-cache depends --important qemu-system-arm 2>/dev/null |
     awk '$1 == "Depends:" && $2 !~ /^[<]/ && $2 !~ /^qemu-/ {print $2}' | sort -u)
 apt_install "${QEMU_LIBS[@]}"
-if ldd "$QEMU_SYSTEM_ARM" | grep -q "not found"; then
+if ldd "$QEMU_SYSTEM_ARM" | grep "not found" >/dev/null; then
     ldd "$QEMU_SYSTEM_ARM" | grep "not found"
     fail "qemu-system-arm is missing shared libraries"
     exit 1
 fi
-"$QEMU_SYSTEM_ARM" -machine help | grep -q '^mps2-an386 ' ||
+"$QEMU_SYSTEM_ARM" -machine help | grep '^mps2-an386 ' >/dev/null ||
     { echo "FAIL: this qemu-system-arm has no mps2-an386"; exit 1; }
 echo "qemu-system-arm: $("$QEMU_SYSTEM_ARM" --version | head -n 1) ($QEMU_SYSTEM_ARM)"
 
@@ -276,7 +276,9 @@ if fw_cargo build --locked --release --bin nofloat --target "$NOFPU_TARGET" --fe
         fail "the float canary links no soft-float symbol: the check cannot see floats"
     elif [ -n "$found" ]; then
         fail "Rig::from_bytes + Rig::deform link soft-float routines: $(tr '\n' ' ' <<<"$found")"
-    elif ! "$LLVM_BIN/llvm-nm" -C "$NF" | grep -q "facebake_runtime::format::decode"; then
+    # (grep the saved symbols: under pipefail, `llvm-nm | grep -q` fails when grep stops early.)
+    elif ! "$LLVM_BIN/llvm-nm" -C "$NF" >"$WORK/nf.syms" ||
+        ! grep -q "facebake_runtime::format::decode" "$WORK/nf.syms"; then
         fail "the nofloat harness does not contain the runtime's loader"
     else
         pass "Rig::from_bytes + Rig::deform link no soft-float routine (the canary links $(tr '\n' ' ' <<<"$canary"))"
