@@ -288,3 +288,26 @@ pub fn bake_scene_planar(bench: &Benchmark, k: usize, masked: bool) -> Baked {
         },
     )
 }
+
+/// Play an actor's take (metres, `None` where missing) through a rig with capture stages from a
+/// fresh play state: every frame's vertices (asset units) and report.
+pub fn play_take(
+    rig: &facebake_runtime::Rig<'_>,
+    frames: &[Vec<Option<[f64; 3]>>],
+) -> (Vec<Vec<[f64; 3]>>, Vec<facebake_runtime::FrameReport>) {
+    let space = rig.space();
+    let actor_space = rig.actor_space().expect("a rig with capture stages");
+    let mut state = facebake_runtime::PlayState::new();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    frames
+        .iter()
+        .map(|f| {
+            let actor: Vec<Option<[i32; 3]>> = f
+                .iter()
+                .map(|p| p.and_then(|p| actor_space.to_rig_f64(p).ok()))
+                .collect();
+            let report = rig.play(&mut state, &actor, &mut out).expect("plays");
+            (out.iter().map(|q| space.to_asset_f64(*q)).collect(), report)
+        })
+        .unzip()
+}

@@ -9,8 +9,8 @@ use facebake::BakeOptions;
 use facebake::StagesConfig;
 use facebake_runtime::format::header::header_for;
 use facebake_runtime::format::RigData;
-use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{jawmocap_rig_with, planar_config, product_default, JawMoCapRig};
+use facebake_runtime::Rig;
+use facebake_tests::{jawmocap_rig_with, planar_config, play_take, product_default, JawMoCapRig};
 
 /// Jitter amplitude: ±0.5 mm on every coordinate (JawMoCap's stages work in metres).
 const JITTER: f64 = 0.0005;
@@ -47,22 +47,7 @@ fn figures(a: &[Vec<[f64; 3]>], b: &[Vec<[f64; 3]>]) -> Figures {
 
 /// Every frame's vertices (asset units, metres) played from `frames` (metres, `None` missing).
 fn play(blob: &[u8], frames: &[Vec<Option<[f64; 3]>>]) -> Vec<Vec<[f64; 3]>> {
-    let rig = Rig::from_bytes(blob).expect("rig loads");
-    let space = rig.space();
-    let actor_space = rig.actor_space().expect("capture stages");
-    let mut state = PlayState::new();
-    let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    frames
-        .iter()
-        .map(|f| {
-            let actor: Vec<Option<[i32; 3]>> = f
-                .iter()
-                .map(|p| p.and_then(|p| actor_space.to_rig_f64(p).ok()))
-                .collect();
-            rig.play(&mut state, &actor, &mut out).expect("plays");
-            out.iter().map(|q| space.to_asset_f64(*q)).collect()
-        })
-        .collect()
+    play_take(&Rig::from_bytes(blob).expect("rig loads"), frames).0
 }
 
 /// The clean take with seeded uniform jitter of ±[`JITTER`] on every coordinate.

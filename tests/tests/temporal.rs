@@ -10,8 +10,8 @@
 
 use facebake::demo::JAWMOCAP_HEAD_MARKERS;
 use facebake::{HeadMarkers, StagesConfig};
-use facebake_runtime::{FitFailure, FrameReport, PlayState, Rig, RigidStatus};
-use facebake_tests::{fixture, jawmocap_rig, JawMoCapRig};
+use facebake_runtime::{FitFailure, FrameReport, Rig, RigidStatus};
+use facebake_tests::{fixture, jawmocap_rig, play_take, JawMoCapRig};
 
 /// The capture golden's rig: default stages with the head markers the reproducers were made
 /// for (ForeHead_M/L/R, NoseTop).
@@ -45,21 +45,7 @@ type Played = (Vec<Vec<[f64; 3]>>, Vec<FrameReport>);
 
 /// Play `frames`.
 fn play(rig: &Rig<'_>, frames: &[Vec<Option<[f64; 3]>>]) -> Played {
-    let space = rig.space();
-    let actor_space = rig.actor_space().unwrap();
-    let mut state = PlayState::new();
-    let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    frames
-        .iter()
-        .map(|f| {
-            let actor: Vec<Option<[i32; 3]>> = f
-                .iter()
-                .map(|p| p.and_then(|p| actor_space.to_rig_f64(p).ok()))
-                .collect();
-            let r = rig.play(&mut state, &actor, &mut out).unwrap();
-            (out.iter().map(|q| space.to_asset_f64(*q)).collect(), r)
-        })
-        .unzip()
+    play_take(rig, frames)
 }
 
 /// Largest vertex distance (mm) between two plays over `frames`.
