@@ -115,7 +115,7 @@ pub fn static_anchoring(
     floor: Option<f64>,
     margin: f64,
 ) -> Anchoring {
-    let (lo, hi) = bounds(positions);
+    let (lo, hi) = crate::model::bounds(positions.iter().copied());
     let axis = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[2] + hi[2])];
     let mut radii: Vec<f64> = markers
         .iter()
@@ -147,18 +147,6 @@ pub fn static_anchoring(
 fn smoothstep(t: f64) -> f64 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
-}
-
-fn bounds(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
 }
 
 /// Convex hull, counter-clockwise, by Andrew's monotone chain.
@@ -200,7 +188,7 @@ fn outside_distance(hull: &[[f64; 2]], p: [f64; 2]) -> f64 {
             let a = hull[i];
             let b = hull[(i + 1) % hull.len()];
             let e = [b[0] - a[0], b[1] - a[1]];
-            let len = distance(&[e[0], e[1], 0.0], &[0.0; 3]).max(f64::MIN_POSITIVE);
+            let len = (e[0] * e[0] + e[1] * e[1]).sqrt().max(f64::MIN_POSITIVE);
             // Outward normal of a counter-clockwise edge: (e.y, −e.x).
             ((p[0] - a[0]) * e[1] - (p[1] - a[1]) * e[0]) / len
         })

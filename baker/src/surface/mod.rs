@@ -411,7 +411,7 @@ pub(crate) fn dense_weights(
         None => dense,
     };
     let pieces = geometry.pieces_of(&d.fallback);
-    let mut dense = follow_nearest_reachable(dense, &d.fallback, &pieces, &mesh.positions);
+    let mut dense = follow_nearest_reachable(dense, &pieces, &mesh.positions);
     let skull = anchoring::skull_markers(&rest, &rims_of(&geometry, mesh), spacing);
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear) => {
@@ -530,15 +530,14 @@ fn rims_of(geometry: &SurfaceGeometry, mesh: &FaceMesh) -> Vec<Vec<[f64; 3]>> {
 /// that skin instead of being stretched between the lips or pulled by markers across the face.
 fn follow_nearest_reachable(
     mut dense: Vec<Vec<f64>>,
-    unreachable: &[u32],
     pieces: &[(u32, Vec<u32>)],
     positions: &[[f64; 3]],
 ) -> Vec<Vec<f64>> {
-    if unreachable.is_empty() {
+    if pieces.is_empty() {
         return dense;
     }
     let mut cut = vec![false; positions.len()];
-    for &v in unreachable {
+    for &v in pieces.iter().flat_map(|(_, piece)| piece) {
         cut[v as usize] = true;
     }
     let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
