@@ -135,6 +135,7 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
         head_tolerance: stages.head_tolerance,
         max_step: stages.max_step,
         smoothing: stages.smoothing,
+        head_smoothing: stages.head_smoothing,
         retarget: match &stages.proportional {
             Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,

@@ -144,6 +144,24 @@ impl JawMoCapRig {
     }
 }
 
+/// `capture`'s frames in metres with the markers `names` in that order (each must be in the
+/// capture).
+pub fn frames_in_order<'a>(
+    capture: &facebake::model::Capture,
+    names: impl IntoIterator<Item = &'a str>,
+) -> Vec<Vec<Option<[f64; 3]>>> {
+    let columns: Vec<usize> = names
+        .into_iter()
+        .map(|n| capture.marker_index(n).expect("the capture has the marker"))
+        .collect();
+    capture
+        .in_metres()
+        .frames
+        .iter()
+        .map(|f| columns.iter().map(|&c| f[c]).collect())
+        .collect()
+}
+
 /// Bake FaceCap with `fixtures/facecap_jawmocap_layout.toml` and the JawMoCap capture's stages
 /// (neutral frame 0, the baker's own choice of head markers unless `stages` names them), with
 /// the command line's default bake.
@@ -172,7 +190,6 @@ pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig)
         facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
     )
     .expect("layout places");
-    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let options = BakeOptions {
         stages: stages.clone(),
         ..options.clone()
@@ -180,16 +197,7 @@ pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig)
     let mut scene = Scene::placed(&mesh, &placed);
     scene.capture = Some(&capture);
     let baked = bake(&scene, &options).expect("FaceCap bakes with the stages");
-    let columns: Vec<usize> = names
-        .iter()
-        .map(|n| capture.marker_index(n).expect("capture has the marker"))
-        .collect();
-    let frames = capture
-        .in_metres()
-        .frames
-        .iter()
-        .map(|f| columns.iter().map(|&c| f[c]).collect())
-        .collect();
+    let frames = frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
     JawMoCapRig {
         mesh,
         placed,

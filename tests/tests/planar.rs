@@ -327,6 +327,7 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         // The f64 chain has no smoothing.
         &StagesConfig {
             smoothing: None,
+            head_smoothing: facebake::stages::HeadSmoothing::Off,
             ..StagesConfig::default()
         },
     );

@@ -28,16 +28,7 @@ fn rig() -> &'static JawMoCapRig {
 /// A take's frames in the rig's marker order, metres.
 fn take(name: &str, rig: &Rig<'_>) -> Vec<Vec<Option<[f64; 3]>>> {
     let capture = facebake::io::capture::read_capture(&fixture(name)).expect("take reads");
-    let columns: Vec<usize> = rig
-        .marker_names()
-        .map(|n| capture.marker_index(n).expect("the take has the marker"))
-        .collect();
-    capture
-        .in_metres()
-        .frames
-        .iter()
-        .map(|f| columns.iter().map(|&c| f[c]).collect())
-        .collect()
+    facebake_tests::frames_in_order(&capture, rig.marker_names())
 }
 
 /// A play: vertices (metres) and reports, per frame.

@@ -59,6 +59,27 @@ pub enum RetargetKind {
     Proportional,
 }
 
+/// Whether the head's pose is smoothed (the runtime's head smoothing: the fit's motion filtered
+/// like a marker's, then fitted again). A fit from a few close head markers magnifies their
+/// noise at the face (JawMoCap's three forehead markers 6.4×: ±0.5 mm of jitter moves the chin
+/// by up to 14 mm), and the markers' own filter lets that through while they move fast; the
+/// price of smoothing it is a lag of the head's pose while the head moves, which shows as
+/// drift of the skull (0.96 mm on JawMoCap as captured, against 0.49 unsmoothed).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum HeadSmoothing {
+    /// Never.
+    Off,
+    /// With these parameters when the head fit would carry more than
+    /// [`temporal::HEAD_NOISE_LIMIT`] of the capture's own noise to the face.
+    Auto(temporal::SmoothingConfig),
+    /// Always, with these parameters.
+    On(temporal::SmoothingConfig),
+}
+
+/// The displacement bound the reference compensates with before the bound is learned, and the
+/// largest a learned one may be: the runtime's input limit, 64 actor units.
+const PROVISIONAL_MAX_DISPLACEMENT: f64 = 64.0;
+
 /// How to bake the capture stages.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StagesConfig {
@@ -67,8 +88,9 @@ pub struct StagesConfig {
     /// Head markers.
     pub head: HeadMarkers,
     /// Largest plausible displacement of a compensated marker from neutral, as a fraction of the
-    /// actor's half extent (half the largest side of the neutral markers' bounds).
-    pub max_displacement: f64,
+    /// actor's half extent (half the largest side of the neutral markers' bounds); `None`:
+    /// learned from the capture ([`temporal`]).
+    pub max_displacement: Option<f64>,
     /// The retargeting method.
     pub retarget: RetargetKind,
     /// Rig markers the capture never has (paper 000 §5.2: inner lips, say): rebuilt from their
@@ -96,6 +118,8 @@ pub struct StagesConfig {
     pub max_step: Option<f64>,
     /// The smoothing filter, or `None` for none.
     pub smoothing: Option<temporal::SmoothingConfig>,
+    /// The head pose's smoothing filter: when to use it.
+    pub head_smoothing: HeadSmoothing,
 }
 
 impl Default for StagesConfig {
@@ -103,7 +127,7 @@ impl Default for StagesConfig {
         Self {
             neutral: 0..1,
             head: HeadMarkers::MostRigid(4),
-            max_displacement: 0.5,
+            max_displacement: None,
             retarget: RetargetKind::Rbf,
             virtual_markers: Vec::new(),
             anchor_markers: Vec::new(),
@@ -112,6 +136,7 @@ impl Default for StagesConfig {
             head_tolerance: None,
             max_step: None,
             smoothing: Some(temporal::SmoothingConfig::default()),
+            head_smoothing: HeadSmoothing::Auto(temporal::SmoothingConfig::HEAD),
         }
     }
 }
@@ -235,8 +260,17 @@ pub struct StagesReport {
     pub head_tolerance: f64,
     /// Largest plausible movement of a compensated marker per frame, metres.
     pub max_step: f64,
+    /// Largest plausible displacement of a compensated marker from neutral, metres.
+    pub max_displacement: f64,
     /// The smoothing filter, if any.
     pub smoothing: Option<temporal::SmoothingConfig>,
+    /// The head pose's smoothing filter, if any (see [`HeadSmoothing`]).
+    pub head_smoothing: Option<temporal::SmoothingConfig>,
+    /// The capture's measurement noise, metres ([`temporal::capture_noise`]).
+    pub capture_noise: f64,
+    /// How much the head fit magnifies the head markers' noise at the farthest marker
+    /// ([`rigid::fit_noise_gain`]); `None` without a head fit.
+    pub head_noise_gain: Option<f64>,
     /// The smoothing's lag when still, frames (0 without smoothing).
     pub smoothing_lag_frames: u32,
 }
@@ -277,6 +311,8 @@ pub struct StagesBytes {
     pub max_step: i32,
     /// The smoothing filter, per frame.
     pub smoothing: Option<Smoothing>,
+    /// The head pose's smoothing filter, per frame.
+    pub head_smoothing: Option<Smoothing>,
 }
 
 /// The baked stages: bytes for the blob, the f64 reference and a report.
@@ -510,7 +546,9 @@ pub fn bake_stages(
         &actor_space,
         &neutral,
         &head,
-        config.max_displacement,
+        config
+            .max_displacement
+            .unwrap_or(PROVISIONAL_MAX_DISPLACEMENT),
         &fill,
         &map,
     )?;
@@ -531,11 +569,13 @@ pub fn bake_stages(
         ));
     }
     let max_alpha_rounding = alpha_rounding(&map, bytes.alpha_shift);
-    let reference = StagesF64 {
+    let mut reference = StagesF64 {
         actor_space,
         neutral,
         head: head.clone(),
-        max_displacement: config.max_displacement,
+        max_displacement: config
+            .max_displacement
+            .unwrap_or(PROVISIONAL_MAX_DISPLACEMENT),
         fill,
         anchors: bytes.anchors.iter().map(|&a| usize::from(a)).collect(),
         map,
@@ -558,15 +598,29 @@ pub fn bake_stages(
                 .max(temporal::MIN_HEAD_TOLERANCE)
         }
     };
+    let frames: Vec<Vec<Option<[f64; 3]>>> = capture
+        .frames
+        .iter()
+        .map(|f| columns.iter().map(|c| c.and_then(|c| f[c])).collect())
+        .collect();
+    if config.max_displacement.is_none() {
+        // Measured with no displacement bound yet: every present sample counts.
+        let measured = temporal::measured_frames(&reference, &frames);
+        let learned = temporal::displacement_percentile(
+            &measured,
+            &reference.neutral,
+            temporal::DISPLACEMENT_PERCENTILE,
+        );
+        reference.max_displacement = (temporal::DISPLACEMENT_FACTOR * learned)
+            .clamp(temporal::MIN_DISPLACEMENT, PROVISIONAL_MAX_DISPLACEMENT);
+        bytes.max_displacement =
+            temporal::encode_bound(reference.max_displacement, "max displacement")?;
+    }
     let max_step = match config.max_step {
         Some(s) => s,
         None => {
-            let frames: Vec<Vec<Option<[f64; 3]>>> = capture
-                .frames
-                .iter()
-                .map(|f| columns.iter().map(|c| c.and_then(|c| f[c])).collect())
-                .collect();
-            let step = temporal::step_percentile(&reference, &frames, temporal::STEP_PERCENTILE);
+            let measured = temporal::measured_frames(&reference, &frames);
+            let step = temporal::step_percentile(&measured, temporal::STEP_PERCENTILE);
             (temporal::STEP_FACTOR * step).max(temporal::MIN_STEP)
         }
     };
@@ -574,6 +628,20 @@ pub fn bake_stages(
     bytes.max_step = temporal::encode_bound(max_step, "max step")?;
     bytes.smoothing = config
         .smoothing
+        .map(|s| s.encode(capture.rate_hz, half_extent))
+        .transpose()?;
+    let head_points: Vec<[f64; 3]> = head.iter().map(|&h| reference.neutral[h]).collect();
+    let head_noise_gain = rigid::fit_noise_gain(&head_points, &reference.neutral);
+    let capture_noise = temporal::capture_noise(&frames);
+    let head_smoothing = match config.head_smoothing {
+        HeadSmoothing::Off => None,
+        HeadSmoothing::On(s) => Some(s),
+        HeadSmoothing::Auto(s) => head_noise_gain
+            .is_some_and(|g| g * capture_noise > temporal::HEAD_NOISE_LIMIT)
+            .then_some(s),
+    }
+    .filter(|_| !head.is_empty());
+    bytes.head_smoothing = head_smoothing
         .map(|s| s.encode(capture.rate_hz, half_extent))
         .transpose()?;
     let report = StagesReport {
@@ -599,7 +667,11 @@ pub fn bake_stages(
         max_alpha_rounding,
         head_tolerance: head_tolerance * half_extent,
         max_step: max_step * half_extent,
+        max_displacement: reference.max_displacement * half_extent,
         smoothing: config.smoothing,
+        head_smoothing,
+        head_noise_gain,
+        capture_noise,
         smoothing_lag_frames: bytes.smoothing.map_or(0, |s| s.still_lag_frames()),
     };
     Ok(BakedStages {
@@ -794,6 +866,7 @@ fn encode(
         head_tolerance: 1,
         max_step: 1,
         smoothing: None,
+        head_smoothing: None,
     })
 }
 

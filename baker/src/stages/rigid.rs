@@ -351,6 +351,38 @@ fn exact_most_rigid(
     Ok((chosen, total / pairs as f64))
 }
 
+/// How much a least-squares rigid fit to the `head` points magnifies their measurement noise at
+/// the `at` points, to first order: with independent isotropic noise of the same size on every
+/// head point, the largest ratio over `at` of a compensated point's noise to one head point's.
+/// The fit's translation carries 1/n of the noise; its rotation ω, whose covariance is the
+/// noise's times M⁻¹ with M = Σ (|rᵢ|² I − rᵢ rᵢᵀ) (rᵢ the head points about their centroid),
+/// moves a point at d from the centroid by ω × d. `None` when the head points are fewer than
+/// three or collinear (M singular).
+pub fn fit_noise_gain(head: &[[f64; 3]], at: &[[f64; 3]]) -> Option<f64> {
+    if head.len() < 3 {
+        return None;
+    }
+    let n = head.len() as f64;
+    let c = head.iter().map(v).sum::<Vector3<f64>>() / n;
+    let m = head.iter().fold(Matrix3::zeros(), |m, p| {
+        let r = v(p) - c;
+        m + Matrix3::identity() * r.norm_squared() - r * r.transpose()
+    });
+    // Collinear points leave M (nearly) singular: the rotation about their line is unknown.
+    let scale = m.trace();
+    if scale.is_nan() || scale <= 0.0 || m.determinant() <= 1e-9 * scale.powi(3) {
+        return None;
+    }
+    let inverse = m.try_inverse()?;
+    at.iter()
+        .map(|p| {
+            let d = (v(p) - c).cross_matrix();
+            // E|t|² = 3σ²/n; E|ω × d|² = σ² tr([d]ₓ M⁻¹ [d]ₓᵀ); a head point's own: 3σ².
+            ((3.0 / n + (d * inverse * d.transpose()).trace()) / 3.0).sqrt()
+        })
+        .reduce(f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -545,5 +577,42 @@ mod tests {
                 .all(|n| !n.starts_with("Chin") && !n.starts_with("Mouth")),
             "{names:?}"
         );
+    }
+
+    /// The first-order gain agrees with the spread of many noisy fits.
+    #[test]
+    fn fit_noise_gain_matches_noisy_fits() {
+        let head = [
+            [0.0, 0.0, 0.0],
+            [0.07, -0.01, -0.006],
+            [-0.065, -0.008, -0.005],
+        ];
+        let at = [[0.0, -0.15, 0.02], [0.0, -0.05, 0.01]];
+        let gain = fit_noise_gain(&head, &at).expect("three points");
+        let sigma = 1e-5;
+        let mut rng = crate::ground_truth::SplitMix64(7);
+        let trials = 4000;
+        let mut sum = [0.0; 2];
+        for _ in 0..trials {
+            let noisy: Vec<[f64; 3]> = head
+                .iter()
+                .map(|p| p.map(|c| c + sigma * 3f64.sqrt() * (2.0 * rng.unit() - 1.0)))
+                .collect();
+            let fit = kabsch(&head, &noisy).unwrap();
+            for (k, p) in at.iter().enumerate() {
+                let q = fit.apply_inverse(p);
+                sum[k] += (0..3).map(|c| (q[c] - p[c]).powi(2)).sum::<f64>();
+            }
+        }
+        // A head point's own noise: 3σ² (uniform on ±√3σ has variance σ²).
+        let measured = sum
+            .iter()
+            .map(|s| (s / trials as f64 / (3.0 * sigma * sigma)).sqrt())
+            .fold(0.0, f64::max);
+        assert!((measured / gain - 1.0).abs() < 0.05, "{measured} vs {gain}");
+        assert!(gain > 2.0, "{gain}");
+        let line = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
+        assert_eq!(fit_noise_gain(&line, &at), None);
+        assert_eq!(fit_noise_gain(&head[..2], &at), None);
     }
 }

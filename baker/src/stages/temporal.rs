@@ -9,6 +9,11 @@
 //! * **Max step**: [`STEP_FACTOR`] × the [`STEP_PERCENTILE`]th percentile of the compensated
 //!   markers' movement from one frame to the next over the whole capture (the f64 reference's
 //!   compensation); at least [`MIN_STEP`] of the half extent.
+//! * **Max displacement**: [`DISPLACEMENT_FACTOR`] × the largest of the markers'
+//!   [`DISPLACEMENT_PERCENTILE`]th percentile distances from neutral over the capture; at least
+//!   [`MIN_DISPLACEMENT`] of the half extent. A fixed bound cut JawMoCap's widest mouth, whose
+//!   lower-lip marker comes within 1 mm of half the half extent: ±0.5 mm of jitter then threw
+//!   it out and rebuilt it from its neighbours.
 //! * **Smoothing** ([`SmoothingConfig`]): the one-euro filter's cutoffs in Hz and its speed
 //!   coefficient, turned into per-frame quantities at the capture's rate.
 //!
@@ -36,6 +41,44 @@ pub const STEP_PERCENTILE: f64 = 99.9;
 /// Smallest learned max step, as a fraction of the actor's half extent per frame (about 2 mm
 /// on JawMoCap).
 pub const MIN_STEP: f64 = 0.02;
+/// The learned max displacement is this many times the largest of the markers'
+/// [`DISPLACEMENT_PERCENTILE`]th percentile distances from neutral.
+pub const DISPLACEMENT_FACTOR: f64 = 1.5;
+/// Percentile of each marker's distances from neutral the max displacement is learned from.
+pub const DISPLACEMENT_PERCENTILE: f64 = 99.0;
+/// Smallest learned max displacement, as a fraction of the actor's half extent.
+pub const MIN_DISPLACEMENT: f64 = 0.5;
+
+/// The head pose is smoothed when the head fit would carry more than this much of the
+/// capture's own noise to the face (metres): the fit's noise gain
+/// ([`super::rigid::fit_noise_gain`]) times the capture's noise ([`capture_noise`]). JawMoCap's
+/// three forehead markers magnify noise 6.4×: as captured (noise 0.003 mm) its pose needs no
+/// smoothing, with ±0.5 mm of jitter (0.32 mm) it does (2 mm).
+pub const HEAD_NOISE_LIMIT: f64 = 0.001;
+
+/// The capture's measurement noise, metres: a robust estimate of the standard deviation of
+/// white noise on each coordinate, from every sample's distance to the midpoint of its
+/// neighbours in time (1.5 σ² for white noise; smooth motion adds little at capture rates):
+/// 1.4826 × the median |x_t − (x_{t−1} + x_{t+1})/2| / √1.5. 0 when no marker has three
+/// consecutive samples.
+pub fn capture_noise(frames: &[Vec<Option<[f64; 3]>>]) -> f64 {
+    let mut e: Vec<f64> = frames
+        .windows(3)
+        .flat_map(|w| {
+            (0..w[1].len()).filter_map(move |m| match (w[0].get(m), w[1].get(m), w[2].get(m)) {
+                (Some(Some(a)), Some(Some(b)), Some(Some(c))) => Some((a, b, c)),
+                _ => None,
+            })
+        })
+        .flat_map(|(a, b, c)| (0..3).map(move |k| (b[k] - 0.5 * (a[k] + c[k])).abs()))
+        .collect();
+    if e.is_empty() {
+        return 0.0;
+    }
+    let mid = e.len() / 2;
+    let (_, median, _) = e.select_nth_unstable_by(mid, f64::total_cmp);
+    1.4826 * *median / 1.5f64.sqrt()
+}
 
 /// The one-euro filter's parameters in the units of its paper.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -60,6 +103,14 @@ impl Default for SmoothingConfig {
 }
 
 impl SmoothingConfig {
+    /// The head pose's filter: the points it filters move only when the head does, so it can
+    /// smooth harder when still than the markers' filter and let a turn through sooner.
+    pub const HEAD: Self = Self {
+        min_cutoff_hz: 0.5,
+        beta: 40.0,
+        derivative_cutoff_hz: 1.0,
+    };
+
     /// The runtime's per-frame parameters at `rate_hz` for an actor of `half_extent` metres.
     pub fn encode(&self, rate_hz: f64, half_extent: f64) -> Result<Smoothing, StagesError> {
         let one = f64::from(1u32 << CUTOFF_FRAC_BITS);
@@ -106,46 +157,77 @@ pub fn head_distance_change(frames: &[Vec<[f64; 3]>], neutral: &[[f64; 3]], head
     worst
 }
 
-/// The `percentile`th percentile of the compensated markers' movement between consecutive
-/// frames (actor units per frame), through `reference`'s compensation of `frames` (metres, rig
-/// marker order). Only markers measured (not rebuilt, held or rejected) in both frames count;
-/// 0 if none does.
-pub fn step_percentile(
+/// Every frame of `frames` (metres, rig marker order) through `reference`'s compensation: per
+/// marker its compensated position (actor units) when it was measured (present, not rebuilt,
+/// held or rejected), else `None`.
+pub fn measured_frames(
     reference: &StagesF64,
     frames: &[Vec<Option<[f64; 3]>>],
-    percentile: f64,
-) -> f64 {
+) -> Vec<Vec<Option<[f64; 3]>>> {
     let mut state = StateF64::default();
-    let mut steps = Vec::new();
-    let mut previous: Option<Vec<Option<[f64; 3]>>> = None;
-    for frame in frames {
-        let (actor, report) = reference.compensate(&mut state, frame);
-        let measured: Vec<Option<[f64; 3]>> = actor
-            .iter()
-            .enumerate()
-            .map(|(j, a)| {
-                let fresh = frame.get(j).is_some_and(Option::is_some)
-                    && !report.rejected.contains(&j)
-                    && !report.rebuilt.contains(&j)
-                    && !report.held.contains(&j);
-                fresh.then_some(*a)
-            })
-            .collect();
-        if let Some(before) = &previous {
-            for (a, b) in measured.iter().zip(before) {
-                if let (Some(a), Some(b)) = (a, b) {
-                    steps.push(distance(a, b));
-                }
-            }
-        }
-        previous = Some(measured);
-    }
-    if steps.is_empty() {
+    frames
+        .iter()
+        .map(|frame| {
+            let (actor, report) = reference.compensate(&mut state, frame);
+            actor
+                .iter()
+                .enumerate()
+                .map(|(j, a)| {
+                    let fresh = frame.get(j).is_some_and(Option::is_some)
+                        && !report.rejected.contains(&j)
+                        && !report.rebuilt.contains(&j)
+                        && !report.held.contains(&j);
+                    fresh.then_some(*a)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The `percentile`th percentile of `values`, or 0 for none.
+fn percentile_of(mut values: Vec<f64>, percentile: f64) -> f64 {
+    if values.is_empty() {
         return 0.0;
     }
-    steps.sort_by(f64::total_cmp);
-    let at = ((percentile / 100.0) * (steps.len() - 1) as f64).round() as usize;
-    steps[at.min(steps.len() - 1)]
+    values.sort_by(f64::total_cmp);
+    let at = ((percentile / 100.0) * (values.len() - 1) as f64).round() as usize;
+    values[at.min(values.len() - 1)]
+}
+
+/// The `percentile`th percentile of the markers' movement between consecutive frames of
+/// `measured` ([`measured_frames`], actor units per frame). Only markers measured in both
+/// frames count; 0 if none does.
+pub fn step_percentile(measured: &[Vec<Option<[f64; 3]>>], percentile: f64) -> f64 {
+    let steps = measured
+        .windows(2)
+        .flat_map(|w| {
+            w[1].iter().zip(&w[0]).filter_map(|(a, b)| match (a, b) {
+                (Some(a), Some(b)) => Some(distance(a, b)),
+                _ => None,
+            })
+        })
+        .collect();
+    percentile_of(steps, percentile)
+}
+
+/// The largest, over the markers, of a marker's `percentile`th percentile distance from its
+/// `neutral` position over `measured` ([`measured_frames`], actor units): how far the capture's
+/// own expressions take its markers, a stray sample in a hundred aside.
+pub fn displacement_percentile(
+    measured: &[Vec<Option<[f64; 3]>>],
+    neutral: &[[f64; 3]],
+    percentile: f64,
+) -> f64 {
+    (0..neutral.len())
+        .map(|j| {
+            let d = measured
+                .iter()
+                .filter_map(|f| f.get(j).copied().flatten())
+                .map(|p| distance(&p, &neutral[j]))
+                .collect();
+            percentile_of(d, percentile)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// A bound in actor units as the runtime's Q8.24, checked against (0, 64].
@@ -156,5 +238,40 @@ pub fn encode_bound(v: f64, what: &str) -> Result<i32, StagesError> {
         Err(StagesError::OutOfRange(format!(
             "{what} {v} must be in (0, 64] actor units"
         )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Smooth motion at a capture rate with uniform noise of known σ (±√3 σ): the estimate is
+    /// within 10 % of σ, and near zero without the noise; missing samples are skipped.
+    #[test]
+    fn capture_noise_finds_the_noise_under_smooth_motion() {
+        let sigma = 0.0003;
+        let mut rng = crate::ground_truth::SplitMix64(11);
+        let frames =
+            |noise: f64, rng: &mut crate::ground_truth::SplitMix64| -> Vec<Vec<Option<[f64; 3]>>> {
+                (0..600)
+                    .map(|t| {
+                        let time = t as f64 / 60.0;
+                        (0..5)
+                            .map(|m| {
+                                (t % 97 != m).then(|| {
+                                    let base = 0.02 * (time * (1.0 + m as f64)).sin();
+                                    [base, 0.5 * base, 0.1]
+                                        .map(|c| c + noise * 3f64.sqrt() * (2.0 * rng.unit() - 1.0))
+                                })
+                            })
+                            .collect()
+                    })
+                    .collect()
+            };
+        let noisy = capture_noise(&frames(sigma, &mut rng));
+        assert!((noisy / sigma - 1.0).abs() < 0.1, "{noisy}");
+        let clean = capture_noise(&frames(0.0, &mut rng));
+        assert!(clean < 0.05 * sigma, "{clean}");
+        assert_eq!(capture_noise(&[]), 0.0);
     }
 }

@@ -28,7 +28,7 @@ use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 3): every section, in encoding order.
+/// The payload of a rig blob (format version 4): every section, in encoding order.
 ///
 /// # Shared sections
 ///
@@ -106,7 +106,8 @@ use crate::stages::Stages;
 /// | `anchors` | anchor | `u8` marker index, strictly ascending, not a head marker, no fill neighbours |
 /// | `head_tolerance` | — | varint `i32`, Q8.24 actor units, in (0, 64]: how far a head-marker pair's distance may stray from neutral |
 /// | `max_step` | — | varint `i32`, Q8.24 actor units per frame, in (0, 64]: the step gate |
-/// | `smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`], below |
+/// | `smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`], below: the markers' filter |
+/// | `head_smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`]: the head pose's filter |
 ///
 /// Retargeting, variant 0, **rbf** ([`crate::stages::retarget::RbfRetarget`]):
 ///
@@ -136,7 +137,7 @@ use crate::stages::Stages;
 /// | `derivative_cutoff` | — | varint `u32`, Q16.16, in [1, 2²⁴]: 2π f_d / rate |
 ///
 /// Version 2 added the optional capture stages, version 3 their `head_tolerance`, `max_step`
-/// and `smoothing`; older blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
+/// and `smoothing`, version 4 `head_smoothing`; older blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
 /// them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigData<'a> {

@@ -54,6 +54,7 @@ use crate::space::Space;
 use crate::stages::compensate::{FitFailure, HeadPairs, RigidFit, MAX_HEAD_MARKERS};
 use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
 use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
+use crate::fixed::POS_FRAC_BITS;
 use crate::stages::smoothing::{MarkerFilter, Smoothing};
 
 /// Largest accepted input coordinate magnitude: 64 actor units in Q8.24.
@@ -95,6 +96,10 @@ pub struct Stages<'a> {
     pub max_step: i32,
     /// The smoothing filter, or none.
     pub smoothing: Option<Smoothing>,
+    /// The head pose's smoothing filter, or none: step 2's fit, filtered as the motion of four
+    /// points of the head ([`HEAD_FRAME_POINTS`]) and fitted again, so that a head fit from a
+    /// few close head markers does not pass their jitter, magnified, to every marker.
+    pub head_smoothing: Option<Smoothing>,
 }
 
 
@@ -143,7 +148,7 @@ impl<'a> Stages<'a> {
         if !(1..=INPUT_LIMIT).contains(&self.max_step) {
             return Err(StagesLoadError::BadMaxStep);
         }
-        if let Some(smoothing) = &self.smoothing {
+        for smoothing in [&self.smoothing, &self.head_smoothing].into_iter().flatten() {
             smoothing.validate()?;
         }
         fill::validate(self.fill, markers)?;
@@ -175,6 +180,16 @@ impl<'a> Stages<'a> {
         self.head_markers.0
     }
 
+    /// Rigid fits per frame at most: one, then with a head marker off it one per head marker
+    /// left out and one without the worst, and one of the smoothed head points.
+    #[cfg(feature = "format")]
+    fn rigid_fits(&self) -> usize {
+        match self.head_markers.0.len() {
+            0 => 0,
+            head => head + 2 + usize::from(self.head_smoothing.is_some()),
+        }
+    }
+
     /// The work of one frame, fixed by the rig.
     #[cfg(feature = "format")]
     pub fn cost(&self) -> StagesCost {
@@ -184,12 +199,8 @@ impl<'a> Stages<'a> {
             markers,
             head_markers: head,
             head_distance_checks: head * head.saturating_sub(1) / 2,
-            rigid_fits: if head > 0 { head + 2 } else { 0 },
-            horn_squarings: if head > 0 {
-                (head + 2) * compensate::SQUARINGS
-            } else {
-                0
-            },
+            rigid_fits: self.rigid_fits(),
+            horn_squarings: self.rigid_fits() * compensate::SQUARINGS,
             fill_terms: markers * crate::records::FILL_NEIGHBOURS,
             retarget_kernels: match self.retarget {
                 Retarget::Rbf(_) => markers * markers,
@@ -200,7 +211,12 @@ impl<'a> Stages<'a> {
                 Retarget::Proportional(_) => 9 * markers,
             },
             step_checks: markers,
-            smoothed_markers: if self.smoothing.is_some() { markers } else { 0 },
+            smoothed_markers: if self.smoothing.is_some() { markers } else { 0 }
+                + if self.head_smoothing.is_some() && head > 0 {
+                    HEAD_FRAME_POINTS.len()
+                } else {
+                    0
+                },
         }
     }
 
@@ -378,7 +394,7 @@ impl<'a> Stages<'a> {
                 };
             }
         }
-        match fitted {
+        let fit = match fitted {
             Ok(fit) => {
                 report.rigid = RigidStatus::Fitted {
                     head_markers: pairs.len() as u8,
@@ -391,10 +407,58 @@ impl<'a> Stages<'a> {
                 report.rigid = RigidStatus::Held(why);
                 state.fit.unwrap_or(RigidFit::IDENTITY)
             }
+        };
+        self.smooth_head(state, fit)
+    }
+
+    /// The head fit smoothed: the four [`HEAD_FRAME_POINTS`] around the head markers' neutral
+    /// centroid, moved by `fit`, each go through the head smoothing filter, and the fit of the
+    /// filtered points is the head's pose. Still, the pose is averaged like a still marker; a
+    /// turning head raises the filter's cutoff with the points' speed. `fit` itself without
+    /// head smoothing.
+    fn smooth_head(&self, state: &mut PlayState, fit: RigidFit) -> RigidFit {
+        let Some(smoothing) = &self.head_smoothing else {
+            return fit;
+        };
+        let centre = self.head_centroid();
+        let mut pairs = HeadPairs::new();
+        for (filter, offset) in state.head_filters.iter_mut().zip(HEAD_FRAME_POINTS) {
+            // |centre| ≤ 4 units and |offset| ≤ 1: the sum is far inside the i32 range.
+            let p = [0, 1, 2].map(|c| centre[c] + offset[c]);
+            let q = smoothing.step(filter, fit.apply(p), !state.head_filtering);
+            pairs.push(p, q);
         }
+        state.head_filtering = true;
+        // Four points a unit apart are never collinear; should the filtered ones ever fail to
+        // fit, the unsmoothed fit is used.
+        pairs.fit().unwrap_or(fit)
+    }
+
+    /// The centroid of the head markers' neutral positions (Q8.24 actor units, within ±4).
+    fn head_centroid(&self) -> [i32; 3] {
+        let head = self.head_markers.0;
+        let mut sum = [0i64; 3];
+        for p in head.iter().filter_map(|&h| self.neutral(usize::from(h))) {
+            for c in 0..3 {
+                sum[c] += i64::from(p[c]);
+            }
+        }
+        // At most 32 head markers (validated): never a division by zero when called.
+        let n = head.len().max(1) as i64;
+        sum.map(|s| (s / n) as i32)
     }
 }
 
+
+/// The points whose motion the head smoothing filters, as offsets from the head markers'
+/// neutral centroid (Q8.24 actor units): the centroid and one actor unit (the actor's half
+/// extent) along each axis, so that they move as fast as the face's markers when the head turns.
+pub const HEAD_FRAME_POINTS: [[i32; 3]; 4] = [
+    [0, 0, 0],
+    [1 << POS_FRAC_BITS, 0, 0],
+    [0, 1 << POS_FRAC_BITS, 0],
+    [0, 0, 1 << POS_FRAC_BITS],
+];
 
 /// Whether the vector `d` is longer than `limit` (at most 2³⁰). The squares are only formed
 /// once every |dᵢ| ≤ limit: below 2⁶² in all.
@@ -414,7 +478,7 @@ pub struct StagesCost {
     /// roots each).
     pub head_distance_checks: usize,
     /// Rigid fits at most: one, then with a head marker off it, one per head marker left out
-    /// and one without the worst.
+    /// and one without the worst; one more with head smoothing.
     pub rigid_fits: usize,
     /// 4 × 4 matrix squarings at most.
     pub horn_squarings: usize,
@@ -429,8 +493,8 @@ pub struct StagesCost {
     pub retarget_multiply_adds: usize,
     /// Markers checked against `max_step` (one squared distance each).
     pub step_checks: usize,
-    /// Markers smoothed (one integer square root and two divisions each; 0 without
-    /// smoothing).
+    /// Markers and head points smoothed (one integer square root and two divisions each; 0
+    /// without smoothing).
     pub smoothed_markers: usize,
 }
 
@@ -446,6 +510,8 @@ pub struct PlayState {
     filters: [MarkerFilter; MAX_MARKERS],
     filtering: MarkerSet,
     fit: Option<RigidFit>,
+    head_filters: [MarkerFilter; HEAD_FRAME_POINTS.len()],
+    head_filtering: bool,
 }
 
 impl Default for PlayState {
@@ -464,6 +530,8 @@ impl PlayState {
             filters: [MarkerFilter::ZERO; MAX_MARKERS],
             filtering: MarkerSet::EMPTY,
             fit: None,
+            head_filters: [MarkerFilter::ZERO; HEAD_FRAME_POINTS.len()],
+            head_filtering: false,
         }
     }
 

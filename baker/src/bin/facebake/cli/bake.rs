@@ -18,6 +18,7 @@ use facebake::model::{
     place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
 use facebake::stages::temporal::SmoothingConfig;
+use facebake::stages::HeadSmoothing;
 use facebake::surface::SideRule;
 use facebake::{
     BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
@@ -126,9 +127,10 @@ pub struct BakeArgs {
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head, requires = "capture")]
     pub head_markers: HeadMarkers,
     /// A compensated marker further than this from its neutral position is rejected and
-    /// rebuilt, as a fraction of the actor's half extent.
-    #[arg(long, value_name = "F", default_value_t = StagesConfig::default().max_displacement, value_parser = parse_positive, requires = "capture")]
-    pub max_displacement: f64,
+    /// rebuilt, as a fraction of the actor's half extent (default: learned, 1.5 × the largest
+    /// of the markers' 99th-percentile distances from neutral over the capture, at least 0.5).
+    #[arg(long, value_name = "F", value_parser = parse_positive, requires = "capture")]
+    pub max_displacement: Option<f64>,
     /// How far a head-marker pair's distance may stray from the neutral frame before the head
     /// marker that broke the head's shape is rejected, as a fraction of the actor's half extent
     /// (default: learned, twice the capture's largest such change, at least 0.02).
@@ -144,6 +146,12 @@ pub struct BakeArgs {
     /// still is rate / (2π MIN_HZ) frames.
     #[arg(long, value_name = "PARAMS", default_value = "1,10,1", value_parser = parse_smoothing, requires = "capture")]
     pub smoothing: SmoothingChoice,
+    /// The one-euro smoothing of the head's pose: `auto` (when the head fit would carry more
+    /// than 1 mm of the capture's own noise to the face: a few close head markers on a noisy
+    /// capture), `off`, or `MIN_HZ,BETA,SPEED_HZ` for always with these parameters. It lags
+    /// the pose while the head moves.
+    #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_head_smoothing, requires = "capture")]
+    pub head_smoothing: HeadSmoothing,
     /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
     /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
     #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
@@ -210,6 +218,7 @@ impl BakeArgs {
                 head_tolerance: self.head_tolerance,
                 max_step: self.max_step,
                 smoothing: self.smoothing.0,
+                head_smoothing: self.head_smoothing,
                 ..StagesConfig::default()
             },
             anchoring: if self.no_anchoring { None } else { d.anchoring },
@@ -561,15 +570,30 @@ fn print_text(s: &BakeSummary) {
         );
         outln!(
             out,
-            "  checks        head-marker distances within {:.2} mm; steps over {:.2} mm per frame rejected; smoothing {}",
+            "  checks        head-marker distances within {:.2} mm; displacements over {:.1} mm and steps over {:.2} mm per frame rejected",
             st.head_tolerance * 1000.0,
+            st.max_displacement * 1000.0,
             st.max_step * 1000.0,
-            match &st.smoothing {
-                Some(f) => format!(
-                    "one-euro {} Hz, beta {}, speed {} Hz (lag when still {} frames)",
-                    f.min_cutoff_hz, f.beta, f.derivative_cutoff_hz, st.smoothing_lag_frames
+        );
+        let filter = |f: &Option<facebake::stages::temporal::SmoothingConfig>| match f {
+            Some(f) => format!(
+                "one-euro {} Hz, beta {}, speed {} Hz",
+                f.min_cutoff_hz, f.beta, f.derivative_cutoff_hz
+            ),
+            None => "off".to_string(),
+        };
+        outln!(
+            out,
+            "  smoothing     markers {} (lag when still {} frames); head pose {}{}",
+            filter(&st.smoothing),
+            st.smoothing_lag_frames,
+            filter(&st.head_smoothing),
+            match st.head_noise_gain {
+                Some(g) => format!(
+                    " (the head fit magnifies marker noise {g:.1}×; the capture's noise {:.3} mm)",
+                    st.capture_noise * 1000.0
                 ),
-                None => "off".to_string(),
+                None => String::new(),
             }
         );
         if !st.virtual_markers.is_empty() {
@@ -625,6 +649,17 @@ pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
             Ok(n..end)
         }
     }
+}
+
+/// Parse `--head-smoothing`: `auto`, `off` or `MIN_HZ,BETA,SPEED_HZ`.
+pub fn parse_head_smoothing(s: &str) -> Result<HeadSmoothing, String> {
+    if s.trim() == "auto" {
+        return Ok(HeadSmoothing::Auto(SmoothingConfig::HEAD));
+    }
+    Ok(match parse_smoothing(s)?.0 {
+        Some(config) => HeadSmoothing::On(config),
+        None => HeadSmoothing::Off,
+    })
 }
 
 /// `--smoothing`: the filter's parameters, or `None` for `off`.

@@ -80,6 +80,7 @@ pub fn run(
     // No smoothing: the demo measures the runtime against the f64 reference, which has none
     // (and a clean capture needs none).
     options.stages.smoothing = None;
+    options.stages.head_smoothing = facebake::stages::HeadSmoothing::Off;
     let baked = facebake::bake(&scene, &options).map_err(|e| match e {
         BakeError::Stages(_) => CliError::input(&capture_path, e.to_string()),
         _ => CliError::Bake {
