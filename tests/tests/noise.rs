@@ -146,8 +146,9 @@ fn check(name: &str, bake: &BakeOptions) {
 }
 
 /// The bar (p99 ≤ 2 mm, max ≤ 4 mm), met by the linear deformer (the default) and the RBF one:
-/// measured 2026-11-27, smoothed p99 / max 1.20 / 2.86 mm and 1.78 / 3.74 mm (before the head
-/// pose's smoothing and the learned displacement bound, 1.42 / 10.05 and 2.23 / 10.65).
+/// measured 2026-11-27, smoothed p99 / max 1.20 / 2.33 mm and 1.45 / 3.00 mm (before the head
+/// pose's smoothing, the learned displacement bound and proportional retargeting, 1.42 / 10.05
+/// and 2.23 / 10.65).
 #[test]
 fn linear_and_rbf_stay_within_the_jitter_bar() {
     check("linear", &product_default());
@@ -160,21 +161,17 @@ fn linear_and_rbf_stay_within_the_jitter_bar() {
     );
 }
 
-/// Planar bones miss the bar's max (measured 2026-11-27: p99 1.85 mm, max 8.07 mm): their
+/// Planar bones miss the bar's max (measured 2026-11-27: p99 1.60 mm, max 6.78 mm): their
 /// control triangles across the closed lips are millimetres wide, and a triangle's frame turns
-/// with its markers' jitter. Pinned, with the smoothing's effect: a quarter of the unsmoothed
+/// with its markers' jitter. Pinned, with the smoothing's effect: 30 % of the unsmoothed
 /// 99th percentile or less.
 #[test]
 fn planar_jitter_is_pinned() {
     let m = measure_and_print("planar", &planar_config(8));
     assert!(
-        m.smoothed.p99 <= 1.9 && m.smoothed.max <= 8.2,
+        m.smoothed.p99 <= 1.7 && m.smoothed.max <= 7.0,
         "{:?}",
         m.smoothed
     );
-    assert!(
-        m.smoothed.p99 <= 0.25 * m.unsmoothed.p99,
-        "{:?}",
-        m.smoothed
-    );
+    assert!(m.smoothed.p99 <= 0.3 * m.unsmoothed.p99, "{:?}", m.smoothed);
 }

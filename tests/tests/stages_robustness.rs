@@ -2,19 +2,27 @@
 //! and random damage to the stages section never makes loading or playing panic.
 
 use facebake::ground_truth::SplitMix64;
-use facebake::stages::StagesConfig;
+use facebake::stages::{RetargetKind, StagesConfig};
 use facebake_runtime::format::header::header_for;
 use facebake_runtime::format::records::{Bytes, HEADER_LEN};
 use facebake_runtime::format::{self, RigData};
-use facebake_runtime::stages::retarget::{RbfRetarget, Retarget};
+use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Retarget};
 use facebake_runtime::stages::Stages;
 use facebake_runtime::{LoadError, StagesLoadError, StagesSection};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{jawmocap_rig, reseal, JawMoCapRig};
 
+/// JawMoCap's rig with the RBF retargeting map, whose sections have the most fields to damage
+/// (the default's proportional retargeting is checked in
+/// [`proportional_retargeting_errors_are_distinct`]).
 fn rig() -> &'static JawMoCapRig {
     static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
-    CELL.get_or_init(|| jawmocap_rig(&StagesConfig::default()))
+    CELL.get_or_init(|| {
+        jawmocap_rig(&StagesConfig {
+            retarget: RetargetKind::Rbf,
+            ..StagesConfig::default()
+        })
+    })
 }
 
 fn seal(data: &RigData<'_>) -> Vec<u8> {
@@ -27,15 +35,62 @@ fn seal(data: &RigData<'_>) -> Vec<u8> {
 fn rbf<'a, 'b>(d: &'b mut RigData<'a>) -> &'b mut RbfRetarget<'a> {
     match &mut d.stages.as_mut().unwrap().retarget {
         Retarget::Rbf(r) => r,
-        Retarget::Proportional(_) => panic!("the default bake retargets by RBF"),
+        Retarget::Proportional(_) => panic!("this rig retargets by RBF"),
     }
 }
 
 fn rbf_of<'a>(s: &Stages<'a>) -> RbfRetarget<'a> {
     match s.retarget {
         Retarget::Rbf(r) => r,
-        Retarget::Proportional(_) => panic!("the default bake retargets by RBF"),
+        Retarget::Proportional(_) => panic!("this rig retargets by RBF"),
     }
+}
+
+#[test]
+fn proportional_retargeting_errors_are_distinct() {
+    let j = jawmocap_rig(&StagesConfig::default());
+    let good = *Rig::from_bytes(&j.baked.blob).unwrap().data();
+    let Retarget::Proportional(p) = good.stages.expect("stages").retarget else {
+        panic!("the default bake retargets proportionally");
+    };
+    let with = |q: ProportionalRetarget<'static>| {
+        let mut d = good;
+        d.stages.as_mut().unwrap().retarget = Retarget::Proportional(q);
+        stages_error(&d)
+    };
+    let matrices: &'static [u8] = p.matrices.0.to_vec().leak();
+    let rest: &'static [u8] = p.rest.0.to_vec().leak();
+    let ok = ProportionalRetarget {
+        shift: p.shift,
+        matrices: Bytes(matrices),
+        rest: Bytes(rest),
+    };
+    for shift in [0, 41] {
+        assert_eq!(
+            with(ProportionalRetarget { shift, ..ok }),
+            StagesLoadError::BadShift
+        );
+    }
+    assert!(matches!(
+        with(ProportionalRetarget {
+            matrices: Bytes(&matrices[..36]),
+            ..ok
+        }),
+        StagesLoadError::SectionLength {
+            section: StagesSection::Matrices,
+            ..
+        }
+    ));
+    assert!(matches!(
+        with(ProportionalRetarget {
+            rest: Bytes(&rest[12..]),
+            ..ok
+        }),
+        StagesLoadError::SectionLength {
+            section: StagesSection::Rest,
+            ..
+        }
+    ));
 }
 
 fn stages_error(data: &RigData<'_>) -> StagesLoadError {

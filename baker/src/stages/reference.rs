@@ -225,7 +225,7 @@ impl StagesF64 {
     }
 
     /// Step 5: compensated actor markers (actor units) → the character's, rig units.
-    fn retarget(&self, actor: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    pub fn retarget(&self, actor: &[[f64; 3]]) -> Vec<[f64; 3]> {
         actor
             .iter()
             .enumerate()

@@ -152,9 +152,11 @@ pub struct BakeArgs {
     /// the pose while the head moves.
     #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_head_smoothing, requires = "capture")]
     pub head_smoothing: HeadSmoothing,
-    /// How the actor's markers become the character's: the RBF map (inverse multiquadric +
-    /// affine, paper 000) or per-region proportional scaling (paper 003 §4).
-    #[arg(long, value_enum, default_value_t = RetargetArg::Rbf, requires = "capture")]
+    /// How the actor's markers become the character's: per-region proportional scaling (paper
+    /// 003 §4; the default: it keeps the actor's jaw opening, where the RBF map of a layout
+    /// whose lip markers sit closer on the character than on the actor exaggerates it) or the
+    /// RBF map (inverse multiquadric + affine, paper 000).
+    #[arg(long, value_enum, default_value_t = RetargetArg::Proportional, requires = "capture")]
     pub retarget: RetargetArg,
     /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
     #[arg(long, value_name = "F", default_value_t = BakeOptions::default().planar_radius, value_parser = parse_positive)]

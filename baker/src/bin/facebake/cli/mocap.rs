@@ -134,10 +134,10 @@ pub fn run(
     let bar = super::progress(frames.len(), "playing the capture", quiet);
     let summary = play_stages(&rig, &rig_path, &frames, |f, positions| {
         let (actor, _) = stages.compensate(&mut ref_state, &frames[f]);
-        let markers: Vec<[f64; 3]> = actor
+        let markers: Vec<[f64; 3]> = stages
+            .retarget(&actor)
             .iter()
-            .map(|a| {
-                let m = stages.map.map(a);
+            .map(|m| {
                 [0, 1, 2].map(|c| f64::from(space.centre[c]) + m[c] * f64::from(space.half_extent))
             })
             .collect();
