@@ -29,6 +29,7 @@
 //! | `format/` | the blob: `header` and `RigData` (the docs of every section) |
 //! | `records`, `error` | every record size, named once; [`LoadError`] and the other load errors |
 //! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
+//! | `take/` | packed takes: [`Take`] (the format, loading) and [`TakeReader`] (decoding, seeking) |
 //! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |
 //!
 //! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
@@ -71,6 +72,7 @@ mod cost;
 mod rig;
 mod space;
 mod sqrt;
+pub mod take;
 
 pub use cost::Cost;
 pub use deformer::DegenerateTriangles;
@@ -83,3 +85,4 @@ pub use space::{ConvertError, Space};
 pub use stages::compensate::{FitFailure, RigidFit};
 pub use stages::report::{FrameReport, MarkerSet, RigidStatus};
 pub use stages::PlayState;
+pub use take::{Take, TakeFrameError, TakeLoadError, TakeReader};
