@@ -3,12 +3,13 @@
 //!
 //! A take is a separate file from the rig blob (`.fbt`, written by `facebake pack`). Every
 //! sample is quantised per marker to a step chosen at pack time from an error bound
-//! (|error| ≤ step / 2), predicted from the marker's previous decoded value (first order:
-//! measured on JawMoCap, its residuals pack smaller than second-order prediction's, 1.04 against
-//! 1.21 bits of entropy per coordinate at 0.2 mm steps), and the residuals are bit-packed with
-//! widths stored per block of frames. Every `key_interval` frames a key frame stores absolute
-//! values, so [`TakeReader::seek`] decodes at most one key interval. Missing samples stay
-//! missing: a presence mask is stored on key frames and whenever it changes.
+//! (|error| ≤ step / 2) and predicted from the marker's previous decoded values, first order
+//! (the last value) or second order (`2 q[t−1] − q[t−2]`), chosen per marker and block of frames:
+//! JawMoCap (a face at 60 Hz) packs smaller at first order, the C3D sample (a walk) at second.
+//! The residuals are bit-packed with widths stored per marker, axis and block. Every
+//! `key_interval` frames a key frame stores absolute values, so [`TakeReader::seek`] decodes at
+//! most one key interval. Missing samples stay missing: a presence mask is stored on key frames
+//! and whenever it changes.
 //!
 //! Samples decode to Q8.24 units of the take's [`Space`] (metres): packed for a rig
 //! (`facebake pack --rig`), that is the rig's actor space, and the samples go to
@@ -47,15 +48,17 @@
 //!
 //! * **key frame** (byte-aligned at its offset): M presence bits (marker order), then for every
 //!   present marker and axis `key width[axis]` bits `u`, `q = key minimum[axis] + u`. A missing
-//!   marker's `q` is 0.
-//! * **predicted frame**: at the start of each block, 5 bits per marker and axis: the width `w`
-//!   (0 ..= 31) of that residual over the block. Then one bit: 1 when the presence mask changed
-//!   (M presence bits follow). Then for every present marker with some `w > 0`: one bit, 1
-//!   when it moved; when it moved, for every axis with `w > 0`: one bit, 1 when the residual
-//!   `r` is not zero, and then its sign bit (1 negative) and `w − 1` bits of `|r| − 1`;
-//!   `q += r`. A missing marker keeps its `q` (the prediction when it comes back).
+//!   marker's `q` is 0. Both of a marker's last values are set to `q`.
+//! * **predicted frame**: at the start of each block, per marker one bit (1: second-order
+//!   prediction over this block) and 5 bits per axis: the width `w` (0 ..= 31) of that residual
+//!   over the block. Then one bit: 1 when the presence mask changed (M presence bits follow).
+//!   Then for every present marker with some `w > 0`: one bit, 1 when any of its residuals is
+//!   not zero; if so, for every axis with `w > 0`: one bit, 1 when the residual `r` is not
+//!   zero, and then its sign bit (1 negative) and `w − 1` bits of `|r| − 1`. Every present
+//!   marker's `q` becomes its prediction plus `r` (0 where no bits say otherwise). A missing
+//!   marker keeps its last two values (the prediction when it comes back).
 //!
-//! Decoding a frame reads at most `M + 3 + 33 · 3 · M` bits plus the block's widths, with no
+//! Decoding a frame reads at most `M + 1 + M + 3 · 33 · M` bits plus the block's widths, with no
 //! loop that depends on the data, and writes no memory but the [`TakeReader`]'s fixed state.
 //! Loading checks every count, offset and field against the bytes present; a stream that runs
 //! out or decodes beyond `i32` fails that frame with a [`TakeFrameError`].

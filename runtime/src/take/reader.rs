@@ -50,8 +50,8 @@ impl core::fmt::Display for TakeFrameError {
 }
 
 /// Decodes a [`Take`]: sequentially with [`Self::next_frame`], from anywhere with
-/// [`Self::seek`]. Its whole state is fixed-size (about 4 KiB): each marker's last quantised
-/// value, presence and residual widths, and the position in the stream.
+/// [`Self::seek`]. Its whole state is fixed-size (about 7 KiB): each marker's last two quantised
+/// values, presence, prediction order and residual widths, and the position in the stream.
 #[derive(Clone, Debug)]
 pub struct TakeReader<'a> {
     take: Take<'a>,
@@ -59,8 +59,13 @@ pub struct TakeReader<'a> {
     next: u32,
     /// Bit position in the stream.
     pos: usize,
+    /// Each marker's last quantised value,
     q: [[i32; 3]; MAX_MARKERS],
+    /// and the one before it (second-order prediction).
+    q2: [[i32; 3]; MAX_MARKERS],
     present: [bool; MAX_MARKERS],
+    /// Per marker over the current block: second-order prediction, and the residual widths.
+    second_order: [bool; MAX_MARKERS],
     width: [[u8; 3]; MAX_MARKERS],
 }
 
@@ -72,7 +77,9 @@ impl<'a> TakeReader<'a> {
             next: 0,
             pos: 0,
             q: [[0; 3]; MAX_MARKERS],
+            q2: [[0; 3]; MAX_MARKERS],
             present: [false; MAX_MARKERS],
+            second_order: [false; MAX_MARKERS],
             width: [[0; 3]; MAX_MARKERS],
         }
     }
@@ -195,10 +202,12 @@ impl<'a> TakeReader<'a> {
                         self.set(i, axis, i64::from(self.take.key_min[axis]) + i64::from(u))?;
                     }
                 }
+                self.q2[i] = self.q[i];
             }
         } else {
             if (k - 1) % self.take.block_frames() == 0 {
                 for i in 0..m {
+                    self.second_order[i] = self.bit()?;
                     for axis in 0..3 {
                         self.width[i][axis] = self.bits(WIDTH_BITS)? as u8;
                     }
@@ -210,18 +219,26 @@ impl<'a> TakeReader<'a> {
                 }
             }
             for i in 0..m {
-                let w = self.width[i];
-                if !self.present[i] || w == [0; 3] || !self.bit()? {
+                if !self.present[i] {
                     continue;
                 }
+                let w = self.width[i];
+                let any = w != [0; 3] && self.bit()?;
                 for (axis, &w) in w.iter().enumerate() {
-                    if w == 0 || !self.bit()? {
-                        continue;
+                    let mut r = 0;
+                    if any && w > 0 && self.bit()? {
+                        let negative = self.bit()?;
+                        let magnitude = i64::from(self.bits(u32::from(w).min(MAX_WIDTH) - 1)?) + 1;
+                        r = if negative { -magnitude } else { magnitude };
                     }
-                    let negative = self.bit()?;
-                    let magnitude = i64::from(self.bits(u32::from(w).min(MAX_WIDTH) - 1)?) + 1;
-                    let r = if negative { -magnitude } else { magnitude };
-                    self.set(i, axis, i64::from(self.q[i][axis]) + r)?;
+                    let last = i64::from(self.q[i][axis]);
+                    let prediction = if self.second_order[i] {
+                        2 * last - i64::from(self.q2[i][axis])
+                    } else {
+                        last
+                    };
+                    self.q2[i][axis] = self.q[i][axis];
+                    self.set(i, axis, prediction + r)?;
                 }
             }
         }

@@ -2,8 +2,9 @@
 //! (`facebake_runtime::take`, whose docs give the byte layout), and read back.
 //!
 //! [`pack`] quantises every marker to the step its error bound allows (|error| ≤ bound),
-//! predicts each sample from the marker's previous one, and bit-packs the residuals with
-//! widths chosen per block of frames; [`parse`] decodes a take with the runtime's
+//! predicts each sample from the marker's previous ones (first or second order, whichever codes
+//! each marker's block of frames in fewer bits), and bit-packs the residuals with widths chosen
+//! per block; [`parse`] decodes a take with the runtime's
 //! [`TakeReader`] into a [`Capture`] in the units it was recorded in. A file is a take when it
 //! starts with the take magic, whatever its name (`read_capture` checks that first).
 
@@ -21,9 +22,9 @@ use crate::model::Units;
 /// Q8.24: units of the samples per unit of the space.
 const POS_ONE: f64 = (1u64 << 24) as f64;
 
-/// The smallest quantisation step, Q8.24 units: with it every `q` is within ±2²⁹, so every
-/// residual is within the ±2³⁰ of the widest width.
-pub const MIN_STEP: u32 = 4;
+/// The smallest quantisation step, Q8.24 units: with it every `q` is within ±2²⁸, so every
+/// residual, first or second order, is within the ±2³⁰ of the widest width.
+pub const MIN_STEP: u32 = 8;
 
 /// How to pack a take.
 #[derive(Debug, Clone, PartialEq)]
@@ -138,8 +139,42 @@ impl BitWriter {
 enum Coded {
     /// A key frame: absolute values (missing: `None`).
     Key(Vec<Option<[i64; 3]>>),
-    /// A predicted frame: residuals from the markers' previous values (missing: `None`).
-    Predicted(Vec<Option<[i64; 3]>>),
+    /// A predicted frame: per marker the residuals from its first- and second-order
+    /// predictions (missing: `None`).
+    Predicted(Vec<Option<[[i64; 3]; 2]>>),
+}
+
+/// The width that codes every residual of `largest` magnitude or less.
+fn width_for(largest: u64) -> u32 {
+    if largest == 0 {
+        0
+    } else {
+        1 + bit_len(largest - 1)
+    }
+}
+
+/// Widths and bits of one marker's residuals `rows` (its present frames of a block) at one
+/// prediction order.
+fn block_cost(rows: &[[i64; 3]]) -> ([u32; 3], u64) {
+    let widths =
+        [0, 1, 2].map(|c| width_for(rows.iter().map(|r| r[c].unsigned_abs()).max().unwrap_or(0)));
+    if widths == [0; 3] {
+        return (widths, 0);
+    }
+    let bits = rows
+        .iter()
+        .map(|r| {
+            1 + if *r == [0; 3] {
+                0
+            } else {
+                (0..3)
+                    .filter(|&c| widths[c] > 0)
+                    .map(|c| 1 + if r[c] == 0 { 0 } else { u64::from(widths[c]) })
+                    .sum()
+            }
+        })
+        .sum();
+    (widths, bits)
 }
 
 /// Pack `capture` (any units): see the module docs. Errors name the capture's file and, for a
@@ -243,24 +278,29 @@ pub fn pack(capture: &Capture, options: &PackOptions) -> Result<Packed, CaptureE
         q.push(row);
     }
 
-    // Code every frame: keys absolute, the rest as residuals from the previous values.
+    // Code every frame: keys absolute, the rest as residuals from each marker's last two
+    // values (held while it is missing; both set to the key value at a key frame).
     let n = usize::from(options.key_interval);
-    let mut state = vec![[0i64; 3]; m];
+    let mut last = vec![[[0i64; 3]; 2]; m];
     let mut coded = Vec::with_capacity(frames);
     for (f, row) in q.iter().enumerate() {
         if f % n == 0 {
-            for (s, v) in state.iter_mut().zip(row) {
-                *s = v.unwrap_or([0; 3]);
+            for (l, v) in last.iter_mut().zip(row) {
+                *l = [v.unwrap_or([0; 3]); 2];
             }
             coded.push(Coded::Key(row.clone()));
         } else {
             let residuals = row
                 .iter()
-                .zip(state.iter_mut())
-                .map(|(v, s)| {
+                .zip(last.iter_mut())
+                .map(|(v, l)| {
                     v.map(|v| {
-                        let r = [0, 1, 2].map(|c| v[c] - s[c]);
-                        *s = v;
+                        let [q1, q2] = *l;
+                        let r = [
+                            [0, 1, 2].map(|c| v[c] - q1[c]),
+                            [0, 1, 2].map(|c| v[c] - (2 * q1[c] - q2[c])),
+                        ];
+                        *l = [v, q1];
                         r
                     })
                 })
@@ -293,6 +333,7 @@ pub fn pack(capture: &Capture, options: &PackOptions) -> Result<Packed, CaptureE
     let mut w = BitWriter::default();
     let mut offsets = Vec::new();
     let mut widths = vec![[0u32; 3]; m];
+    let mut order = vec![0usize; m];
     let mut present = vec![false; m];
     for (f, frame) in coded.iter().enumerate() {
         match frame {
@@ -311,24 +352,28 @@ pub fn pack(capture: &Capture, options: &PackOptions) -> Result<Packed, CaptureE
             }
             Coded::Predicted(row) => {
                 if (f % n - 1) % block == 0 {
+                    // Per marker, the prediction order that codes this block in fewer bits.
                     let end = (f + block).min(frames).min(f - f % n + n);
-                    for (i, wi) in widths.iter_mut().enumerate() {
-                        for (c, wc) in wi.iter_mut().enumerate() {
-                            let largest = coded[f..end]
+                    for i in 0..m {
+                        let [first, second] = [0, 1].map(|o| {
+                            let rows: Vec<[i64; 3]> = coded[f..end]
                                 .iter()
                                 .filter_map(|x| match x {
-                                    Coded::Predicted(r) => r[i].map(|r| r[c].unsigned_abs()),
+                                    Coded::Predicted(r) => r[i].map(|r| r[o]),
                                     Coded::Key(_) => None,
                                 })
-                                .max()
-                                .unwrap_or(0);
-                            *wc = if largest == 0 {
-                                0
-                            } else {
-                                1 + bit_len(largest - 1)
-                            };
-                            debug_assert!(*wc <= MAX_WIDTH);
-                            w.put(u64::from(*wc), WIDTH_BITS);
+                                .collect();
+                            block_cost(&rows)
+                        });
+                        (order[i], widths[i]) = if second.1 < first.1 {
+                            (1, second.0)
+                        } else {
+                            (0, first.0)
+                        };
+                        w.flag(order[i] == 1);
+                        for wc in widths[i] {
+                            debug_assert!(wc <= MAX_WIDTH);
+                            w.put(u64::from(wc), WIDTH_BITS);
                         }
                     }
                 }
@@ -340,14 +385,14 @@ pub fn pack(capture: &Capture, options: &PackOptions) -> Result<Packed, CaptureE
                         w.flag(*p);
                     }
                 }
-                for (r, wi) in row.iter().zip(&widths) {
-                    let Some(r) = r else { continue };
+                for ((r, wi), o) in row.iter().zip(&widths).zip(&order) {
+                    let Some(r) = r.map(|r| r[*o]) else { continue };
                     if *wi == [0; 3] {
                         continue;
                     }
-                    let moved = *r != [0; 3];
-                    w.flag(moved);
-                    if !moved {
+                    let any = r != [0; 3];
+                    w.flag(any);
+                    if !any {
                         continue;
                     }
                     for c in 0..3 {
