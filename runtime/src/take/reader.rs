@@ -205,7 +205,7 @@ impl<'a> TakeReader<'a> {
                 self.q2[i] = self.q[i];
             }
         } else {
-            if (k - 1) % self.take.block_frames() == 0 {
+            if (k - 1).is_multiple_of(self.take.block_frames()) {
                 for i in 0..m {
                     self.second_order[i] = self.bit()?;
                     for axis in 0..3 {

@@ -237,7 +237,7 @@ pub fn pack(capture: &Capture, options: &PackOptions) -> Result<Packed, CaptureE
                 .map_or(options.max_error_mm, |(_, b)| *b);
             // Just under twice the bound, so rounding keeps every error within it.
             let step = (2.0 * bound / lsb_mm * (1.0 - 1e-9)).floor();
-            if !(step >= f64::from(MIN_STEP)) {
+            if step.is_nan() || step < f64::from(MIN_STEP) {
                 return Err(err(format!(
                     "marker {name:?}: an error bound of {bound} mm is below this take's resolution \
                      (the bound must be at least {} mm)",
