@@ -292,8 +292,9 @@ if fw_cargo build --locked --release --bin nofloat --target "$NOFPU_TARGET" --fe
     elif [ -n "$found" ]; then
         fail "Rig::from_bytes + Rig::deform link soft-float routines: $(tr '\n' ' ' <<<"$found")"
     # (grep the saved symbols: under pipefail, `llvm-nm | grep -q` fails when grep stops early.)
+    # (the payload decoder, or the stages' validation when the decoder is inlined into its caller)
     elif ! "$LLVM_BIN/llvm-nm" -C "$NF" >"$WORK/nf.syms" ||
-        ! grep -q "facebake_runtime::format::decode" "$WORK/nf.syms"; then
+        ! grep -qE "facebake_runtime::(format::decode|stages::Stages::validate)" "$WORK/nf.syms"; then
         fail "the nofloat harness does not contain the runtime's loader"
     else
         pass "Rig::from_bytes + Rig::deform link no soft-float routine (the canary links $(tr '\n' ' ' <<<"$canary"))"

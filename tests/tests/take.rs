@@ -14,7 +14,7 @@ use facebake::io::capture::read_capture;
 use facebake::io::capture::take::{pack, PackOptions, Packed};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::{PlayState, Rig, Take};
-use facebake_tests::fixture;
+use facebake_tests::{bless_or_check, fixture};
 
 /// The options the golden take is packed with (`facebake pack`'s defaults).
 fn golden_options(rig: &Rig<'_>) -> PackOptions {
@@ -100,29 +100,7 @@ fn golden_take_and_its_hashes_are_what_pack_and_play_make() {
         ("jawmocap.fbt", packed.bytes.clone()),
         ("hashes_take.txt", hashes.into_bytes()),
     ];
-    let dir = fixture("golden");
-    if std::env::var_os("FACEBAKE_BLESS").is_some_and(|v| v == "1") {
-        for (name, bytes) in &files {
-            std::fs::write(dir.join(name), bytes).unwrap();
-            println!(
-                "blessed {} ({} bytes)",
-                dir.join(name).display(),
-                bytes.len()
-            );
-        }
-        return;
-    }
-    for (name, want) in &files {
-        let have = std::fs::read(dir.join(name)).unwrap_or_default();
-        assert!(
-            have == *want,
-            "fixtures/golden/{name}: {} bytes committed, {} derived, first difference at byte {} \
-             (rerun with FACEBAKE_BLESS=1 if the change is intended)",
-            have.len(),
-            want.len(),
-            have.iter().zip(want).take_while(|(a, b)| a == b).count()
-        );
-    }
+    bless_or_check(&files);
 }
 
 /// The decoded take read back as a capture (the path `facebake play` takes: metres, then the

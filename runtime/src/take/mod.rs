@@ -67,7 +67,7 @@ mod reader;
 
 use crate::error::LoadError;
 use crate::format::header;
-use crate::records::MAX_MARKERS;
+use crate::records::{read_names, MAX_MARKERS};
 use crate::space::Space;
 
 pub use reader::{TakeFrameError, TakeReader};
@@ -384,13 +384,7 @@ impl<'a> Take<'a> {
 
     /// Marker names, in marker order.
     pub fn marker_names(&self) -> impl Iterator<Item = &'a str> + 'a {
-        let mut rest = self.names;
-        core::iter::from_fn(move || {
-            let (&len, tail) = rest.split_first()?;
-            let (name, tail) = tail.split_at_checked(usize::from(len))?;
-            rest = tail;
-            core::str::from_utf8(name).ok()
-        })
+        read_names(self.names)
     }
 
     /// Index of the marker called `name`.
