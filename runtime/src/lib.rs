@@ -35,7 +35,8 @@
 //! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
 //! crate; `records` imports only `fixed`, `error` only `fixed` and `records`; the
 //! deformers and the stages build on those; `format` (the payload) imports the deformers and the
-//! stages; `rig` sits on top. `.ci/module-cycles.sh` checks the graph in CI.
+//! stages; `rig` sits on top; `take` (packed takes) uses `format`'s header, `records` and
+//! `space`, and nothing imports it. `.ci/module-cycles.sh` checks the graph in CI.
 //!
 //! # Features
 //!
