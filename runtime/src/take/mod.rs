@@ -58,8 +58,10 @@
 //!   marker's `q` becomes its prediction plus `r` (0 where no bits say otherwise). A missing
 //!   marker keeps its last two values (the prediction when it comes back).
 //!
-//! Decoding a frame reads at most `M + 1 + M + 3 · 33 · M` bits plus the block's widths, with no
-//! loop that depends on the data, and writes no memory but the [`TakeReader`]'s fixed state.
+//! Decoding a frame reads at most `1 + M + M · (1 + 3 · 32)` bits (a key frame at most
+//! `M · (1 + 3 · 32)`), plus `16 · M` bits of orders and widths at the start of a block, in
+//! loops over the markers and axes only, and writes no memory but the [`TakeReader`]'s fixed
+//! state.
 //! Loading checks every count, offset and field against the bytes present; a stream that runs
 //! out or decodes beyond `i32` fails that frame with a [`TakeFrameError`].
 
@@ -113,7 +115,7 @@ pub enum TakeLoadError {
     Rate,
     /// The space has a non-finite value or a non-positive half extent.
     Space,
-    /// A key width is above 32 bits.
+    /// A key width is above 32 bits, or the reserved byte after the widths is not 0.
     KeyWidth,
     /// Marker `index`'s name is empty, not UTF-8, or the name of an earlier marker.
     MarkerName {
@@ -459,5 +461,241 @@ impl TakeFields {
             put(&k.to_le_bytes());
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::format::header::sealed_header;
+    use std::vec::Vec;
+
+    /// Bits appended least significant first.
+    #[derive(Default)]
+    struct Bits(Vec<u8>, usize);
+
+    impl Bits {
+        fn put(&mut self, value: u32, n: u32) -> &mut Self {
+            for i in 0..n {
+                if self.1 % 8 == 0 {
+                    self.0.push(0);
+                }
+                let last = self.0.len() - 1;
+                self.0[last] |= (((value >> i) & 1) as u8) << (self.1 % 8);
+                self.1 += 1;
+            }
+            self
+        }
+
+        fn align(&mut self) -> usize {
+            self.1 = self.0.len() * 8;
+            self.0.len()
+        }
+    }
+
+    fn fields() -> TakeFields {
+        TakeFields {
+            marker_count: 2,
+            frame_count: 3,
+            key_interval: 2,
+            block_frames: 1,
+            units: 1,
+            rate_hz: 60.0,
+            space: Space {
+                centre: [0.0, 1.0, 0.0],
+                half_extent: 0.125,
+            },
+            key_width: [4, 4, 4],
+            key_min: [-8, 0, 0],
+        }
+    }
+
+    /// The payload of a hand-made take: markers A (step 8) and B (step 16), frames 0 and 2
+    /// keys, frame 1 predicted (A first order with r = (−2, 0, 0), B second order at rest),
+    /// B missing in frame 2.
+    fn payload(fields: &TakeFields, names: &[&[u8]], steps: [u32; 2]) -> Vec<u8> {
+        let mut b = Bits::default();
+        b.put(0b11, 2); // frame 0: both present
+        for u in [3, 2, 1, 0, 0, 15] {
+            b.put(u, 4);
+        }
+        // Frame 1: A first order, widths (2, 0, 0); B second order, widths 0.
+        b.put(0, 1).put(2, 5).put(0, 5).put(0, 5);
+        b.put(1, 1).put(0, 15);
+        b.put(0, 1); // presence unchanged
+        b.put(1, 1).put(1, 1).put(1, 1).put(1, 1); // A: some residual, x ≠ 0, negative, |r| − 1 = 1
+        let second = b.align();
+        b.put(0b01, 2).put(0, 12); // frame 2: A present at the key minimum
+        let mut p = fields.to_bytes().to_vec();
+        for n in names {
+            p.push(n.len() as u8);
+            p.extend_from_slice(n);
+        }
+        for s in steps {
+            p.extend_from_slice(&s.to_le_bytes());
+        }
+        p.extend_from_slice(&0u32.to_le_bytes());
+        p.extend_from_slice(&(second as u32).to_le_bytes());
+        p.extend_from_slice(&(b.0.len() as u32).to_le_bytes());
+        p.extend_from_slice(&b.0);
+        p
+    }
+
+    fn seal(payload: &[u8]) -> Vec<u8> {
+        let mut out = sealed_header(&TAKE_MAGIC, TAKE_VERSION, payload)
+            .unwrap()
+            .to_vec();
+        out.extend_from_slice(payload);
+        out
+    }
+
+    fn good() -> Vec<u8> {
+        seal(&payload(&fields(), &[b"A", b"B"], [8, 16]))
+    }
+
+    const FRAMES: [[Option<[i32; 3]>; 2]; 3] = [
+        [Some([-40, 16, 8]), Some([-128, 0, 240])],
+        [Some([-56, 16, 8]), Some([-128, 0, 240])],
+        [Some([-64, 0, 0]), None],
+    ];
+
+    #[test]
+    fn a_hand_made_take_decodes_and_seeks() {
+        let bytes = good();
+        let take = Take::from_bytes(&bytes).unwrap();
+        assert_eq!(take.marker_names().collect::<Vec<_>>(), ["A", "B"]);
+        assert_eq!(
+            (take.frame_count(), take.key_interval(), take.rate_hz()),
+            (3, 2, 60.0)
+        );
+        assert_eq!(
+            (take.step(1), take.step(2), take.source_units()),
+            (Some(16), None, 1)
+        );
+        let mut reader = take.reader();
+        let mut row = [None; 2];
+        for (f, want) in FRAMES.iter().enumerate() {
+            assert_eq!(reader.next_frame(&mut row), Ok(Some(f)));
+            assert_eq!(&row, want, "frame {f}");
+        }
+        assert_eq!(reader.next_frame(&mut row), Ok(None));
+        for f in [1, 0, 2, 1] {
+            reader.seek(f).unwrap();
+            reader.next_frame(&mut row).unwrap();
+            assert_eq!(row, FRAMES[f], "seek to {f}");
+        }
+        assert_eq!(
+            reader.seek(4),
+            Err(TakeFrameError::NoFrame {
+                frame: 4,
+                frames: 3
+            })
+        );
+    }
+
+    /// Every field out of range gives its own error; a stream cut short fails its frame.
+    #[test]
+    fn every_bad_field_is_its_own_error() {
+        let with = |f: &dyn Fn(&mut TakeFields)| {
+            let mut fields = fields();
+            f(&mut fields);
+            Take::from_bytes(&seal(&payload(&fields, &[b"A", b"B"], [8, 16]))).map(|_| ())
+        };
+        assert_eq!(
+            with(&|f| f.marker_count = 0),
+            Err(TakeLoadError::MarkerCount { found: 0 })
+        );
+        assert_eq!(with(&|f| f.frame_count = 0), Err(TakeLoadError::NoFrames));
+        assert_eq!(with(&|f| f.key_interval = 0), Err(TakeLoadError::Interval));
+        assert_eq!(with(&|f| f.block_frames = 3), Err(TakeLoadError::Interval));
+        assert_eq!(with(&|f| f.units = 4), Err(TakeLoadError::Units));
+        assert_eq!(with(&|f| f.rate_hz = f64::NAN), Err(TakeLoadError::Rate));
+        assert_eq!(with(&|f| f.rate_hz = -1.0), Err(TakeLoadError::Rate));
+        assert_eq!(
+            with(&|f| f.space.half_extent = 0.0),
+            Err(TakeLoadError::Space)
+        );
+        assert_eq!(with(&|f| f.key_width[2] = 33), Err(TakeLoadError::KeyWidth));
+        // Three frames at interval 1 need three key offsets: the stream length is read as one.
+        assert!(with(&|f| f.key_interval = 1).is_err());
+        let names =
+            |n: &[&[u8]]| Take::from_bytes(&seal(&payload(&fields(), n, [8, 16]))).map(|_| ());
+        assert_eq!(
+            names(&[b"A", b""]),
+            Err(TakeLoadError::MarkerName { index: 1 })
+        );
+        assert_eq!(
+            names(&[b"A", b"A"]),
+            Err(TakeLoadError::MarkerName { index: 1 })
+        );
+        assert_eq!(
+            names(&[b"\xff", b"B"]),
+            Err(TakeLoadError::MarkerName { index: 0 })
+        );
+        assert_eq!(
+            Take::from_bytes(&seal(&payload(&fields(), &[b"A", b"B"], [8, 0]))).map(|_| ()),
+            Err(TakeLoadError::Step { index: 1 })
+        );
+        let good_payload = payload(&fields(), &[b"A", b"B"], [8, 16]);
+        let keys_at = FIXED_LEN + 4 + 8;
+        let mut p = good_payload.clone();
+        p[keys_at + 4..keys_at + 8].copy_from_slice(&0u32.to_le_bytes());
+        assert_eq!(
+            Take::from_bytes(&seal(&p)).map(|_| ()),
+            Err(TakeLoadError::KeyOffset { index: 1 })
+        );
+        let mut p = good_payload.clone();
+        p.push(0);
+        assert_eq!(
+            Take::from_bytes(&seal(&p)).map(|_| ()),
+            Err(TakeLoadError::TrailingBytes)
+        );
+        for n in 0..good_payload.len() {
+            assert!(
+                Take::from_bytes(&seal(&good_payload[..n])).is_err(),
+                "{n} bytes"
+            );
+        }
+        let mut bad = good();
+        bad[0] = b'X';
+        assert_eq!(
+            Take::from_bytes(&bad).map(|_| ()),
+            Err(TakeLoadError::Header(LoadError::BadMagic))
+        );
+        let mut bad = good();
+        let last = bad.len() - 1;
+        bad[last] ^= 1;
+        assert!(matches!(
+            Take::from_bytes(&bad),
+            Err(TakeLoadError::Header(LoadError::ChecksumMismatch { .. }))
+        ));
+        // The stream cut to 4 bytes: frame 0 (26 bits) decodes, frame 1 runs out of bits.
+        let mut p = good_payload;
+        let len_at = keys_at + 8;
+        p[len_at..len_at + 4].copy_from_slice(&4u32.to_le_bytes());
+        p.truncate(len_at + 4 + 4);
+        p[keys_at + 4..keys_at + 8].copy_from_slice(&3u32.to_le_bytes());
+        let bytes = seal(&p);
+        let take = Take::from_bytes(&bytes).unwrap();
+        let mut reader = take.reader();
+        let mut row = [None; 2];
+        assert_eq!(reader.next_frame(&mut row), Ok(Some(0)));
+        assert_eq!(
+            reader.next_frame(&mut row),
+            Err(TakeFrameError::StreamEnd { frame: 1 })
+        );
+        assert_eq!(
+            reader.next_frame(&mut row),
+            Ok(None),
+            "at the end after an error"
+        );
+        // A huge step makes the key value leave i32.
+        let bytes = seal(&payload(&fields(), &[b"A", b"B"], [1 << 30, 16]));
+        let take = Take::from_bytes(&bytes).unwrap();
+        assert_eq!(
+            take.reader().next_frame(&mut row),
+            Err(TakeFrameError::OutOfRange { frame: 0 })
+        );
     }
 }
