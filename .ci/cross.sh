@@ -3,7 +3,8 @@
 #   * bit-identical output on every architecture: the golden hashes on x86_64, and cross-built
 #     under qemu-user on aarch64, 32-bit big-endian PowerPC and i686;
 #   * runs on a Cortex-M4: the firmware plays every golden frame under QEMU mps2-an386 and must
-#     print exactly the golden hashes (a panic exits non-zero and fails);
+#     print exactly the golden hashes (a panic exits non-zero and fails), the packed JawMoCap
+#     take decoded from flash included; decoding costs at most 5% of a frame's deformation;
 #   * never allocates: the firmware links no allocator (an alloc canary must fail to build) and
 #     a host test counts allocations;
 #   * no float on the per-frame path: load + deform built for thumbv6m (no FPU) links no
@@ -175,24 +176,38 @@ if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.lo
         fail "firmware exited with status $rc under QEMU"
     elif ! grep -qx "firmware: done" "$WORK/fw.out"; then
         fail "firmware did not finish"
-    elif ! diff <(golden_lines fixtures/golden/hashes.txt) <(golden_lines "$WORK/fw.out") \
-        >"$WORK/fw.diff"; then
+    elif ! diff <(cat fixtures/golden/hashes.txt fixtures/golden/hashes_take.txt | golden_lines /dev/stdin) \
+        <(golden_lines "$WORK/fw.out") >"$WORK/fw.diff"; then
         head -n 20 "$WORK/fw.diff"
-        fail "Cortex-M4 frame hashes differ from hashes.txt"
+        fail "Cortex-M4 frame hashes differ from hashes.txt and hashes_take.txt"
     else
-        pass "Cortex-M4: all $(golden_lines "$WORK/fw.out" | grep -c ' frame ') frame hashes and every sequence hash equal hashes.txt"
+        pass "Cortex-M4: all $(golden_lines "$WORK/fw.out" | grep -c ' frame ') frame hashes and every sequence hash equal hashes.txt and hashes_take.txt (the packed take played from flash)"
     fi
 
     # Instructions per frame, in firmware order: one count per deform call.
     mapfile -t COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
     FRAMES=$(( $(stat -c %s fixtures/golden/facecap_markers.bin) / (40 * 12) ))
     CAPTURE_FRAMES=$(( $(stat -c %s fixtures/golden/jawmocap_actor.bin) / (41 * 13) ))
-    if [ "${#COUNTS[@]}" -ne $(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES )) ]; then
-        fail "instruction counter saw ${#COUNTS[@]} frames, expected $(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES ))"
+    TAKE_FRAMES=$(grep -c '^take frame ' fixtures/golden/hashes_take.txt)
+    EXPECTED_COUNTS=$(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES + 2 * TAKE_FRAMES ))
+    if [ "${#COUNTS[@]}" -ne "$EXPECTED_COUNTS" ]; then
+        fail "instruction counter saw ${#COUNTS[@]} frames, expected $EXPECTED_COUNTS"
     else
+        # The packed take comes last, two counts a frame: decoding it, then deforming it.
+        TAKE_AT=$(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES ))
+        printf '%s\n' "${COUNTS[@]:$TAKE_AT}" | awk 'NR % 2 == 1' | sort -n >"$WORK/take-decode"
+        printf '%s\n' "${COUNTS[@]:$TAKE_AT}" | awk 'NR % 2 == 0' | sort -n >"$WORK/take-deform"
+        read -r DEC_MIN DEC_MED DEC_MAX < <(awk '{ v[NR] = $1 } END { print v[1], v[int((NR + 1) / 2)], v[NR] }' "$WORK/take-decode")
+        read -r DEF_MIN DEF_MAX < <(awk 'NR == 1 { lo = $1 } { hi = $1 } END { print lo, hi }' "$WORK/take-deform")
+        figure "M4 packed take (41 markers): decoding $DEC_MIN to $DEC_MAX instructions per frame (median $DEC_MED) over $TAKE_FRAMES frames; deforming $DEF_MIN to $DEF_MAX; decoding at most $(awk -v d="$DEC_MAX" -v f="$DEF_MIN" 'BEGIN { printf "%.2f", 100 * d / f }')% of the deformation"
+        if [ $(( DEC_MAX * 20 )) -le "$DEF_MIN" ]; then
+            pass "Cortex-M4: decoding a packed take frame costs at most 5% of its deformation"
+        else
+            fail "Cortex-M4: decoding a packed take frame costs more than 5% of its deformation"
+        fi
         # The capture stages (41 markers) come last; their work depends on which markers are
         # missing, so report the spread.
-        printf '%s\n' "${COUNTS[@]:$(( FRAMES * ${#RIGS[@]} ))}" | sort -n | awk '
+        printf '%s\n' "${COUNTS[@]:$(( FRAMES * ${#RIGS[@]} )):$CAPTURE_FRAMES}" | sort -n | awk '
             { v[NR] = $1 } END {
                 printf "FIGURE: M4 capture stages, 41 markers: %d to %d instructions per frame (median %d) over %d frames = %.2f to %.2f ms at 168 MHz\n", v[1], v[NR], v[int((NR + 1) / 2)], NR, v[1] / 168e3, v[NR] / 168e3 }'
         for i in "${!RIGS[@]}"; do
@@ -211,7 +226,7 @@ if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.lo
     read -r CODE RODATA < <("$LLVM_BIN/llvm-size" -A "$ELF" |
         awk '$1 == ".text" {t = $2} $1 == ".rodata" {r = $2} END {print t, r}')
     figure "firmware flash $(( TEXT + DATA )) bytes: code $CODE, read-only data $RODATA (the blobs and markers), data $DATA; static RAM $(( DATA + BSS )) bytes; budget 1 MiB flash, 128 KiB RAM (memory.x)"
-    for f in fixtures/golden/*.fbk fixtures/golden/facecap_markers.bin; do
+    for f in fixtures/golden/*.fbk fixtures/golden/*.fbt fixtures/golden/facecap_markers.bin; do
         figure "$(basename "$f") $(stat -c %s "$f") bytes"
     done
     # Stack: the frames of the path main → Rig::deform (the output buffer is on main's stack).
@@ -277,8 +292,9 @@ if fw_cargo build --locked --release --bin nofloat --target "$NOFPU_TARGET" --fe
     elif [ -n "$found" ]; then
         fail "Rig::from_bytes + Rig::deform link soft-float routines: $(tr '\n' ' ' <<<"$found")"
     # (grep the saved symbols: under pipefail, `llvm-nm | grep -q` fails when grep stops early.)
+    # (the payload decoder, or the stages' validation when the decoder is inlined into its caller)
     elif ! "$LLVM_BIN/llvm-nm" -C "$NF" >"$WORK/nf.syms" ||
-        ! grep -q "facebake_runtime::format::decode" "$WORK/nf.syms"; then
+        ! grep -qE "facebake_runtime::(format::decode|stages::Stages::validate)" "$WORK/nf.syms"; then
         fail "the nofloat harness does not contain the runtime's loader"
     else
         pass "Rig::from_bytes + Rig::deform link no soft-float routine (the canary links $(tr '\n' ' ' <<<"$canary"))"

@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 secs=${FUZZ_SECONDS:-20}
 rss=${FUZZ_RSS_MB:-2048}
 corpus=fuzz/corpus
-targets=(gltf capture layout mask_png blob)
+targets=(gltf capture layout mask_png blob take)
 
 # seed TARGET PREFIX FILE...: copies each FILE into TARGET's corpus, after the bytes PREFIX
 # (a printf format) that the target reads as its selector.
@@ -36,6 +36,12 @@ seed layout '\000' fixtures/facecap_jawmocap_layout.toml
 seed layout '\001' fixtures/repro/layout_json_float_1ulp.json
 seed mask_png '' fixtures/repro/*.png
 seed blob '\000\000\000\000\000\000\000\000' fixtures/golden/*.fbk fixtures/repro/*.fbk
+seed take '\000\000' fixtures/golden/*.fbt
+# The payload alone (after the 20-byte header), which the target seals afresh.
+mkdir -p "$corpus/take"
+for f in fixtures/golden/*.fbt; do
+  { printf '\001\007'; tail -c +21 "$f"; } > "$corpus/take/seed-payload-$(basename "$f")"
+done
 
 cd fuzz
 for t in "${targets[@]}"; do

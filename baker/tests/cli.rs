@@ -901,3 +901,53 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         stderr(&out)
     );
 }
+
+#[test]
+fn pack_writes_a_take_that_plays_like_its_decoded_capture() {
+    let dir = temp_dir("pack");
+    let take = dir.join("jaw.fbt");
+    let rig = fixture("golden/jawmocap_capture.fbk");
+    let jaw = fixture("JawMoCap.trc");
+    let summary = json_ok(&facebake(&[
+        "pack",
+        s(&jaw),
+        "-o",
+        s(&take),
+        "--rig",
+        s(&rig),
+        "--json",
+    ]));
+    assert_eq!(summary["frames"], 1590);
+    assert!(summary["ratio"].as_f64().unwrap() >= 20.0, "{summary}");
+    assert!(summary["measured_max_error_mm"].as_f64().unwrap() <= 0.1 * (1.0 + 1e-9));
+    // The decoded take written as TRC plays to the same frames as the take.
+    let decoded = facebake::io::capture::read_capture(&take).unwrap();
+    let trc = dir.join("decoded.trc");
+    facebake::io::capture::write_trc(&trc, &decoded).unwrap();
+    let npy = [dir.join("take.npy"), dir.join("trc.npy")];
+    for (input, out) in [(&take, &npy[0]), (&trc, &npy[1])] {
+        let run = facebake(&["play", s(&rig), "--markers", s(input), "-o", s(out)]);
+        assert_eq!(run.status.code(), Some(0), "{}", stderr(&run));
+    }
+    assert!(std::fs::read(&npy[0]).unwrap() == std::fs::read(&npy[1]).unwrap());
+    // An error bound below the take's resolution, a marker bound for an unknown marker, and a
+    // corrupt take are bad input naming the file.
+    let zero = facebake(&["pack", s(&jaw), "-o", s(&take), "--max-error-mm", "0"]);
+    assert_bad_input(&zero, "JawMoCap.trc");
+    let unknown = facebake(&[
+        "pack",
+        s(&jaw),
+        "-o",
+        s(&take),
+        "--marker-max-error",
+        "Nose=0.05",
+    ]);
+    assert_bad_input(&unknown, "JawMoCap.trc");
+    let mut bytes = std::fs::read(&take).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0x55;
+    let corrupt = dir.join("corrupt.fbt");
+    std::fs::write(&corrupt, &bytes).unwrap();
+    let run = facebake(&["play", s(&rig), "--markers", s(&corrupt), "-o", s(&npy[0])]);
+    assert_bad_input(&run, "corrupt.fbt");
+}

@@ -10,7 +10,14 @@
 //! large RAM use is the output buffer on the stack.
 //!
 //! `frame_start` / `frame_end` bracket every `deform` call so the QEMU plugin in `qemu/` can count
-//! the instructions of each frame.
+//! the instructions of each frame; for the capture golden they bracket the capture stages, and
+//! for the packed take first the decoding of each frame and then its deformation.
+//!
+//! The packed take (`fixtures/golden/jawmocap.fbt`, all 1590 JawMoCap frames, 33 KB of flash)
+//! plays from flash: each frame is decoded with the runtime's `TakeReader` (a fixed state on
+//! the stack, no allocation), matched to the rig's markers by name and played through the
+//! capture rig's stages and deformer, printing `take frame <n> <fnv1a64>` lines that must equal
+//! `fixtures/golden/hashes_take.txt`.
 #![no_std]
 #![no_main]
 
@@ -24,7 +31,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::format::records::MAX_MARKERS;
-use facebake_runtime::{PlayState, Rig};
+use facebake_runtime::{PlayState, Rig, Take};
 
 /// The golden rigs, by the names `hashes.txt` uses.
 const RIGS: [(&str, &[u8]); 3] = [
@@ -49,6 +56,9 @@ const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin
 /// and three `i32` LE, Q8.24 actor units).
 const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
 const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
+
+/// The take golden: JawMoCap packed in the capture rig's actor space.
+const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");
 
 /// Most vertices a rig may have here: the output buffer lives on the stack (12 bytes a vertex).
 const MAX_VERTICES: usize = 3072;
@@ -162,6 +172,74 @@ fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES]) {
     );
 }
 
+/// Play the packed take from flash through the capture rig: per frame, decode (bracketed),
+/// then the stages and the deformation (the deformation bracketed), hashed as
+/// `hashes_take.txt` records them.
+fn play_take(out: &mut [[i32; 3]; MAX_VERTICES]) {
+    let rig = match Rig::from_bytes(CAPTURE) {
+        Ok(rig) => rig,
+        Err(e) => panic!("take: the golden capture rig does not load: {e}"),
+    };
+    let take = match Take::from_bytes(TAKE) {
+        Ok(take) => take,
+        Err(e) => panic!("take: the golden take does not load: {e}"),
+    };
+    let (m, t, v) = (rig.marker_count(), take.marker_count(), rig.vertex_count());
+    assert!(v <= MAX_VERTICES, "take: {v} vertices, room for {MAX_VERTICES}");
+    let out = &mut out[..v];
+    // For each rig marker, the take's marker of that name.
+    let mut map = [None; MAX_MARKERS];
+    for (slot, name) in map.iter_mut().zip(rig.marker_names()) {
+        *slot = take.marker_index(name);
+    }
+    let mut reader = take.reader();
+    let mut row = [None; MAX_MARKERS];
+    let mut actor = [None; MAX_MARKERS];
+    let mut markers = [[0i32; 3]; MAX_MARKERS];
+    let mut state = PlayState::new();
+    let mut sequence = Fnv1a64::new();
+    let mut frames = 0;
+    while frames < take.frame_count() {
+        frame_start(frames);
+        let decoded = reader.next_frame(&mut row[..t]);
+        frame_end(frames);
+        match decoded {
+            Ok(Some(_)) => {}
+            Ok(None) => break,
+            Err(e) => panic!("take frame {frames}: {e}"),
+        }
+        for (a, j) in actor.iter_mut().zip(&map).take(m) {
+            *a = j.and_then(|j| row[j]);
+        }
+        let report = match rig.play_markers(&mut state, &actor[..m], &mut markers[..m]) {
+            Ok(report) => report,
+            Err(e) => panic!("take frame {frames}: {e}"),
+        };
+        frame_start(frames);
+        let done = rig.deform(&markers[..m], out);
+        frame_end(frames);
+        if let Err(e) = done {
+            panic!("take frame {frames}: {e}");
+        }
+        let mut h = Fnv1a64::new();
+        for hash in [&mut h, &mut sequence] {
+            hash.write_samples(&actor[..m]);
+            hash.write_capture_frame(&markers[..m], out, &report);
+        }
+        hprintln!("take frame {} {:016x}", frames, h.finish());
+        frames += 1;
+    }
+    hprintln!("take sequence {:016x}", sequence.finish());
+    hprintln!(
+        "figures take: {} frames, {} markers, take {} bytes (stream {}), key interval {}",
+        frames,
+        t,
+        TAKE.len(),
+        take.stream_len(),
+        take.key_interval()
+    );
+}
+
 #[entry]
 fn main() -> ! {
     #[cfg(feature = "alloc-canary")]
@@ -179,6 +257,7 @@ fn main() -> ! {
         play(name, blob, &mut out);
     }
     play_capture(&mut out);
+    play_take(&mut out);
     hprintln!("firmware: done");
     debug::exit(debug::EXIT_SUCCESS);
     // Without a debugger or semihosting host, exit returns: park.

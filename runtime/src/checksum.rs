@@ -71,6 +71,15 @@ impl Fnv1a64 {
         }
     }
 
+    /// Feed actor samples as the golden actor files store them: per marker a presence byte
+    /// (1 present, 0 missing) and three `i32` LE (zeros when missing).
+    pub fn write_samples(&mut self, samples: &[Option<[i32; 3]>]) {
+        for s in samples {
+            self.write(&[u8::from(s.is_some())]);
+            self.write_positions(&[s.unwrap_or([0; 3])]);
+        }
+    }
+
     /// Feed one frame of the capture stages as the golden hashes record it: the character's
     /// markers, the deformed vertices, then (RMS head residual, markers rebuilt, markers held).
     pub fn write_capture_frame(

@@ -29,12 +29,14 @@
 //! | `format/` | the blob: `header` and `RigData` (the docs of every section) |
 //! | `records`, `error` | every record size, named once; [`LoadError`] and the other load errors |
 //! | `cost`, `space` | [`Cost`]; [`Space`] and unit conversions |
+//! | `take/` | packed takes: [`Take`] (the format, loading) and [`TakeReader`] (decoding, seeking) |
 //! | `fixed`, `sqrt`, `checksum` | fixed-point primitives, integer square roots, CRC-32 and FNV-1a |
 //!
 //! No module imports one that imports it back: `cost`, `fixed` and `sqrt` import nothing from the
 //! crate; `records` imports only `fixed`, `error` only `fixed` and `records`; the
 //! deformers and the stages build on those; `format` (the payload) imports the deformers and the
-//! stages; `rig` sits on top. `.ci/module-cycles.sh` checks the graph in CI.
+//! stages; `rig` sits on top; `take` (packed takes) uses `format`'s header, `records` and
+//! `space`, and nothing imports it. `.ci/module-cycles.sh` checks the graph in CI.
 //!
 //! # Features
 //!
@@ -71,6 +73,7 @@ mod cost;
 mod rig;
 mod space;
 mod sqrt;
+pub mod take;
 
 pub use cost::Cost;
 pub use deformer::DegenerateTriangles;
@@ -83,3 +86,4 @@ pub use space::{ConvertError, Space};
 pub use stages::compensate::{FitFailure, RigidFit};
 pub use stages::report::{FrameReport, MarkerSet, RigidStatus};
 pub use stages::PlayState;
+pub use take::{Take, TakeFrameError, TakeLoadError, TakeReader};

@@ -116,3 +116,16 @@ pub fn read_i32(b: &[u8]) -> i32 {
 pub fn read_matrix_entry(b: &[u8]) -> i16 {
     i16::from_le_bytes(b.try_into().unwrap_or([0; MATRIX_ENTRY_BYTES]))
 }
+
+/// The names of a section of length-prefixed names (`u8` length, then UTF-8 bytes), in order:
+/// the rig's marker names and a packed take's. Stops at the first that does not fit or is not
+/// UTF-8 (loading rejects both).
+pub fn read_names<'a>(bytes: &'a [u8]) -> impl Iterator<Item = &'a str> + 'a {
+    let mut rest = bytes;
+    core::iter::from_fn(move || {
+        let (&len, tail) = rest.split_first()?;
+        let (name, tail) = tail.split_at_checked(usize::from(len))?;
+        rest = tail;
+        core::str::from_utf8(name).ok()
+    })
+}

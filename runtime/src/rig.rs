@@ -7,7 +7,9 @@ use crate::deformer::DegenerateTriangles;
 use crate::error::LoadError;
 use crate::format::header;
 use crate::format::{self, RigData};
-use crate::records::{read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
+use crate::records::{
+    read_names, read_position, read_rest, MAX_MARKERS, POSITION_BYTES, REST_BYTES,
+};
 use crate::space::Space;
 use crate::stages::report::FrameReport;
 use crate::stages::PlayState;
@@ -97,13 +99,7 @@ impl<'a> Rig<'a> {
 
     /// Marker names, in marker order.
     pub fn marker_names(&self) -> impl Iterator<Item = &'a str> + 'a {
-        let mut rest = self.data.marker_names.0;
-        core::iter::from_fn(move || {
-            let (&len, tail) = rest.split_first()?;
-            let (name, tail) = tail.split_at_checked(usize::from(len))?;
-            rest = tail;
-            core::str::from_utf8(name).ok()
-        })
+        read_names(self.data.marker_names.0)
     }
 
     /// Index of the marker called `name`.

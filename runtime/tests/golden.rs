@@ -160,3 +160,50 @@ fn capture_stages_are_bit_identical_to_the_golden_hashes() {
     );
     assert_eq!(sequence.finish(), expected("capture", "sequence"));
 }
+
+const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");
+const TAKE_HASHES: &str = include_str!("../../fixtures/golden/hashes_take.txt");
+
+/// The take golden: JawMoCap packed, decoded frame by frame and played through the capture rig.
+#[test]
+fn packed_take_plays_bit_identical_to_the_golden_hashes() {
+    use facebake_runtime::Take;
+    let rig = Rig::from_bytes(CAPTURE).expect("golden capture rig loads");
+    let take = Take::from_bytes(TAKE).expect("golden take loads");
+    let map: Vec<Option<usize>> = rig.marker_names().map(|n| take.marker_index(n)).collect();
+    let mut reader = take.reader();
+    let mut row = vec![None; take.marker_count()];
+    let mut actor = vec![None; rig.marker_count()];
+    let mut state = facebake_runtime::PlayState::new();
+    let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut sequence = Fnv1a64::new();
+    let mut lines = TAKE_HASHES.lines().filter(|l| l.starts_with("take "));
+    let mut wrong = Vec::new();
+    while let Some(f) = reader.next_frame(&mut row).expect("golden take decodes") {
+        for (a, j) in actor.iter_mut().zip(&map) {
+            *a = j.and_then(|j| row[j]);
+        }
+        let report = rig.play_markers(&mut state, &actor, &mut markers).unwrap();
+        rig.deform(&markers, &mut out).unwrap();
+        let mut h = Fnv1a64::new();
+        for hash in [&mut h, &mut sequence] {
+            hash.write_samples(&actor);
+            hash.write_capture_frame(&markers, &out, &report);
+        }
+        let line = format!("take frame {f} {:016x}", h.finish());
+        if lines.next() != Some(line.as_str()) {
+            wrong.push(line);
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "take: frames differ on this target:\n{}",
+        wrong[..wrong.len().min(10)].join("\n")
+    );
+    assert_eq!(
+        lines.next(),
+        Some(format!("take sequence {:016x}", sequence.finish()).as_str())
+    );
+    assert_eq!(lines.next(), None);
+}

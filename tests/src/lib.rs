@@ -319,3 +319,41 @@ pub fn play_take(
         })
         .unzip()
 }
+
+/// Compare generated golden files with `fixtures/golden/NAME` byte for byte, failing with the
+/// first difference of each stale one; with `FACEBAKE_BLESS=1`, write them instead.
+pub fn bless_or_check(files: &[(&str, Vec<u8>)]) {
+    let dir = fixture("golden");
+    if std::env::var_os("FACEBAKE_BLESS").is_some_and(|v| v == "1") {
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, bytes) in files {
+            std::fs::write(dir.join(name), bytes).unwrap();
+            println!(
+                "blessed {} ({} bytes)",
+                dir.join(name).display(),
+                bytes.len()
+            );
+        }
+        return;
+    }
+    let mut stale = Vec::new();
+    for (name, want) in files {
+        let path = dir.join(name);
+        let have = std::fs::read(&path).unwrap_or_default();
+        if have != *want {
+            let at = have.iter().zip(want).take_while(|(a, b)| a == b).count();
+            stale.push(format!(
+                "{}: {} bytes committed, {} derived, first difference at byte {at}",
+                path.display(),
+                have.len(),
+                want.len()
+            ));
+        }
+    }
+    assert!(
+        stale.is_empty(),
+        "golden data differs from the baker (rerun with FACEBAKE_BLESS=1 if the change is \
+         intended):\n{}",
+        stale.join("\n")
+    );
+}

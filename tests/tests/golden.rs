@@ -19,7 +19,6 @@
 //! | `hashes_planar.txt` | the same for the planar-bones rig, kept apart because the Cortex-M4 firmware does not play it yet (its per-frame instruction count is not constant: see the README) |
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 use facebake::demo::JAWMOCAP_HEAD_MARKERS;
 use facebake::stages::{HeadMarkers, StagesConfig};
@@ -29,7 +28,7 @@ use facebake_runtime::fixed::POS_ONE;
 use facebake_runtime::PlayState;
 use facebake_runtime::Rig;
 use facebake_tests::{
-    bake_truth, facecap_default, facecap_planar, facecap_weights, fixture, jawmocap_rig,
+    bake_truth, bless_or_check, facecap_default, facecap_planar, facecap_weights, jawmocap_rig,
     planar_config, weights_config, JawMoCapRig, FACECAP_MARKERS,
 };
 
@@ -214,10 +213,6 @@ const EDGE_FRAMES: [&str; 7] = [
     "i32::MAX / i32::MIN alternating by marker and axis",
 ];
 
-fn golden_dir() -> PathBuf {
-    fixture("golden")
-}
-
 /// The default configuration at K = 4.
 fn k4_config() -> BakeOptions {
     BakeOptions {
@@ -384,39 +379,7 @@ fn golden_files_match_the_baker_byte_for_byte() {
             hashes_txt(&[("planar", planar)], &frames).into_bytes(),
         ),
     ];
-    let dir = golden_dir();
-    if std::env::var_os("FACEBAKE_BLESS").is_some_and(|v| v == "1") {
-        std::fs::create_dir_all(&dir).unwrap();
-        for (name, bytes) in &files {
-            std::fs::write(dir.join(name), bytes).unwrap();
-            println!(
-                "blessed {} ({} bytes)",
-                dir.join(name).display(),
-                bytes.len()
-            );
-        }
-        return;
-    }
-    let mut stale = Vec::new();
-    for (name, want) in &files {
-        let path = dir.join(name);
-        let have = std::fs::read(&path).unwrap_or_default();
-        if have != *want {
-            let at = have.iter().zip(want).take_while(|(a, b)| a == b).count();
-            stale.push(format!(
-                "{}: {} bytes committed, {} derived, first difference at byte {at}",
-                path.display(),
-                have.len(),
-                want.len()
-            ));
-        }
-    }
-    assert!(
-        stale.is_empty(),
-        "golden data differs from the baker (rerun with FACEBAKE_BLESS=1 if the change is \
-         intended):\n{}",
-        stale.join("\n")
-    );
+    bless_or_check(&files);
 }
 
 #[test]

@@ -141,3 +141,26 @@ fn playing_captured_frames_never_allocates() {
     assert_eq!(n, 0, "the runtime allocated {n} times");
     assert_eq!(played, 3 * frames.len());
 }
+
+const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");
+
+/// Loading a packed take, decoding every frame and seeking never allocate.
+#[test]
+fn decoding_and_seeking_a_packed_take_never_allocates() {
+    let mut row = vec![None; facebake_runtime::MAX_MARKERS];
+    let mut decoded = 0usize;
+    let (n, ()) = allocations_in(|| {
+        let take = facebake_runtime::Take::from_bytes(TAKE).expect("golden take loads");
+        let row = &mut row[..take.marker_count()];
+        let mut reader = take.reader();
+        while reader.next_frame(row).unwrap().is_some() {
+            decoded += 1;
+        }
+        for f in [1000, 3, 1589, 0] {
+            reader.seek(f).unwrap();
+            reader.next_frame(row).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "the take reader allocated {n} times");
+    assert_eq!(decoded, 1590);
+}

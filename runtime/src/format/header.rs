@@ -9,6 +9,9 @@
 //!     16     4  CRC-32 (IEEE) of the payload, u32 LE
 //!     20     …  payload                           (HEADER_LEN = 20)
 //! ```
+//!
+//! A packed take (`crate::take`) is sealed the same way under its own magic and version:
+//! [`open_sealed`] and [`sealed_header`] take those as arguments.
 
 use crate::checksum::crc32;
 use crate::error::LoadError;
@@ -25,10 +28,20 @@ const _: () = assert!(CRC_AT + 4 == HEADER_LEN);
 /// by the payload.
 #[cfg(feature = "format")]
 pub fn header_for(payload: &[u8]) -> Result<[u8; HEADER_LEN], PayloadTooLarge> {
+    sealed_header(&MAGIC, VERSION, payload)
+}
+
+/// The header for `payload` under another file's `magic` and `version` (a packed take's).
+#[cfg(feature = "format")]
+pub fn sealed_header(
+    magic: &[u8; 8],
+    version: u16,
+    payload: &[u8],
+) -> Result<[u8; HEADER_LEN], PayloadTooLarge> {
     let len = u32::try_from(payload.len()).map_err(|_| PayloadTooLarge)?;
     let mut h = [0u8; HEADER_LEN];
-    h[..VERSION_AT].copy_from_slice(&MAGIC);
-    h[VERSION_AT..RESERVED_AT].copy_from_slice(&VERSION.to_le_bytes());
+    h[..VERSION_AT].copy_from_slice(magic);
+    h[VERSION_AT..RESERVED_AT].copy_from_slice(&version.to_le_bytes());
     h[LENGTH_AT..CRC_AT].copy_from_slice(&len.to_le_bytes());
     h[CRC_AT..].copy_from_slice(&crc32(payload).to_le_bytes());
     Ok(h)
@@ -49,18 +62,24 @@ fn le_u32(b: &[u8], at: usize) -> u32 {
 
 /// Check the header and checksum of a blob and return its payload.
 pub fn open(bytes: &[u8]) -> Result<&[u8], LoadError> {
+    open_sealed(bytes, &MAGIC, VERSION)
+}
+
+/// [`open`] for another file sealed the same way under `magic` and `version` (a packed take):
+/// the errors are the header variants of [`LoadError`].
+pub fn open_sealed<'b>(bytes: &'b [u8], magic: &[u8; 8], version: u16) -> Result<&'b [u8], LoadError> {
     if bytes.len() < HEADER_LEN {
         return Err(LoadError::Truncated {
             expected: HEADER_LEN,
             found: bytes.len(),
         });
     }
-    if bytes[..VERSION_AT] != MAGIC {
+    if bytes[..VERSION_AT] != magic[..] {
         return Err(LoadError::BadMagic);
     }
-    let version = le_u16(bytes, VERSION_AT);
-    if version != VERSION {
-        return Err(LoadError::UnsupportedVersion { found: version });
+    let found = le_u16(bytes, VERSION_AT);
+    if found != version {
+        return Err(LoadError::UnsupportedVersion { found });
     }
     if le_u16(bytes, RESERVED_AT) != 0 {
         return Err(LoadError::BadReserved);

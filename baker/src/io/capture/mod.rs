@@ -9,12 +9,15 @@
 //! * [`csv`]: a small comma-separated format of our own, documented in that module.
 //! * [`c3d`]: the binary C3D format, all three processor formats (Intel, DEC, SGI/MIPS) and both
 //!   scaled-integer and float storage; a self-contained reader (that module says why not `c3dio`).
+//! * [`take`]: packed takes (`.fbt`), the runtime's compressed format: [`take::pack`] writes one,
+//!   and a file that starts with the take magic is read as a take whatever its extension.
 //!
 //! Readers never panic on any input; every error names the file and where the problem is (the
 //! 1-based line for text formats, the byte offset or the parameter for C3D).
 
 pub mod c3d;
 pub mod csv;
+pub mod take;
 pub mod trc;
 
 use std::path::{Path, PathBuf};
@@ -35,7 +38,7 @@ pub enum CaptureError {
         source: std::io::Error,
     },
     /// The file name has no extension this module reads or writes.
-    #[error("{}: unsupported capture format {extension:?} (expected .trc, .csv or .c3d)", path.display())]
+    #[error("{}: unsupported capture format {extension:?} (expected .trc, .csv, .c3d or .fbt)", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -165,8 +168,9 @@ fn first_duplicate(names: &[String]) -> Option<&str> {
         .map(String::as_str)
 }
 
-/// Reads a capture, choosing the reader by the file extension (`.trc`, `.csv`, `.c3d`, in any
-/// case). A CSV file without a `# units=` line is an error: use [`read_capture_with_units`].
+/// Reads a capture, choosing the reader by the file extension (`.trc`, `.csv`, `.c3d`, `.fbt`,
+/// in any case); a file that starts with the take magic is a packed take whatever its
+/// extension. A CSV file without a `# units=` line is an error: use [`read_capture_with_units`].
 pub fn read_capture(path: &Path) -> Result<Capture, CaptureError> {
     read_capture_with_units(path, None)
 }
@@ -191,6 +195,8 @@ pub fn read_capture_with_units(path: &Path, units: Option<Units>) -> Result<Capt
         source,
     })?;
     let mut capture = match format {
+        _ if take::is_take(&bytes) => take::parse(path, &bytes)?,
+        Format::Take => take::parse(path, &bytes)?,
         Format::Trc => trc::parse(path, &bytes)?,
         Format::Csv => csv::parse(path, &bytes, units)?,
         Format::C3d => c3d::parse(path, &bytes, units)?,
@@ -228,6 +234,7 @@ enum Format {
     Trc,
     Csv,
     C3d,
+    Take,
 }
 
 impl Format {
@@ -240,6 +247,7 @@ impl Format {
             "trc" => Ok(Format::Trc),
             "csv" => Ok(Format::Csv),
             "c3d" => Ok(Format::C3d),
+            "fbt" => Ok(Format::Take),
             _ => Err(CaptureError::UnknownFormat {
                 path: path.to_path_buf(),
                 extension,

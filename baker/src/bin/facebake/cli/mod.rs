@@ -18,6 +18,7 @@ mod demo;
 mod inspect;
 mod mask_images;
 mod mocap;
+mod pack;
 mod play;
 mod render;
 mod values;
@@ -72,6 +73,9 @@ pub enum Command {
     /// Play a marker capture through a rig and write the deformed vertices (.npy, .glb).
     #[command(after_help = EXIT_CODES)]
     Play(play::PlayArgs),
+    /// Compress a capture into a packed take (.fbt) that the runtime plays from flash.
+    #[command(after_help = EXIT_CODES)]
+    Pack(pack::PackArgs),
     /// Describe a rig blob: formats, counts, sizes, per-frame cost.
     #[command(after_help = EXIT_CODES)]
     Inspect(inspect::InspectArgs),
@@ -187,6 +191,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
     match cli.command {
         Command::Bake(a) => bake::run(&a),
         Command::Play(a) => play::run(&a),
+        Command::Pack(a) => pack::run(&a),
         Command::Inspect(a) => inspect::run(&a),
         Command::Verify(a) => verify::run(&a),
         Command::Demo(a) => demo::run(&a),

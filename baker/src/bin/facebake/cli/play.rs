@@ -25,7 +25,8 @@ pub struct PlayArgs {
     /// The rig blob (.fbk).
     #[arg(value_name = "RIG")]
     pub rig: PathBuf,
-    /// The marker capture (.csv, .trc or .c3d). Its markers are matched to the rig's by name.
+    /// The marker capture (.csv, .trc, .c3d, or a packed take from `facebake pack`, known by
+    /// its magic). Its markers are matched to the rig's by name.
     /// A rig baked with a capture (`bake --capture`) takes the actor's raw capture: head motion,
     /// missing samples and retargeting are solved per frame by the runtime. A rig without
     /// stages takes markers already in the character's space, with none missing.
