@@ -311,3 +311,14 @@ pub fn play_take(
         })
         .unzip()
 }
+
+/// Median of `x` (which it sorts), for the benches' same-run tables.
+pub fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    let n = x.len();
+    if n % 2 == 1 {
+        x[n / 2]
+    } else {
+        0.5 * (x[n / 2 - 1] + x[n / 2])
+    }
+}
