@@ -76,7 +76,7 @@ pub struct NormalsCost {
     /// Widening multiplies: 6 per corner (the cross product), 3 per normalisation (the squared
     /// length) and 3 more per normalisation (scaling by the root).
     pub multiplies: usize,
-    /// Normalisations through the integer 1/√ (five Newton steps each): one per vertex with a
+    /// Normalisations through the integer 1/√ (a table look-up and one Newton step each): one per vertex with a
     /// fan.
     pub normalisations: usize,
     /// Normals copied to welded (split) vertices.
