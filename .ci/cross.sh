@@ -9,7 +9,8 @@
 #   * no float on the per-frame path: load + deform built for thumbv6m (no FPU) links no
 #     soft-float routine;
 #   * bounded, data-independent cost: instructions per frame under callgrind (host) and a QEMU
-#     plugin (Cortex-M4) are the same for every frame, rest pose and saturated poses included.
+#     plugin (Cortex-M4) are the same for every frame, rest pose and saturated poses included;
+#     Rig::normals' (host) the same for every pose within ±2 rig units and bounded beyond.
 #
 # Installs what it needs, idempotently: rustup targets and llvm-tools, Debian's cross compilers,
 # qemu-user and valgrind, and qemu-system-arm unpacked into a private directory (installing it
@@ -313,6 +314,24 @@ if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.
             fail "host $rig: instructions per frame depend on the markers: ${per_class[*]}"
         fi
     done
+    # Rig::normals: the same work for every pose inside ±2 rig units (truth and rest), more but
+    # bounded (the edge clamps) when a position is beyond; never more than 1.5x the unclamped.
+    declare -A NORMALS_IR
+    for poses in truth rest extreme; do
+        out="$WORK/cgn.$poses"
+        valgrind --tool=callgrind --toggle-collect='*normals_frame*' \
+            --callgrind-out-file="$out" "$FC" weights "$poses" normals >"$out.log" 2>&1
+        total=$(awk '/^(summary|totals):/ {print $2; exit}' "$out")
+        NORMALS_IR[$poses]=$(( total / 32 ))
+    done
+    if [ "${NORMALS_IR[truth]}" -gt 0 ] &&
+        [ "${NORMALS_IR[truth]}" -eq "${NORMALS_IR[rest]}" ] &&
+        [ $(( 2 * NORMALS_IR[extreme] )) -le $(( 3 * NORMALS_IR[truth] )) ]; then
+        pass "host normals: ${NORMALS_IR[truth]} instructions per frame for truth and rest alike, ${NORMALS_IR[extreme]} for extreme poses (edges clamped)"
+        figure "host ($HOST) normals: ${NORMALS_IR[truth]} Ir/frame ($(awk -v i="${NORMALS_IR[truth]}" -v d="${HOST_IR[weights.truth]:-0}" 'BEGIN {printf "%.2f", d > 0 ? i / d : 0}') x the weights rig's deform), ${NORMALS_IR[extreme]} with clamped edges"
+    else
+        fail "host normals: instructions per frame truth=${NORMALS_IR[truth]} rest=${NORMALS_IR[rest]} extreme=${NORMALS_IR[extreme]}"
+    fi
 else
     cat "$WORK/fc.log"
     fail "frame_cost example build"
