@@ -3,7 +3,8 @@
 #   * bit-identical output on every architecture: the golden hashes on x86_64, and cross-built
 #     under qemu-user on aarch64, 32-bit big-endian PowerPC and i686;
 #   * runs on a Cortex-M4: the firmware plays every golden frame under QEMU mps2-an386 and must
-#     print exactly the golden hashes (a panic exits non-zero and fails);
+#     print exactly the golden hashes, of the positions and of their normals (a panic exits
+#     non-zero and fails);
 #   * never allocates: the firmware links no allocator (an alloc canary must fail to build) and
 #     a host test counts allocations;
 #   * no float on the per-frame path: load + deform built for thumbv6m (no FPU) links no
@@ -183,14 +184,39 @@ if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.lo
     else
         pass "Cortex-M4: all $(golden_lines "$WORK/fw.out" | grep -c ' frame ') frame hashes and every sequence hash equal hashes.txt"
     fi
+    # The normals of every frame (the planar rig is not played here).
+    if diff <(golden_lines fixtures/golden/hashes_normals.txt | grep -v '^planar ') \
+        <(grep '^normals ' "$WORK/fw.out" | sed 's/^normals //') >"$WORK/fw-normals.diff"; then
+        pass "Cortex-M4: all $(grep -c '^normals .* frame ' "$WORK/fw.out") normals frame hashes and every sequence hash equal hashes_normals.txt"
+    else
+        head -n 20 "$WORK/fw-normals.diff"
+        fail "Cortex-M4 normals hashes differ from hashes_normals.txt"
+    fi
 
-    # Instructions per frame, in firmware order: one count per deform call.
-    mapfile -t COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
+    # Instructions per frame, in firmware order: per deform rig and frame one count for the
+    # deform call and one for the normals call, then one per capture frame (the stages).
+    mapfile -t ALL_COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
     FRAMES=$(( $(stat -c %s fixtures/golden/facecap_markers.bin) / (40 * 12) ))
     CAPTURE_FRAMES=$(( $(stat -c %s fixtures/golden/jawmocap_actor.bin) / (41 * 13) ))
-    if [ "${#COUNTS[@]}" -ne $(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES )) ]; then
-        fail "instruction counter saw ${#COUNTS[@]} frames, expected $(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES ))"
+    COUNTS=()
+    NORMAL_COUNTS=()
+    for j in $(seq 0 $(( 2 * FRAMES * ${#RIGS[@]} - 1 ))); do
+        if [ $(( j % 2 )) -eq 0 ]; then COUNTS+=("${ALL_COUNTS[$j]:-}"); else NORMAL_COUNTS+=("${ALL_COUNTS[$j]:-}"); fi
+    done
+    COUNTS+=("${ALL_COUNTS[@]:$(( 2 * FRAMES * ${#RIGS[@]} ))}")
+    if [ "${#ALL_COUNTS[@]}" -ne $(( 2 * FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES )) ]; then
+        fail "instruction counter saw ${#ALL_COUNTS[@]} calls, expected $(( 2 * FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES ))"
     else
+        # Rig::normals: the same count for the 32 truth frames and the rest pose (positions
+        # within ±2 rig units), more but bounded when the saturated poses clamp the edges.
+        inside=$(printf '%s\n' "${NORMAL_COUNTS[@]:0:33}" | sort -u)
+        worst=$(printf '%s\n' "${NORMAL_COUNTS[@]}" | sort -n | tail -n 1)
+        if [ "$(wc -l <<<"$inside")" -eq 1 ] && [ $(( 2 * worst )) -le $(( 3 * inside )) ]; then
+            pass "Cortex-M4 normals: $inside instructions in every truth and rest frame, at most $worst with clamped edges"
+            figure "M4 normals, 2694 vertices: $inside instructions per frame = $(awk -v i="$inside" 'BEGIN {printf "%.2f", i / 168e3}') ms at 168 MHz (the weights rig's deform: ${COUNTS[FRAMES]})"
+        else
+            fail "Cortex-M4 normals: instructions per frame $(printf '%s\n' "${NORMAL_COUNTS[@]}" | sort -u | tr '\n' ' ')"
+        fi
         # The capture stages (41 markers) come last; their work depends on which markers are
         # missing, so report the spread.
         printf '%s\n' "${COUNTS[@]:$(( FRAMES * ${#RIGS[@]} ))}" | sort -n | awk '
