@@ -136,9 +136,11 @@ fn playing_captured_frames_never_allocates() {
     let (n, ()) = allocations_in(|| {
         let rig = Rig::from_bytes(CAPTURE).expect("capture golden loads");
         let out = &mut out[..rig.vertex_count()];
+        let normals = &mut normals[..rig.vertex_count()];
         let mut state = facebake_runtime::PlayState::new();
         for actor in frames.iter().cycle().take(3 * frames.len()) {
             rig.play(&mut state, actor, out).unwrap();
+            rig.normals(out, normals).unwrap();
             played += 1;
         }
     });
