@@ -8,7 +8,9 @@
 //!   portable code, bit for bit).
 //! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
 //!   branch on marker data (planar bones: bounded, with one branch per control triangle, which
-//!   builds its rest frame too when the markers make it degenerate).
+//!   builds its rest frame too when the markers make it degenerate). [`Rig::normals`], the
+//!   deformed mesh's unit normals, costs what `Cost::normals` says: bounded, with a cheaper loop
+//!   when every position lies within ±2 rig units.
 //! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
 //!   with documented fixed-point formats (`fixed.rs`).
 //!

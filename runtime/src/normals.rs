@@ -40,8 +40,9 @@
 //!
 //! Cost per call ([`NormalsCost`]): per fan corner two edge subtractions and clamps per axis and
 //! one cross product (6 multiplies); per vertex with a fan one normalisation (a table look-up,
-//! one Newton step and six multiplies); per weld one copy. No branch on the positions but the
-//! degenerate-fan fallback.
+//! one Newton step and six multiplies); per weld one copy. The cost is bounded, not constant:
+//! it branches on the positions twice, once per call (the clamp-free loop when every position
+//! is within ±2 rig units) and once per vertex (the degenerate-fan fallback).
 
 use serde::{Deserialize, Serialize};
 

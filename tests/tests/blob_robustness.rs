@@ -129,7 +129,7 @@ fn every_header_error_is_distinct() {
     let mut c = b.clone();
     c[0] = b'X';
     assert_eq!(Rig::from_bytes(&c).unwrap_err(), LoadError::BadMagic);
-    for old_or_new in [1u8, 2, 4] {
+    for old_or_new in [1u8, 2, 3, 5] {
         let mut c = b.clone();
         c[8] = old_or_new;
         assert_eq!(
