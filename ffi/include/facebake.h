@@ -16,8 +16,11 @@
 /**
  * The version of this ABI, which `fb_abi_version` returns: a host built against one header
  * can check that the library it loaded matches (bumped on any incompatible change).
+ *
+ * Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
+ * `FB_ERROR_VERTEX_COUNT` were added.
  */
-#define FB_ABI_VERSION 1
+#define FB_ABI_VERSION 2
 
 /**
  * The most markers a rig can have.

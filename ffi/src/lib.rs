@@ -65,7 +65,10 @@ pub use rig::{
 
 /// The version of this ABI, which `fb_abi_version` returns: a host built against one header
 /// can check that the library it loaded matches (bumped on any incompatible change).
-pub const FB_ABI_VERSION: u32 = 1;
+///
+/// Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
+/// `FB_ERROR_VERTEX_COUNT` were added.
+pub const FB_ABI_VERSION: u32 = 2;
 
 /// The most markers a rig can have.
 pub const FB_MAX_MARKERS: usize = 256;
