@@ -3,14 +3,16 @@
 #   * bit-identical output on every architecture: the golden hashes on x86_64, and cross-built
 #     under qemu-user on aarch64, 32-bit big-endian PowerPC and i686;
 #   * runs on a Cortex-M4: the firmware plays every golden frame under QEMU mps2-an386 and must
-#     print exactly the golden hashes (a panic exits non-zero and fails), the packed JawMoCap
-#     take decoded from flash included; decoding costs at most 5% of a frame's deformation;
+#     print exactly the golden hashes, of the positions and of their normals (a panic exits
+#     non-zero and fails), the packed JawMoCap take decoded from flash included; decoding costs
+#     at most 5% of a frame's deformation;
 #   * never allocates: the firmware links no allocator (an alloc canary must fail to build) and
 #     a host test counts allocations;
 #   * no float on the per-frame path: load + deform built for thumbv6m (no FPU) links no
 #     soft-float routine;
 #   * bounded, data-independent cost: instructions per frame under callgrind (host) and a QEMU
-#     plugin (Cortex-M4) are the same for every frame, rest pose and saturated poses included.
+#     plugin (Cortex-M4) are the same for every frame, rest pose and saturated poses included;
+#     Rig::normals' (host) the same for every pose within ±2 rig units and bounded beyond.
 #
 # Installs what it needs, idempotently: rustup targets and llvm-tools, Debian's cross compilers,
 # qemu-user and valgrind, and qemu-system-arm unpacked into a private directory (installing it
@@ -183,16 +185,42 @@ if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.lo
     else
         pass "Cortex-M4: all $(golden_lines "$WORK/fw.out" | grep -c ' frame ') frame hashes and every sequence hash equal hashes.txt and hashes_take.txt (the packed take played from flash)"
     fi
+    # The normals of every frame (the planar rig is not played here).
+    if diff <(golden_lines fixtures/golden/hashes_normals.txt | grep -v '^planar ') \
+        <(grep '^normals ' "$WORK/fw.out" | sed 's/^normals //') >"$WORK/fw-normals.diff"; then
+        pass "Cortex-M4: all $(grep -c '^normals .* frame ' "$WORK/fw.out") normals frame hashes and every sequence hash equal hashes_normals.txt"
+    else
+        head -n 20 "$WORK/fw-normals.diff"
+        fail "Cortex-M4 normals hashes differ from hashes_normals.txt"
+    fi
 
-    # Instructions per frame, in firmware order: one count per deform call.
-    mapfile -t COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
+    # Instructions per frame, in firmware order: per deform rig and frame one count for the
+    # deform call and one for the normals call, then one per capture frame (the stages).
+    mapfile -t ALL_COUNTS < <(awk '/^frame_insns / {print $2}' "$WORK/fw.err")
     FRAMES=$(( $(stat -c %s fixtures/golden/facecap_markers.bin) / (40 * 12) ))
     CAPTURE_FRAMES=$(( $(stat -c %s fixtures/golden/jawmocap_actor.bin) / (41 * 13) ))
     TAKE_FRAMES=$(grep -c '^take frame ' fixtures/golden/hashes_take.txt)
-    EXPECTED_COUNTS=$(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES + 2 * TAKE_FRAMES ))
-    if [ "${#COUNTS[@]}" -ne "$EXPECTED_COUNTS" ]; then
-        fail "instruction counter saw ${#COUNTS[@]} frames, expected $EXPECTED_COUNTS"
+    COUNTS=()
+    NORMAL_COUNTS=()
+    for j in $(seq 0 $(( 2 * FRAMES * ${#RIGS[@]} - 1 ))); do
+        if [ $(( j % 2 )) -eq 0 ]; then COUNTS+=("${ALL_COUNTS[$j]:-}"); else NORMAL_COUNTS+=("${ALL_COUNTS[$j]:-}"); fi
+    done
+    # Then the capture frames (one count each) and the packed take's (two each).
+    COUNTS+=("${ALL_COUNTS[@]:$(( 2 * FRAMES * ${#RIGS[@]} ))}")
+    EXPECTED_COUNTS=$(( 2 * FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES + 2 * TAKE_FRAMES ))
+    if [ "${#ALL_COUNTS[@]}" -ne "$EXPECTED_COUNTS" ]; then
+        fail "instruction counter saw ${#ALL_COUNTS[@]} calls, expected $EXPECTED_COUNTS"
     else
+        # Rig::normals: the same count for the 32 truth frames and the rest pose (positions
+        # within ±2 rig units), more but bounded when the saturated poses clamp the edges.
+        inside=$(printf '%s\n' "${NORMAL_COUNTS[@]:0:33}" | sort -u)
+        worst=$(printf '%s\n' "${NORMAL_COUNTS[@]}" | sort -n | tail -n 1)
+        if [ "$(wc -l <<<"$inside")" -eq 1 ] && [ $(( 2 * worst )) -le $(( 3 * inside )) ]; then
+            pass "Cortex-M4 normals: $inside instructions in every truth and rest frame, at most $worst with clamped edges"
+            figure "M4 normals, 2694 vertices: $inside instructions per frame = $(awk -v i="$inside" 'BEGIN {printf "%.2f", i / 168e3}') ms at 168 MHz (the weights rig's deform: ${COUNTS[FRAMES]})"
+        else
+            fail "Cortex-M4 normals: instructions per frame $(printf '%s\n' "${NORMAL_COUNTS[@]}" | sort -u | tr '\n' ' ')"
+        fi
         # The packed take comes last, two counts a frame: decoding it, then deforming it.
         TAKE_AT=$(( FRAMES * ${#RIGS[@]} + CAPTURE_FRAMES ))
         printf '%s\n' "${COUNTS[@]:$TAKE_AT}" | awk 'NR % 2 == 1' | sort -n >"$WORK/take-decode"
@@ -329,6 +357,24 @@ if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.
             fail "host $rig: instructions per frame depend on the markers: ${per_class[*]}"
         fi
     done
+    # Rig::normals: the same work for every pose inside ±2 rig units (truth and rest), more but
+    # bounded (the edge clamps) when a position is beyond; never more than 1.5x the unclamped.
+    declare -A NORMALS_IR
+    for poses in truth rest extreme; do
+        out="$WORK/cgn.$poses"
+        valgrind --tool=callgrind --toggle-collect='*normals_frame*' \
+            --callgrind-out-file="$out" "$FC" weights "$poses" normals >"$out.log" 2>&1
+        total=$(awk '/^(summary|totals):/ {print $2; exit}' "$out")
+        NORMALS_IR[$poses]=$(( total / 32 ))
+    done
+    if [ "${NORMALS_IR[truth]}" -gt 0 ] &&
+        [ "${NORMALS_IR[truth]}" -eq "${NORMALS_IR[rest]}" ] &&
+        [ $(( 2 * NORMALS_IR[extreme] )) -le $(( 3 * NORMALS_IR[truth] )) ]; then
+        pass "host normals: ${NORMALS_IR[truth]} instructions per frame for truth and rest alike, ${NORMALS_IR[extreme]} for extreme poses (edges clamped)"
+        figure "host ($HOST) normals: ${NORMALS_IR[truth]} Ir/frame ($(awk -v i="${NORMALS_IR[truth]}" -v d="${HOST_IR[weights.truth]:-0}" 'BEGIN {printf "%.2f", d > 0 ? i / d : 0}') x the weights rig's deform), ${NORMALS_IR[extreme]} with clamped edges"
+    else
+        fail "host normals: instructions per frame truth=${NORMALS_IR[truth]} rest=${NORMALS_IR[rest]} extreme=${NORMALS_IR[extreme]}"
+    fi
 else
     cat "$WORK/fc.log"
     fail "frame_cost example build"

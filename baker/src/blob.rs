@@ -7,7 +7,10 @@ use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Reta
 use facebake_runtime::stages::Stages;
 use facebake_runtime::Space;
 
+use facebake_runtime::normals::Normals;
+
 use crate::deformer::DeformerBytes;
+use crate::normals::NormalsBytes;
 use crate::stages::StagesBytes;
 
 /// The blob could not be written.
@@ -47,6 +50,8 @@ pub struct BlobContents<'a> {
     pub marker_names: &'a [String],
     /// Marker rest positions on the character.
     pub marker_rest: &'a [[f64; 3]],
+    /// The normals section.
+    pub normals: &'a NormalsBytes,
     /// The deformer.
     pub deformer: &'a DeformerBytes,
     /// The capture stages, if any.
@@ -109,6 +114,13 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
         marker_names: Bytes(&names),
         marker_rest: Bytes(&marker_rest),
         vertex_rest: Bytes(&vertex_rest),
+        normals: Normals {
+            index_bytes: c.normals.index_bytes,
+            rest: Bytes(&c.normals.rest),
+            fan_counts: Bytes(&c.normals.fan_counts),
+            corners: Bytes(&c.normals.corners),
+            welds: Bytes(&c.normals.welds),
+        },
         deformer: section.deformer,
         stages: c.stages.map(stages_section),
     };

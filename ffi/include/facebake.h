@@ -16,8 +16,11 @@
 /**
  * The version of this ABI, which `fb_abi_version` returns: a host built against one header
  * can check that the library it loaded matches (bumped on any incompatible change).
+ *
+ * Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
+ * `FB_ERROR_VERTEX_COUNT` were added.
  */
-#define FB_ABI_VERSION 1
+#define FB_ABI_VERSION 2
 
 /**
  * The most markers a rig can have.
@@ -125,6 +128,10 @@ enum FbError
    * Nothing is known to have been written.
    */
   FB_ERROR_INTERNAL = 20,
+  /**
+   * The vertex count given is not the rig's vertex count (`fb_normals`' positions).
+   */
+  FB_ERROR_VERTEX_COUNT = 21,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -253,6 +260,32 @@ typedef struct FbSpace {
 } FbSpace;
 
 /**
+ * The per-frame work of `fb_normals`, fixed by the rig (see the runtime's `NormalsCost`).
+ */
+typedef struct FbNormalsCost {
+  /**
+   * Normals written (one per vertex).
+   */
+  uint64_t vertices;
+  /**
+   * Triangle corners evaluated (an edge pair and a cross product each).
+   */
+  uint64_t corners;
+  /**
+   * Widening multiplies.
+   */
+  uint64_t multiplies;
+  /**
+   * Normalisations through the integer 1/√.
+   */
+  uint64_t normalisations;
+  /**
+   * Normals copied to vertices split along a seam.
+   */
+  uint64_t welds;
+} FbNormalsCost;
+
+/**
  * The per-frame work of `fb_deform`, fixed by the rig (see the runtime's `Cost`).
  */
 typedef struct FbCost {
@@ -300,6 +333,10 @@ typedef struct FbCost {
    * Vector normalisations (planar rigs).
    */
   uint64_t normalisations;
+  /**
+   * The work of `fb_normals` (not counted above).
+   */
+  struct FbNormalsCost normals;
 } FbCost;
 
 #ifdef __cplusplus
@@ -580,6 +617,23 @@ FbError fb_deform_f32(const struct FbRig *rig,
                       size_t marker_count,
                       float *out,
                       size_t vertex_capacity);
+
+/**
+ * The unit normals of the mesh at `positions` (`vertex_count` × x y z `int32_t`, Q8.24: what
+ * `fb_deform` or `fb_play` wrote) into `out` (room for `out_capacity` normals of x y z
+ * `int16_t`, Q1.14: 1.0 = 1 << 14), one per vertex: area-weighted over the mesh's triangles,
+ * bit-identical on every target, seams welded. Nothing is written on error
+ * (`FB_ERROR_VERTEX_COUNT` when `vertex_count` is not the rig's).
+ *
+ * # Safety
+ * `positions` must be valid for reads of `vertex_count` × 3 `int32_t` and `out` for writes of
+ * `out_capacity` × 3 `int16_t` (or be null); they must not overlap.
+ */
+FbError fb_normals(const struct FbRig *rig,
+                   const int32_t *positions,
+                   size_t vertex_count,
+                   int16_t *out,
+                   size_t out_capacity);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -55,11 +55,13 @@ pub enum FbError {
     /// An internal error was caught at the boundary (a bug in this library: please report it).
     /// Nothing is known to have been written.
     Internal = 20,
+    /// The vertex count given is not the rig's vertex count (`fb_normals`' positions).
+    VertexCount = 21,
 }
 
 impl FbError {
     /// Every code, in value order.
-    pub(crate) const ALL: [FbError; 21] = [
+    pub(crate) const ALL: [FbError; 22] = [
         Self::None,
         Self::NullPointer,
         Self::Misaligned,
@@ -81,6 +83,7 @@ impl FbError {
         Self::InvalidStages,
         Self::NotFound,
         Self::Internal,
+        Self::VertexCount,
     ];
 
     /// The static, NUL-terminated message of this code.
@@ -107,6 +110,7 @@ impl FbError {
             Self::InvalidStages => c"the rig's capture stages fail validation",
             Self::NotFound => c"no marker has that name",
             Self::Internal => c"internal error in facebake-ffi (please report it)",
+            Self::VertexCount => c"the vertex count given is not the rig's vertex count",
         }
     }
 }
@@ -146,6 +150,7 @@ impl From<FrameError> for FbError {
             FrameError::MarkerCount { .. } => Self::MarkerCount,
             FrameError::NoStages => Self::NoStages,
             FrameError::OutputLength { .. } => Self::BufferTooSmall,
+            FrameError::PositionCount { .. } => Self::VertexCount,
         }
     }
 }

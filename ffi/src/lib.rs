@@ -36,8 +36,8 @@
 //!
 //! # Threads
 //!
-//! A loaded `FbRig` is immutable: any number of threads may call `fb_deform`, `fb_play` and the
-//! queries on one rig at once. A `FbPlayState` belongs to one character (one stream of frames)
+//! A loaded `FbRig` is immutable: any number of threads may call `fb_deform`, `fb_normals`,
+//! `fb_play` and the queries on one rig at once. A `FbPlayState` belongs to one character (one stream of frames)
 //! and must not be used by two threads at once; give every character its own. Functions that
 //! fill a storage (`fb_rig_load`, `fb_play_state_init`) need it to themselves.
 
@@ -57,14 +57,18 @@ pub use play::{
 };
 pub use rig::{
     fb_cost, fb_deform, fb_deform_f32, fb_marker_index, fb_marker_name, fb_marker_name_copy,
-    fb_marker_rest, fb_marker_rest_f32, fb_rig_actor_space, fb_rig_align, fb_rig_has_stages,
-    fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space, fb_rig_validate,
-    fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost, FbRig, FbSpace,
+    fb_marker_rest, fb_marker_rest_f32, fb_normals, fb_rig_actor_space, fb_rig_align,
+    fb_rig_has_stages, fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space,
+    fb_rig_validate, fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost,
+    FbNormalsCost, FbRig, FbSpace,
 };
 
 /// The version of this ABI, which `fb_abi_version` returns: a host built against one header
 /// can check that the library it loaded matches (bumped on any incompatible change).
-pub const FB_ABI_VERSION: u32 = 1;
+///
+/// Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
+/// `FB_ERROR_VERTEX_COUNT` were added.
+pub const FB_ABI_VERSION: u32 = 2;
 
 /// The most markers a rig can have.
 pub const FB_MAX_MARKERS: usize = 256;

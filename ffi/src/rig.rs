@@ -3,7 +3,7 @@
 use core::ffi::c_char;
 use core::mem::{align_of, size_of};
 
-use facebake_runtime::{Cost, Rig, Space};
+use facebake_runtime::{Cost, NormalsCost, Rig, Space};
 
 use crate::error::FbError;
 use crate::memory::{
@@ -74,6 +74,37 @@ pub struct FbCost {
     pub frame_builds: u64,
     /// Vector normalisations (planar rigs).
     pub normalisations: u64,
+    /// The work of `fb_normals` (not counted above).
+    pub normals: FbNormalsCost,
+}
+
+/// The per-frame work of `fb_normals`, fixed by the rig (see the runtime's `NormalsCost`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FbNormalsCost {
+    /// Normals written (one per vertex).
+    pub vertices: u64,
+    /// Triangle corners evaluated (an edge pair and a cross product each).
+    pub corners: u64,
+    /// Widening multiplies.
+    pub multiplies: u64,
+    /// Normalisations through the integer 1/√.
+    pub normalisations: u64,
+    /// Normals copied to vertices split along a seam.
+    pub welds: u64,
+}
+
+impl From<NormalsCost> for FbNormalsCost {
+    fn from(c: NormalsCost) -> Self {
+        let n = |x: usize| x as u64;
+        Self {
+            vertices: n(c.vertices),
+            corners: n(c.corners),
+            multiplies: n(c.multiplies),
+            normalisations: n(c.normalisations),
+            welds: n(c.welds),
+        }
+    }
 }
 
 impl From<Cost> for FbCost {
@@ -91,6 +122,7 @@ impl From<Cost> for FbCost {
             scratch_bytes: n(c.scratch_bytes),
             frame_builds: n(c.frame_builds),
             normalisations: n(c.normalisations),
+            normals: c.normals.into(),
         }
     }
 }
@@ -497,5 +529,37 @@ pub unsafe extern "C" fn fb_deform_f32(
         rig.deform(&q[..m], out)?;
         to_asset_in_place(space, out);
         Ok(())
+    })
+}
+
+/// The unit normals of the mesh at `positions` (`vertex_count` × x y z `int32_t`, Q8.24: what
+/// `fb_deform` or `fb_play` wrote) into `out` (room for `out_capacity` normals of x y z
+/// `int16_t`, Q1.14: 1.0 = 1 << 14), one per vertex: area-weighted over the mesh's triangles,
+/// bit-identical on every target, seams welded. Nothing is written on error
+/// (`FB_ERROR_VERTEX_COUNT` when `vertex_count` is not the rig's).
+///
+/// # Safety
+/// `positions` must be valid for reads of `vertex_count` × 3 `int32_t` and `out` for writes of
+/// `out_capacity` × 3 `int16_t` (or be null); they must not overlap.
+#[no_mangle]
+pub unsafe extern "C" fn fb_normals(
+    rig: *const FbRig,
+    positions: *const i32,
+    vertex_count: usize,
+    out: *mut i16,
+    out_capacity: usize,
+) -> FbError {
+    guard(|| {
+        // SAFETY: the caller's contract.
+        let rig = unsafe { loaded(rig)? };
+        let n = rig.vertex_count();
+        if vertex_count != n {
+            return Err(FbError::VertexCount);
+        }
+        // SAFETY: the caller's contract.
+        let positions = unsafe { slice(positions.cast::<[i32; 3]>(), n)? };
+        // SAFETY: the caller's contract.
+        let out = unsafe { positions_out(out, out_capacity, n)? };
+        Ok(rig.normals(positions, out)?)
     })
 }

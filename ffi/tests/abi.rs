@@ -13,6 +13,7 @@ const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin
 const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
 const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
+const NORMALS: &str = include_str!("../../fixtures/golden/hashes_normals.txt");
 
 /// Storage aligned to 16 bytes (more than any `_align` function asks; checked).
 struct Storage(Vec<u128>);
@@ -110,6 +111,59 @@ fn every_golden_deform_frame_hashes_as_the_rust_api_and_hashes_txt() {
         assert_eq!(h.finish(), rust.finish(), "frame {f}");
         assert_eq!(h.finish(), expected("coefficients", &format!("frame {f}")));
     }
+}
+
+#[test]
+fn every_golden_normals_frame_hashes_as_hashes_normals_txt() {
+    let mut loaded = Loaded::new(COEFFICIENTS);
+    let ffi = loaded.rig();
+    let (n, m) = unsafe { (fb_rig_vertex_count(ffi), fb_rig_marker_count(ffi)) };
+    let mut out = vec![0i32; 3 * n];
+    let mut normals = vec![0i16; 3 * n];
+    for (f, markers) in le_words(MARKERS).chunks_exact(3 * m).enumerate() {
+        assert_eq!(
+            unsafe { fb_deform(ffi, markers.as_ptr(), m, out.as_mut_ptr(), n) },
+            FbError::None
+        );
+        let status = unsafe { fb_normals(ffi, out.as_ptr(), n, normals.as_mut_ptr(), n) };
+        assert_eq!(status, FbError::None);
+        let mut h = Fnv1a64::new();
+        h.write_normals(
+            &normals
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect::<Vec<_>>(),
+        );
+        let key = format!("coefficients frame {f} ");
+        let line = NORMALS.lines().find(|l| l.starts_with(&key)).unwrap();
+        assert_eq!(
+            h.finish(),
+            u64::from_str_radix(&line[key.len()..], 16).unwrap(),
+            "frame {f}"
+        );
+    }
+    // Misuse: the wrong vertex count, a short output, null pointers; nothing written.
+    let before = normals.clone();
+    for status in [
+        unsafe { fb_normals(ffi, out.as_ptr(), n - 1, normals.as_mut_ptr(), n) },
+        unsafe { fb_normals(ffi, out.as_ptr(), n, normals.as_mut_ptr(), n - 1) },
+        unsafe { fb_normals(ffi, null(), n, normals.as_mut_ptr(), n) },
+        unsafe { fb_normals(ffi, out.as_ptr(), n, null_mut(), n) },
+    ]
+    .into_iter()
+    .zip([
+        FbError::VertexCount,
+        FbError::BufferTooSmall,
+        FbError::NullPointer,
+        FbError::NullPointer,
+    ]) {
+        assert_eq!(status.0, status.1);
+    }
+    assert_eq!(normals, before);
+    let mut cost = FbCost::default();
+    assert_eq!(unsafe { fb_cost(ffi, &mut cost) }, FbError::None);
+    assert_eq!(cost.normals.vertices, n as u64);
+    assert!(cost.normals.corners > 0);
 }
 
 #[test]
@@ -485,13 +539,13 @@ fn bad_blobs_and_storage_are_refused_and_leave_no_rig() {
 #[test]
 fn error_messages_are_static_distinct_and_total() {
     let message = |code: i32| unsafe { std::ffi::CStr::from_ptr(fb_error_message(code)) };
-    let known: Vec<_> = (0..=FbError::Internal as i32).map(message).collect();
+    let known: Vec<_> = (0..=FbError::VertexCount as i32).map(message).collect();
     for (i, m) in known.iter().enumerate() {
         assert!(!m.to_bytes().is_empty());
         assert!(!known[..i].contains(m), "code {i} repeats a message");
     }
     assert_eq!(message(0).to_str().unwrap(), "no error");
-    for unknown in [-1, FbError::Internal as i32 + 1, i32::MIN, i32::MAX] {
+    for unknown in [-1, FbError::VertexCount as i32 + 1, i32::MIN, i32::MAX] {
         assert_eq!(
             message(unknown).to_str().unwrap(),
             "unknown facebake error code"

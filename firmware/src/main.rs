@@ -3,14 +3,18 @@
 //!
 //! * one line per frame, `<rig> frame <n> <fnv1a64>`, and `<rig> sequence <fnv1a64>`, in the
 //!   format of `fixtures/golden/hashes.txt`, so `.ci/cross.sh` can compare them line for line;
+//! * per frame the normals of the deformed mesh (`Rig::normals`), `normals <rig> frame <n>
+//!   <fnv1a64>` and `normals <rig> sequence <fnv1a64>`, in the format of
+//!   `fixtures/golden/hashes_normals.txt` behind the word `normals`;
 //! * the rig's figures (`Rig::cost`, frames played, blob size).
 //!
 //! It exits with status 0 after the last rig, and non-zero on any panic (the handler reports
 //! the panic over semihosting first). The blobs and markers are compiled into flash; the only
 //! large RAM use is the output buffer on the stack.
 //!
-//! `frame_start` / `frame_end` bracket every `deform` call so the QEMU plugin in `qemu/` can count
-//! the instructions of each frame; for the capture golden they bracket the capture stages, and
+//! `frame_start` / `frame_end` bracket every `deform` call, and then every `normals` call, so the
+//! QEMU plugin in `qemu/` can count the instructions of each (deform and normals alternate in
+//! its output for the deform rigs); for the capture golden they bracket the capture stages, and
 //! for the packed take first the decoding of each frame and then its deformation.
 //!
 //! The packed take (`fixtures/golden/jawmocap.fbt`, all 1590 JawMoCap frames, 33 KB of flash)
@@ -60,7 +64,8 @@ const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
 /// The take golden: JawMoCap packed in the capture rig's actor space.
 const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");
 
-/// Most vertices a rig may have here: the output buffer lives on the stack (12 bytes a vertex).
+/// Most vertices a rig may have here: the output buffers live on the stack (12 bytes a vertex
+/// for the positions, 6 for the normals).
 const MAX_VERTICES: usize = 3072;
 
 /// Marks the start of a measured frame (the instruction counter reads here). Not inlined, and
@@ -87,7 +92,39 @@ fn frame_markers(f: usize, markers: usize, buf: &mut [[i32; 3]; MAX_MARKERS]) ->
     Some(())
 }
 
-fn play(name: &str, blob: &[u8], out: &mut [[i32; 3]; MAX_VERTICES]) {
+/// The normals of one frame, hashed into `sequence` and printed as `hashes_normals.txt` records
+/// them (behind the word `normals`), bracketed for the instruction counter when `measured`.
+fn normals_frame(
+    rig: &Rig<'_>,
+    name: &str,
+    frame: usize,
+    positions: &[[i32; 3]],
+    normals: &mut [[i16; 3]],
+    sequence: &mut Fnv1a64,
+    measured: bool,
+) {
+    if measured {
+        frame_start(frame);
+    }
+    let done = rig.normals(positions, normals);
+    if measured {
+        frame_end(frame);
+    }
+    if let Err(e) = done {
+        panic!("{name} frame {frame}: normals: {e}");
+    }
+    let mut h = Fnv1a64::new();
+    h.write_normals(normals);
+    sequence.write_normals(normals);
+    hprintln!("normals {} frame {} {:016x}", name, frame, h.finish());
+}
+
+fn play(
+    name: &str,
+    blob: &[u8],
+    out: &mut [[i32; 3]; MAX_VERTICES],
+    normals: &mut [[i16; 3]; MAX_VERTICES],
+) {
     let rig = match Rig::from_bytes(blob) {
         Ok(rig) => rig,
         Err(e) => panic!("{name}: the golden rig does not load: {e}"),
@@ -98,8 +135,10 @@ fn play(name: &str, blob: &[u8], out: &mut [[i32; 3]; MAX_VERTICES]) {
         "{name}: {v} vertices, room for {MAX_VERTICES}"
     );
     let out = &mut out[..v];
+    let normals = &mut normals[..v];
     let mut markers = [[0i32; 3]; MAX_MARKERS];
     let mut sequence = Fnv1a64::new();
+    let mut normals_sequence = Fnv1a64::new();
     let mut frames = 0;
     while frame_markers(frames, m, &mut markers).is_some() {
         frame_start(frames);
@@ -112,21 +151,36 @@ fn play(name: &str, blob: &[u8], out: &mut [[i32; 3]; MAX_VERTICES]) {
         h.write_positions(out);
         sequence.write_positions(out);
         hprintln!("{} frame {} {:016x}", name, frames, h.finish());
+        normals_frame(
+            &rig,
+            name,
+            frames,
+            out,
+            normals,
+            &mut normals_sequence,
+            true,
+        );
         frames += 1;
     }
     hprintln!("{} sequence {:016x}", name, sequence.finish());
     hprintln!(
-        "figures {}: {} frames, blob {} bytes, per frame {}",
+        "normals {} sequence {:016x}",
+        name,
+        normals_sequence.finish()
+    );
+    hprintln!(
+        "figures {}: {} frames, blob {} bytes, per frame {}; {}",
         name,
         frames,
         blob.len(),
-        rig.cost()
+        rig.cost(),
+        rig.cost().normals
     );
 }
 
 /// Play the capture golden: per frame the capture stages (bracketed for the instruction
 /// counter, after the deform frames), then the deformation, hashed as `hashes.txt` records them.
-fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES]) {
+fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES], normals: &mut [[i16; 3]; MAX_VERTICES]) {
     let rig = match Rig::from_bytes(CAPTURE) {
         Ok(rig) => rig,
         Err(e) => panic!("capture: the golden rig does not load: {e}"),
@@ -140,6 +194,8 @@ fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES]) {
         "capture: {v} vertices, room for {MAX_VERTICES}"
     );
     let out = &mut out[..v];
+    let normals = &mut normals[..v];
+    let mut normals_sequence = Fnv1a64::new();
     let mut state = PlayState::new();
     let mut actor = [None; MAX_MARKERS];
     let mut markers = [[0i32; 3]; MAX_MARKERS];
@@ -161,9 +217,22 @@ fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES]) {
         h.write_capture_frame(&markers[..m], out, &report);
         sequence.write_capture_frame(&markers[..m], out, &report);
         hprintln!("capture frame {} {:016x}", frames, h.finish());
+        normals_frame(
+            &rig,
+            "capture",
+            frames,
+            out,
+            normals,
+            &mut normals_sequence,
+            false,
+        );
         frames += 1;
     }
     hprintln!("capture sequence {:016x}", sequence.finish());
+    hprintln!(
+        "normals capture sequence {:016x}",
+        normals_sequence.finish()
+    );
     hprintln!(
         "figures capture: {} frames, blob {} bytes, per frame stages {:?}",
         frames,
@@ -253,10 +322,11 @@ fn main() -> ! {
         panic!("panic-canary: a deliberate panic");
     }
     let mut out = [[0i32; 3]; MAX_VERTICES];
+    let mut normals = [[0i16; 3]; MAX_VERTICES];
     for (name, blob) in RIGS {
-        play(name, blob, &mut out);
+        play(name, blob, &mut out, &mut normals);
     }
-    play_capture(&mut out);
+    play_capture(&mut out, &mut normals);
     play_take(&mut out);
     hprintln!("firmware: done");
     debug::exit(debug::EXIT_SUCCESS);

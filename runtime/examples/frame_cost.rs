@@ -1,8 +1,10 @@
 //! Per-frame cost on the host, for `valgrind --tool=callgrind --toggle-collect='*deform_frame*'`:
 //! plays one golden rig through `FRAMES` frames of one pose class, each frame through
-//! [`deform_frame`], so callgrind counts exactly the instructions of the per-frame call.
+//! [`deform_frame`], so callgrind counts exactly the instructions of the per-frame call. With
+//! `normals`, each frame's normals are computed too, through [`normals_frame`]
+//! (`--toggle-collect='*normals_frame*'` counts them alone).
 //!
-//! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses>`
+//! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses> [normals]`
 //!
 //! * `<rig>`: `coefficients`, `weights`, `coefficients_k4` or `planar` (the golden rigs);
 //! * `<poses>`: `truth` (the 32 ground-truth frames), `rest` (the rest pose, 32 times) or
@@ -30,13 +32,25 @@ fn deform_frame(rig: &Rig<'_>, markers: &[[i32; 3]], out: &mut [[i32; 3]]) {
     black_box(out);
 }
 
+/// One frame's normals: the call callgrind measures with `normals`.
+#[inline(never)]
+fn normals_frame(rig: &Rig<'_>, positions: &[[i32; 3]], out: &mut [[i16; 3]]) {
+    rig.normals(black_box(positions), out)
+        .expect("one normal per vertex");
+    black_box(out);
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [rig_name, poses] = args.as_slice() else {
-        eprintln!(
-            "usage: frame_cost <coefficients|weights|coefficients_k4|planar> <truth|rest|extreme>"
-        );
-        std::process::exit(2);
+    let (rig_name, poses, normals) = match args.as_slice() {
+        [rig, poses] => (rig, poses, false),
+        [rig, poses, n] if n == "normals" => (rig, poses, true),
+        _ => {
+            eprintln!(
+                "usage: frame_cost <coefficients|weights|coefficients_k4|planar> <truth|rest|extreme> [normals]"
+            );
+            std::process::exit(2);
+        }
     };
     let blob: &[u8] = match rig_name.as_str() {
         "coefficients" => include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
@@ -69,8 +83,12 @@ fn main() {
         .map(|f| f.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
         .collect();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut unit = vec![[0i16; 3]; rig.vertex_count()];
     for markers in &frames {
         deform_frame(&rig, markers, &mut out);
+        if normals {
+            normals_frame(&rig, &out, &mut unit);
+        }
     }
     let cost = rig.cost();
     println!(

@@ -80,6 +80,15 @@ impl Fnv1a64 {
         }
     }
 
+    /// Feed unit normals (Q1.14) as `i16` LE, x y z per entry.
+    pub fn write_normals(&mut self, normals: &[[i16; 3]]) {
+        for n in normals {
+            for c in n {
+                self.write(&c.to_le_bytes());
+            }
+        }
+    }
+
     /// Feed one frame of the capture stages as the golden hashes record it: the character's
     /// markers, the deformed vertices, then (RMS head residual, markers rebuilt, markers held).
     pub fn write_capture_frame(
@@ -132,6 +141,9 @@ mod tests {
             h.finish(),
             hash(&[1, 0, 0, 0, 0xFE, 0xFF, 0xFF, 0xFF, 4, 3, 2, 1])
         );
+        let mut h = Fnv1a64::new();
+        h.write_normals(&[[1, -2, 0x0102]]);
+        assert_eq!(h.finish(), hash(&[1, 0, 0xFE, 0xFF, 2, 1]));
     }
 
     #[test]

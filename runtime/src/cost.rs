@@ -33,6 +33,10 @@ pub struct Cost {
     /// Vector normalisations (integer square root and three divisions) per frame: four per
     /// frame build, one per apex-region influence (planar rigs; 0 otherwise).
     pub normalisations: usize,
+    /// The work of one call to [`crate::Rig::normals`], which a caller makes after `deform`
+    /// when it wants normals (not part of the counts above, and not in this type's `Display`:
+    /// [`NormalsCost`] has its own).
+    pub normals: NormalsCost,
 }
 
 impl core::fmt::Display for Cost {
@@ -59,5 +63,32 @@ impl core::fmt::Display for Cost {
             )?;
         }
         Ok(())
+    }
+}
+
+/// The work one call to [`crate::Rig::normals`] does; fixed by the rig.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NormalsCost {
+    /// Normals written (one per vertex).
+    pub vertices: usize,
+    /// Triangle corners evaluated: each an edge pair and a cross product.
+    pub corners: usize,
+    /// Widening multiplies: 6 per corner (the cross product), 3 per normalisation (the squared
+    /// length) and 3 more per normalisation (scaling by the root).
+    pub multiplies: usize,
+    /// Normalisations through the integer 1/√ (a table look-up and one Newton step each): one per vertex with a
+    /// fan.
+    pub normalisations: usize,
+    /// Normals copied to welded (split) vertices.
+    pub welds: usize,
+}
+
+impl core::fmt::Display for NormalsCost {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "{} normals: {} triangle corners, {} multiplies, {} normalisations, {} welded copies",
+            self.vertices, self.corners, self.multiplies, self.normalisations, self.welds
+        )
     }
 }

@@ -147,6 +147,29 @@ pub enum LoadError {
         /// The region code.
         region: u8,
     },
+    /// The normals section's vertex index width is neither 2 nor 4 bytes.
+    BadIndexWidth {
+        /// The width in the blob.
+        found: u8,
+    },
+    /// A stored rest normal has a component beyond ±1.0 (±2¹⁴ in Q1.14).
+    BadRestNormal {
+        /// The vertex.
+        vertex: usize,
+    },
+    /// A triangle corner of a vertex's fan names a vertex that does not exist.
+    CornerOutOfRange {
+        /// The vertex whose fan holds the corner.
+        vertex: usize,
+        /// The vertex index it names.
+        corner: u32,
+    },
+    /// A weld entry names a vertex out of range, is not in ascending order, welds a vertex to
+    /// itself or to a vertex that is welded in turn, or welds a vertex that has its own fan.
+    BadWeld {
+        /// The entry's position in `welds`.
+        entry: usize,
+    },
 }
 
 /// A section of the payload, for [`LoadError::SectionLength`].
@@ -168,6 +191,14 @@ pub enum Section {
     Matrix,
     /// `triangles` (planar bones)
     Triangles,
+    /// `normals.rest`
+    RestNormals,
+    /// `normals.fan_counts`
+    FanCounts,
+    /// `normals.corners`
+    Corners,
+    /// `normals.welds`
+    Welds,
 }
 
 impl core::fmt::Display for LoadError {
@@ -242,6 +273,20 @@ impl core::fmt::Display for LoadError {
             Self::BadRegion { vertex, region } => {
                 write!(f, "vertex {vertex} has an influence with region code {region} (0..=6)")
             }
+            Self::BadIndexWidth { found } => {
+                write!(f, "normals section vertex indices are {found} bytes wide, not 2 or 4")
+            }
+            Self::BadRestNormal { vertex } => {
+                write!(f, "the rest normal of vertex {vertex} has a component beyond ±1")
+            }
+            Self::CornerOutOfRange { vertex, corner } => write!(
+                f,
+                "a triangle at vertex {vertex} names vertex {corner}, which does not exist"
+            ),
+            Self::BadWeld { entry } => write!(
+                f,
+                "weld entry {entry} is out of range, out of order, or welds a vertex that has its own triangles"
+            ),
         }
     }
 }

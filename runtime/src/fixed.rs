@@ -9,6 +9,9 @@
 //! | radial value φ (stored) | `i24` in a `u32` | Q(23−F).F, F = `weight_frac_bits` ∈ [8, 22] | chosen by the baker as the finest F that holds the largest value |
 //! | linear weight (stored) | `i24` in a `u32`, Σ\|w\| ≤ [`LINEAR_WEIGHT_ABS_SUM_MAX`] per vertex | Q(15−F).F, F ∈ [8, [`LINEAR_MAX_WEIGHT_FRAC_BITS`]] | the finest F whose weights meet the bound |
 //! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × value over at most [`MAX_INFLUENCES`] terms |
+//! | unit normal (out, and the stored rest normal) | `i16` | Q1.14 ([`NORMAL_FRAC_BITS`]) | 1.0 is 2¹⁴, each component within ±2¹⁴ |
+//! | triangle edge (normals) | `i64` | Q8.24 | a difference of two positions, saturated to ±[`NORMAL_EDGE_LIMIT`] per axis |
+//! | normal accumulator | `i64` | Q16.48 | Σ of edge × edge cross products over at most 255 triangle corners |
 //!
 //! # Overflow by design
 //!
@@ -20,6 +23,13 @@
 //! `i32` ([`round_shift_bounded`]) and clamping a displacement. Rounding is "half up" (add ½,
 //! arithmetic shift), identical on every platform because it is pure integer arithmetic.
 
+/// Fractional bits of a unit normal (Q1.14: 1.0 is 2¹⁴), as [`crate::Rig::normals`] writes it.
+pub const NORMAL_FRAC_BITS: u32 = 14;
+/// Largest magnitude of one axis of a triangle edge in the normals' cross products: 2²⁶, four
+/// rig units (twice the mesh's whole extent). A longer edge saturates to it, so one cross
+/// component is below 2⁵³ and a sum over at most 255 triangle corners below 2⁶¹: the `i64`
+/// accumulator cannot overflow, whatever the positions.
+pub const NORMAL_EDGE_LIMIT: i64 = 1 << 26;
 /// Fractional bits of a position (Q8.24).
 pub const POS_FRAC_BITS: u32 = 24;
 /// One rig unit (the mesh's half extent) in Q8.24.

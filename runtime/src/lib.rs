@@ -8,7 +8,9 @@
 //!   portable code, bit for bit).
 //! * Per-frame cost is fixed by the rig ([`Rig::cost`]): linear in vertices × K + markers, with no
 //!   branch on marker data (planar bones: bounded, with one branch per control triangle, which
-//!   builds its rest frame too when the markers make it degenerate).
+//!   builds its rest frame too when the markers make it degenerate). [`Rig::normals`], the
+//!   deformed mesh's unit normals, costs what `Cost::normals` says: bounded, with a cheaper loop
+//!   when every position lies within ±2 rig units.
 //! * Output is bit-identical on every platform: the per-frame path is pure integer arithmetic
 //!   with documented fixed-point formats (`fixed.rs`).
 //!
@@ -23,8 +25,9 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`] |
+//! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`], [`Rig::normals`] |
 //! | `deformer/` | one module per deformer (`linear`, `rbf`, `planar`), each owning its section, validation, cost and per-frame code; `mod.rs` dispatches |
+//! | `normals` | the normals section and the per-frame unit normals of the deformed mesh |
 //! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `smoothing`, `retarget`, `report` |
 //! | `format/` | the blob: `header` and `RigData` (the docs of every section) |
 //! | `records`, `error` | every record size, named once; [`LoadError`] and the other load errors |
@@ -42,7 +45,7 @@
 //!
 //! * `format`: makes the format internals public, for the baker that writes blobs, the tests
 //!   and the firmware harness: the modules `format` (sections, records, header writer),
-//!   `deformer` and `stages` (section types), `fixed` and `checksum`, and `Rig::data`,
+//!   `deformer`, `normals` and `stages` (section types), `fixed` and `checksum`, and `Rig::data`,
 //!   `Rig::deformer`, `Rig::stages`, `Rig::weight_frac_bits`. A player needs none of it.
 #![no_std]
 #![deny(unsafe_code)]
@@ -66,6 +69,7 @@ format_internals! {
     mod error;
     mod fixed;
     mod format;
+    mod normals;
     mod records;
     mod stages;
 }
@@ -75,7 +79,7 @@ mod space;
 mod sqrt;
 pub mod take;
 
-pub use cost::Cost;
+pub use cost::{Cost, NormalsCost};
 pub use deformer::DegenerateTriangles;
 pub use error::{LoadError, Section, StagesLoadError, StagesSection};
 /// The most markers a rig can have (the loader rejects more): a bound for callers that keep

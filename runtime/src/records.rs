@@ -76,6 +76,11 @@ pub const RADIUS_BYTES: usize = 4;
 pub const ALPHA_BYTES: usize = POSITION_BYTES;
 /// Bytes of one proportional retargeting matrix: 9 × `i32` LE, row-major.
 pub const MATRIX3_BYTES: usize = 36;
+/// Bytes of one stored unit normal: 3 × `i16` LE, Q1.14 ([`crate::fixed::NORMAL_FRAC_BITS`]).
+pub const NORMAL_BYTES: usize = 6;
+/// Widths a vertex index of the normals section may have, in bytes: `u16` when the rig has at
+/// most 2¹⁶ vertices, else `u32`.
+pub const VERTEX_INDEX_BYTES: [u8; 2] = [2, 4];
 /// Neighbours stored per marker for rebuilding it.
 pub const FILL_NEIGHBOURS: usize = 4;
 /// Bytes of one marker's fill neighbours: [`FILL_NEIGHBOURS`] influence words.

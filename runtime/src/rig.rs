@@ -42,6 +42,13 @@ pub enum FrameError {
         /// Entries given.
         found: usize,
     },
+    /// [`Rig::normals`]: the position slice does not have one entry per vertex.
+    PositionCount {
+        /// Vertices the rig has.
+        expected: usize,
+        /// Entries given.
+        found: usize,
+    },
 }
 
 impl core::error::Error for FrameError {}
@@ -60,6 +67,12 @@ impl core::fmt::Display for FrameError {
                 write!(
                     f,
                     "output has room for {found} vertices, the rig has {expected}"
+                )
+            }
+            Self::PositionCount { expected, found } => {
+                write!(
+                    f,
+                    "{found} vertex positions given, the rig has {expected} vertices"
                 )
             }
         }
@@ -139,9 +152,44 @@ impl<'a> Rig<'a> {
         self.data.deformer.weight_frac_bits()
     }
 
-    /// The per-frame work of [`Self::deform`].
+    /// The per-frame work of [`Self::deform`], and in [`Cost::normals`] that of
+    /// [`Self::normals`].
     pub fn cost(&self) -> Cost {
-        self.data.deformer.cost(&self.data.shared())
+        Cost {
+            normals: self.data.normals.cost(),
+            ..self.data.deformer.cost(&self.data.shared())
+        }
+    }
+
+    /// The unit normals of the mesh at `positions` (Q8.24, one per vertex: what [`Self::deform`]
+    /// or [`Self::play`] wrote) into `out`, one per vertex, Q1.14 (`i16`, 1.0 = 2¹⁴).
+    ///
+    /// Area-weighted normals over the mesh's triangles, recomputed from the positions in
+    /// integers: bit-identical on every target, no allocation, a cost fixed by the rig
+    /// ([`Cost::normals`]). Vertices split along a seam (same rest position) get identical
+    /// normals; a vertex whose triangles have collapsed gets its rest normal. The mesh has no
+    /// tangents in the rig.
+    pub fn normals(&self, positions: &[[i32; 3]], out: &mut [[i16; 3]]) -> Result<(), FrameError> {
+        let expected = self.vertex_count();
+        if positions.len() != expected {
+            return Err(FrameError::PositionCount {
+                expected,
+                found: positions.len(),
+            });
+        }
+        if out.len() != expected {
+            return Err(FrameError::OutputLength {
+                expected,
+                found: out.len(),
+            });
+        }
+        self.data.normals.compute(positions, out);
+        Ok(())
+    }
+
+    /// Rest normal of vertex `i` (Q1.14), or `None` past the last vertex.
+    pub fn rest_normal(&self, i: usize) -> Option<[i16; 3]> {
+        self.data.normals.rest_normal(i)
     }
 
     /// Deform one frame: `markers` are the current marker positions in rig units (Q8.24), one

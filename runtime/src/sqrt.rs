@@ -1,5 +1,8 @@
 //! Integer square roots and vector normalisation, in a fixed number of steps.
 //!
+//! `rsqrt_table` is the cheap 1/√ of the per-frame normals: a table of 384 values computed at
+//! compile time and one Newton step.
+//!
 //! The per-frame stages that need lengths (rigid fits, retargeting radial functions, planar-bone frames)
 //! build on these two primitives. Both are pure integer arithmetic, so they give the same bits on
 //! every platform, and both run a fixed number of iterations whatever their input.
@@ -102,6 +105,61 @@ pub fn rsqrt_u64(x: u64) -> Option<(u32, u32)> {
     Some((y as u32, 62 - e / 2))
 }
 
+/// Index bits of [`RSQRT_TABLE`]: the table covers X ∈ [¼, 1) in buckets of 2⁻⁹.
+const RSQRT_TABLE_BITS: u32 = 9;
+/// First entry of the table's index range: X ≥ ¼ means X · 2⁹ ≥ 128.
+const RSQRT_TABLE_START: usize = 1 << (RSQRT_TABLE_BITS - 2);
+
+/// 1/√ at the midpoint of each bucket of X ∈ [¼, 1), Q2.30: entry `i` is
+/// ⌊2⁵¹ / ⌊√((2(i + 128) + 1) · 2³²)⌋⌋ ≈ 2³⁰ / √((2(i + 128) + 1) / 2¹⁰), computed at compile
+/// time in integers, so it is the same table on every target.
+const RSQRT_TABLE: [u32; 384] = {
+    let mut table = [0u32; 384];
+    let mut i = 0;
+    while i < table.len() {
+        let m = (2 * (i + RSQRT_TABLE_START) + 1) as u64;
+        table[i] = ((1u64 << 51) / isqrt_const(m << 32)) as u32;
+        i += 1;
+    }
+    table
+};
+
+/// [`isqrt_u64`] for the compile-time table (a `while` loop: `for` is not allowed in `const`).
+const fn isqrt_const(x: u64) -> u64 {
+    let (mut rem, mut root, mut bit) = (x, 0u64, 1u64 << 62);
+    while bit != 0 {
+        if rem >= root + bit {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    root
+}
+
+/// 1/√x as [`rsqrt_u64`] gives it (`(y, shift)`, 1/√x ≈ y · 2^−shift), but from a 384-entry
+/// table of 1/√ (relative error at most 2⁻⁹ at a bucket's edge) and one Newton step: relative
+/// error below 2⁻¹⁷ (tested over 10⁵ inputs), enough for a Q1.14 unit vector, at a fraction of
+/// the cost. `None` for x = 0. The per-frame normals use it.
+pub fn rsqrt_table(x: u64) -> Option<(u32, u32)> {
+    if x == 0 {
+        return None;
+    }
+    let e = x.leading_zeros() & !1;
+    // X in Q0.32, in [2^30, 2^32); its top nine bits pick the bucket.
+    let big_x = (x << e) >> 32;
+    let bucket = (big_x >> (32 - RSQRT_TABLE_BITS)) as usize - RSQRT_TABLE_START;
+    let mut y = u64::from(RSQRT_TABLE.get(bucket).copied().unwrap_or(1 << 30));
+    // One Newton step, as in `rsqrt_u64`.
+    let y2 = (y * y) >> 30;
+    let xy2 = (big_x * y2) >> 32;
+    let t = (3u64 << 30).saturating_sub(xy2);
+    y = (y * t) >> 31;
+    Some((y as u32, 62 - e / 2))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,6 +220,27 @@ mod tests {
                 let exact = *c as f64 / len * f64::from(1u32 << 30);
                 assert!((f64::from(q) - exact).abs() <= 2.0, "{v:?} → {u:?}");
             }
+        }
+    }
+
+    #[test]
+    fn table_rsqrt_is_within_two_to_the_minus_17() {
+        assert_eq!(rsqrt_table(0), None);
+        let check = |x: u64| {
+            let (y, shift) = rsqrt_table(x).unwrap();
+            let got = f64::from(y) * 2f64.powi(-(shift as i32));
+            let rel = got * (x as f64).sqrt() - 1.0;
+            assert!(rel.abs() < 2f64.powi(-17), "rsqrt_table({x}): {rel:e}");
+        };
+        for x in [1u64, 2, 3, 4, 5, (1 << 62) - 1, 1 << 62, u64::MAX] {
+            check(x);
+        }
+        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..100_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            check((s >> (s % 64)).max(1));
         }
     }
 

@@ -1,6 +1,7 @@
 //! Bit-identical output on every architecture: the committed golden rigs and marker sequence
 //! (`fixtures/golden/`, derived from the baker by `tests/tests/golden.rs`) must give exactly the
-//! frame hashes in `hashes.txt`.
+//! frame hashes in `hashes.txt` and `hashes_planar.txt`, and their normals ([`Rig::normals`])
+//! those in `hashes_normals.txt`.
 //!
 //! This test needs only the runtime crate, so it cross-builds in seconds and runs under
 //! qemu-user on aarch64, 32-bit big-endian PowerPC and i686 (`.ci/cross.sh`). The data is
@@ -16,6 +17,7 @@ const PLANAR: &[u8] = include_bytes!("../../fixtures/golden/facecap_planar.fbk")
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
 const PLANAR_HASHES: &str = include_str!("../../fixtures/golden/hashes_planar.txt");
+const NORMALS_HASHES: &str = include_str!("../../fixtures/golden/hashes_normals.txt");
 
 /// Ground-truth frames (32) plus edge frames (7): what the golden generator writes.
 const EXPECTED_FRAMES: usize = 39;
@@ -28,6 +30,16 @@ fn expected(rig: &str, what: &str) -> u64 {
         .chain(PLANAR_HASHES.lines())
         .find(|l| l.starts_with(&key))
         .unwrap_or_else(|| panic!("hashes.txt has no line for {rig} {what}"));
+    u64::from_str_radix(&line[key.len()..], 16).expect("a 64-bit hex hash")
+}
+
+/// The expected hash of `rig`'s normals at frame `what` from `hashes_normals.txt`.
+fn expected_normals(rig: &str, what: &str) -> u64 {
+    let key = format!("{rig} {what} ");
+    let line = NORMALS_HASHES
+        .lines()
+        .find(|l| l.starts_with(&key))
+        .unwrap_or_else(|| panic!("hashes_normals.txt has no line for {rig} {what}"));
     u64::from_str_radix(&line[key.len()..], 16).expect("a 64-bit hex hash")
 }
 
@@ -44,29 +56,81 @@ fn frames(markers: usize) -> Vec<Vec<[i32; 3]>> {
         .collect()
 }
 
+/// Per-frame and sequence hashes of a rig's positions and of their normals, against
+/// `hashes.txt` (or `hashes_planar.txt`) and `hashes_normals.txt`.
+struct Hashes<'a> {
+    name: &'a str,
+    rig: Rig<'a>,
+    positions: Fnv1a64,
+    normals: Fnv1a64,
+    normal_buffer: Vec<[i16; 3]>,
+    wrong: Vec<String>,
+}
+
+impl<'a> Hashes<'a> {
+    fn new(name: &'a str, rig: Rig<'a>) -> Self {
+        Self {
+            name,
+            rig,
+            positions: Fnv1a64::new(),
+            normals: Fnv1a64::new(),
+            normal_buffer: vec![[0; 3]; rig.vertex_count()],
+            wrong: Vec::new(),
+        }
+    }
+
+    /// Check frame `f`'s normals of `out`, whose own hash `h` the caller computed.
+    fn frame(&mut self, f: usize, h: u64, out: &[[i32; 3]]) {
+        let want = expected(self.name, &format!("frame {f}"));
+        if h != want {
+            self.wrong
+                .push(format!("frame {f}: {h:016x}, want {want:016x}"));
+        }
+        self.rig.normals(out, &mut self.normal_buffer).unwrap();
+        let mut n = Fnv1a64::new();
+        n.write_normals(&self.normal_buffer);
+        self.normals.write_normals(&self.normal_buffer);
+        let want = expected_normals(self.name, &format!("frame {f}"));
+        if n.finish() != want {
+            self.wrong.push(format!(
+                "normals frame {f}: {:016x}, want {want:016x}",
+                n.finish()
+            ));
+        }
+    }
+
+    fn finish(self, sequence: u64) {
+        assert!(
+            self.wrong.is_empty(),
+            "{}: frames differ on this target:\n{}",
+            self.name,
+            self.wrong.join("\n")
+        );
+        assert_eq!(sequence, expected(self.name, "sequence"), "{}", self.name);
+        assert_eq!(
+            self.normals.finish(),
+            expected_normals(self.name, "sequence"),
+            "{} normals",
+            self.name
+        );
+    }
+}
+
 fn check(name: &str, blob: &[u8]) {
     let rig = Rig::from_bytes(blob).expect("golden rig loads");
     let frames = frames(rig.marker_count());
     assert_eq!(frames.len(), EXPECTED_FRAMES);
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    let mut sequence = Fnv1a64::new();
-    let mut wrong = Vec::new();
+    let mut hashes = Hashes::new(name, rig);
     for (f, markers) in frames.iter().enumerate() {
         rig.deform(markers, &mut out).unwrap();
         let mut h = Fnv1a64::new();
         h.write_positions(&out);
-        sequence.write_positions(&out);
-        let want = expected(name, &format!("frame {f}"));
-        if h.finish() != want {
-            wrong.push(format!("frame {f}: {:016x}, want {want:016x}", h.finish()));
-        }
+        hashes.positions.write_positions(&out);
+        hashes.frame(f, h.finish(), &out);
     }
-    assert!(
-        wrong.is_empty(),
-        "{name}: frames differ on this target:\n{}",
-        wrong.join("\n")
-    );
-    assert_eq!(sequence.finish(), expected(name, "sequence"), "{name}");
+    let sequence = hashes.positions.finish();
+    hashes.finish(sequence);
 }
 
 #[test]
@@ -133,8 +197,7 @@ fn capture_stages_are_bit_identical_to_the_golden_hashes() {
     let mut state = facebake_runtime::PlayState::new();
     let mut markers = vec![[0i32; 3]; m];
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    let mut sequence = Fnv1a64::new();
-    let mut wrong = Vec::new();
+    let mut hashes = Hashes::new("capture", rig);
     for (f, frame) in ACTOR.chunks_exact(m * record).enumerate() {
         let actor: Vec<Option<[i32; 3]>> = frame
             .chunks_exact(record)
@@ -147,18 +210,13 @@ fn capture_stages_are_bit_identical_to_the_golden_hashes() {
         rig.deform(&markers, &mut out).unwrap();
         let mut h = Fnv1a64::new();
         h.write_capture_frame(&markers, &out, &report);
-        sequence.write_capture_frame(&markers, &out, &report);
-        let want = expected("capture", &format!("frame {f}"));
-        if h.finish() != want {
-            wrong.push(format!("frame {f}: {:016x}, want {want:016x}", h.finish()));
-        }
+        hashes
+            .positions
+            .write_capture_frame(&markers, &out, &report);
+        hashes.frame(f, h.finish(), &out);
     }
-    assert!(
-        wrong.is_empty(),
-        "capture: frames differ on this target:\n{}",
-        wrong.join("\n")
-    );
-    assert_eq!(sequence.finish(), expected("capture", "sequence"));
+    let sequence = hashes.positions.finish();
+    hashes.finish(sequence);
 }
 
 const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use criterion::Criterion;
 use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
-use facebake_tests::{bake_truth, facecap_truth, planar_config, weights_config};
+use facebake_tests::{bake_truth, facecap_truth, median, planar_config, weights_config};
 
 /// Timed rounds of the same-run table (after one warm-up round).
 const ROUNDS: usize = 9;
@@ -74,17 +74,6 @@ fn bakes() -> (Vec<(&'static str, Baked)>, Vec<[f64; 3]>) {
         .map(|(name, config)| (name, bake_truth(&truth, &config)))
         .collect();
     (baked, markers)
-}
-
-/// Median of `x` (which it sorts).
-fn median(x: &mut [f64]) -> f64 {
-    x.sort_by(f64::total_cmp);
-    let n = x.len();
-    if n % 2 == 1 {
-        x[n / 2]
-    } else {
-        0.5 * (x[n / 2 - 1] + x[n / 2])
-    }
 }
 
 fn main() {

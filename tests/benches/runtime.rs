@@ -47,7 +47,7 @@ use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
 use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
-use facebake_tests::{bake_truth, facecap_truth, weights_config};
+use facebake_tests::{bake_truth, facecap_truth, median, weights_config};
 
 /// Vertices of the synthetic head.
 const SYNTH_VERTICES: usize = 50_000;
@@ -452,17 +452,6 @@ fn interleaved(paths: &mut [&mut dyn FnMut()]) -> Vec<Vec<f64>> {
         }
     }
     times
-}
-
-/// Median of `x` (which it sorts).
-fn median(x: &mut [f64]) -> f64 {
-    x.sort_by(f64::total_cmp);
-    let n = x.len();
-    if n % 2 == 1 {
-        x[n / 2]
-    } else {
-        0.5 * (x[n / 2 - 1] + x[n / 2])
-    }
 }
 
 /// Median over rounds of `a[r] / b[r]`.

@@ -357,3 +357,14 @@ pub fn bless_or_check(files: &[(&str, Vec<u8>)]) {
         stale.join("\n")
     );
 }
+
+/// Median of `x` (which it sorts), for the benches' same-run tables.
+pub fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    let n = x.len();
+    if n % 2 == 1 {
+        x[n / 2]
+    } else {
+        0.5 * (x[n / 2 - 1] + x[n / 2])
+    }
+}

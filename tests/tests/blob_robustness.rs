@@ -609,3 +609,131 @@ fn every_planar_error_is_distinct() {
         ));
     }
 }
+
+#[test]
+fn every_normals_error_is_distinct() {
+    use facebake_runtime::normals::Normals;
+    let b = blob();
+    let good = *Rig::from_bytes(&b).unwrap().data();
+    let n = good.normals;
+    assert_eq!(n.index_bytes, 2, "FaceCap's 2694 vertices take u16 indices");
+    let vertices = good.vertex_count as usize;
+    // Vertex 3's rest normal with x = 1.0 + 1 LSB.
+    let mut bad_rest = n.rest.0.to_vec();
+    bad_rest[3 * 6..3 * 6 + 2].copy_from_slice(&16385i16.to_le_bytes());
+    // The first corner of the first vertex with a fan names vertex `vertices`.
+    let first = n.fan_counts.0.iter().position(|&c| c > 0).unwrap();
+    let mut bad_corner = n.corners.0.to_vec();
+    bad_corner[..2].copy_from_slice(&(vertices as u16).to_le_bytes());
+    // The first weld pair, in turn: its vertex swapped for one with a fan, its canonical vertex
+    // for one without (itself), and the second pair moved before the first.
+    assert!(n.welds.0.len() >= 8, "FaceCap has seams");
+    let mut welded_has_fan = n.welds.0.to_vec();
+    welded_has_fan[..2].copy_from_slice(&(first as u16).to_le_bytes());
+    let mut canonical_welded = n.welds.0.to_vec();
+    canonical_welded.copy_within(0..2, 2);
+    let mut unordered = n.welds.0.to_vec();
+    unordered.copy_within(4..6, 0);
+    let odd = &n.welds.0[..3];
+    let cases: [(Normals<'_>, LoadError); 9] = [
+        (
+            Normals {
+                index_bytes: 3,
+                ..n
+            },
+            LoadError::BadIndexWidth { found: 3 },
+        ),
+        (
+            Normals {
+                rest: Bytes(&bad_rest),
+                ..n
+            },
+            LoadError::BadRestNormal { vertex: 3 },
+        ),
+        (
+            Normals {
+                rest: Bytes(&n.rest.0[6..]),
+                ..n
+            },
+            LoadError::SectionLength {
+                section: Section::RestNormals,
+                expected: n.rest.0.len(),
+                found: n.rest.0.len() - 6,
+            },
+        ),
+        (
+            Normals {
+                fan_counts: Bytes(&n.fan_counts.0[1..]),
+                ..n
+            },
+            LoadError::SectionLength {
+                section: Section::FanCounts,
+                expected: vertices,
+                found: vertices - 1,
+            },
+        ),
+        (
+            Normals {
+                corners: Bytes(&n.corners.0[4..]),
+                ..n
+            },
+            LoadError::SectionLength {
+                section: Section::Corners,
+                expected: n.corners.0.len(),
+                found: n.corners.0.len() - 4,
+            },
+        ),
+        (
+            Normals {
+                corners: Bytes(&bad_corner),
+                ..n
+            },
+            LoadError::CornerOutOfRange {
+                vertex: first,
+                corner: vertices as u32,
+            },
+        ),
+        (
+            Normals {
+                welds: Bytes(&welded_has_fan),
+                ..n
+            },
+            LoadError::BadWeld { entry: 0 },
+        ),
+        (
+            Normals {
+                welds: Bytes(&canonical_welded),
+                ..n
+            },
+            LoadError::BadWeld { entry: 0 },
+        ),
+        (
+            Normals {
+                welds: Bytes(&unordered),
+                ..n
+            },
+            LoadError::BadWeld { entry: 1 },
+        ),
+    ];
+    for (i, (edited, want)) in cases.into_iter().enumerate() {
+        let d = RigData {
+            normals: edited,
+            ..good
+        };
+        assert_eq!(Rig::from_bytes(&seal(&d)).unwrap_err(), want, "case {i}");
+    }
+    let d = RigData {
+        normals: Normals {
+            welds: Bytes(odd),
+            ..n
+        },
+        ..good
+    };
+    assert!(matches!(
+        Rig::from_bytes(&seal(&d)).unwrap_err(),
+        LoadError::SectionLength {
+            section: Section::Welds,
+            ..
+        }
+    ));
+}

@@ -1,5 +1,5 @@
 //! The runtime never allocates: loading a rig, asking its cost and marker names, and deforming
-//! many frames of both golden rigs make no heap allocation.
+//! many frames of both golden rigs (and computing their normals) make no heap allocation.
 //!
 //! A counting global allocator wraps the system one and counts allocations made by this thread
 //! while a thread-local flag is set, so the test harness's other threads do not disturb it.
@@ -86,6 +86,7 @@ fn loading_and_deforming_never_allocate() {
         .collect();
     let frames: Vec<[i32; 3]> = words.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
     let mut out = vec![[0i32; 3]; 4096];
+    let mut normals = vec![[0i16; 3]; 4096];
     let mut played = 0usize;
     for blob in BLOBS {
         let (n, ()) = allocations_in(|| {
@@ -95,9 +96,11 @@ fn loading_and_deforming_never_allocate() {
             assert_eq!(rig.marker_names().count(), m);
             assert_eq!(rig.marker_index("M07"), Some(7));
             let out = &mut out[..v];
-            // Every frame of the golden sequence, three times over.
+            let normals = &mut normals[..v];
+            // Every frame of the golden sequence, three times over, with its normals.
             for markers in frames.chunks_exact(m).cycle().take(3 * frames.len() / m) {
                 rig.deform_report(markers, out).unwrap();
+                rig.normals(out, normals).unwrap();
                 played += 1;
             }
         });
@@ -128,13 +131,16 @@ fn playing_captured_frames_never_allocates() {
         })
         .collect();
     let mut out = vec![[0i32; 3]; 4096];
+    let mut normals = vec![[0i16; 3]; 4096];
     let mut played = 0usize;
     let (n, ()) = allocations_in(|| {
         let rig = Rig::from_bytes(CAPTURE).expect("capture golden loads");
         let out = &mut out[..rig.vertex_count()];
+        let normals = &mut normals[..rig.vertex_count()];
         let mut state = facebake_runtime::PlayState::new();
         for actor in frames.iter().cycle().take(3 * frames.len()) {
             rig.play(&mut state, actor, out).unwrap();
+            rig.normals(out, normals).unwrap();
             played += 1;
         }
     });

@@ -112,6 +112,9 @@ pub enum BakeError {
     /// The capture stages.
     #[error("{0}")]
     Stages(#[from] StagesError),
+    /// The normals section.
+    #[error("{0}")]
+    Normals(#[from] crate::normals::NormalsError),
 }
 
 /// What the bake measured.
@@ -274,9 +277,11 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         }
         None => None,
     };
+    let normals = crate::normals::bake(scene.mesh)?;
     let (blob, sizes) = blob::write(&BlobContents {
         space,
         vertices: &scene.mesh.positions,
+        normals: &normals,
         marker_names: &names,
         marker_rest: &rest,
         deformer: &d.output.bytes,

@@ -8,7 +8,9 @@
  * Deform rigs: every frame of facecap_markers.bin through fb_deform. Capture rig: every frame of
  * jawmocap_actor.bin through fb_play (capture stages, then the deformer), hashing the
  * character's markers, the vertices and (head residual, rebuilt count, held count), as
- * tests/tests/golden.rs does. Only hash lines go to stdout; a summary of each rig goes to stderr.
+ * tests/tests/golden.rs does. After each frame, its normals through fb_normals, hashed as
+ * fixtures/golden/hashes_normals.txt records them and printed behind the word "normals". Only
+ * hash lines go to stdout; a summary of each rig goes to stderr.
  *
  * Build: cc -std=c11 -I ffi/include play_golden.c target/release/libfacebake_ffi.a \
  *            -lpthread -ldl -lm
@@ -96,6 +98,26 @@ static void fnv_i32s(Fnv1a64 *h, const int32_t *values, size_t n) {
     }
 }
 
+/* The same, fed i16 values (the normals). */
+static void fnv_i16s(Fnv1a64 *h, const int16_t *values, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        uint16_t v = (uint16_t)values[i];
+        for (int b = 0; b < 2; b++) {
+            h->state = (h->state ^ ((v >> (8 * b)) & 0xff)) * UINT64_C(0x100000001b3);
+        }
+    }
+}
+
+/* The normals of the positions `out` through fb_normals: hashed into `sequence`, printed. */
+static void normals_frame(const FbRig *rig, const char *name, size_t f, const int32_t *out,
+                          size_t vertices, int16_t *normals, Fnv1a64 *sequence) {
+    check(fb_normals(rig, out, vertices, normals, vertices), "fb_normals");
+    Fnv1a64 h = fnv_new();
+    fnv_i16s(&h, normals, vertices * 3);
+    fnv_i16s(sequence, normals, vertices * 3);
+    printf("normals %s frame %zu %016" PRIx64 "\n", name, f, h.state);
+}
+
 /* A rig loaded into malloc'd storage, with the blob it borrows. */
 typedef struct {
     uint8_t *blob;
@@ -138,7 +160,9 @@ static void deform_take(const char *dir, const char *name, const char *file) {
     size_t frame_bytes = l.markers * 3 * 4;
     int32_t *markers = xmalloc(frame_bytes);
     int32_t *out = xmalloc(l.vertices * 3 * sizeof(int32_t));
+    int16_t *normals = xmalloc(l.vertices * 3 * sizeof(int16_t));
     Fnv1a64 sequence = fnv_new();
+    Fnv1a64 normals_sequence = fnv_new();
     for (size_t f = 0; (f + 1) * frame_bytes <= len; f++) {
         for (size_t i = 0; i < l.markers * 3; i++) {
             markers[i] = le_i32(take + f * frame_bytes + 4 * i);
@@ -148,8 +172,11 @@ static void deform_take(const char *dir, const char *name, const char *file) {
         fnv_i32s(&h, out, l.vertices * 3);
         fnv_i32s(&sequence, out, l.vertices * 3);
         printf("%s frame %zu %016" PRIx64 "\n", name, f, h.state);
+        normals_frame(l.rig, name, f, out, l.vertices, normals, &normals_sequence);
     }
     printf("%s sequence %016" PRIx64 "\n", name, sequence.state);
+    printf("normals %s sequence %016" PRIx64 "\n", name, normals_sequence.state);
+    free(normals);
     free(out);
     free(markers);
     free(take);
@@ -169,7 +196,9 @@ static void play_take(const char *dir) {
     uint8_t *present = xmalloc(l.markers);
     int32_t *character = xmalloc(l.markers * 3 * sizeof(int32_t));
     int32_t *out = xmalloc(l.vertices * 3 * sizeof(int32_t));
+    int16_t *normals = xmalloc(l.vertices * 3 * sizeof(int16_t));
     Fnv1a64 sequence = fnv_new();
+    Fnv1a64 normals_sequence = fnv_new();
     for (size_t f = 0; (f + 1) * frame_bytes <= len; f++) {
         const uint8_t *frame = take + f * frame_bytes;
         for (size_t j = 0; j < l.markers; j++) {
@@ -192,8 +221,11 @@ static void play_take(const char *dir) {
             fnv_i32s(hs[k], tail, 3);
         }
         printf("capture frame %zu %016" PRIx64 "\n", f, h.state);
+        normals_frame(l.rig, "capture", f, out, l.vertices, normals, &normals_sequence);
     }
     printf("capture sequence %016" PRIx64 "\n", sequence.state);
+    printf("normals capture sequence %016" PRIx64 "\n", normals_sequence.state);
+    free(normals);
     free(out);
     free(character);
     free(present);

@@ -38,7 +38,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::cost::Cost;
+use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
 use crate::fixed::{
     linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
@@ -116,6 +116,7 @@ impl DeformerSection for LinearDeformer<'_> {
             scratch_bytes: SCRATCH_BYTES,
             frame_builds: 0,
             normalisations: 0,
+            normals: NormalsCost::default(),
         }
     }
 

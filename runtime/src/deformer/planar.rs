@@ -40,7 +40,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::cost::Cost;
+use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
 use crate::fixed::round_shift_bounded;
 use crate::error::{expect_len, LoadError, Section};
@@ -352,6 +352,7 @@ fn cost(planar: &PlanarDeformer<'_>, vertices: usize, markers: usize) -> Cost {
         scratch_bytes: core::mem::size_of::<[Frame; MAX_TRIANGLES]>(),
         frame_builds: triangles,
         normalisations: 4 * triangles + apex,
+        normals: NormalsCost::default(),
     }
 }
 

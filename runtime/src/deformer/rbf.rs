@@ -19,7 +19,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::cost::Cost;
+use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
 use crate::fixed::{
     mul_acc, round_shift_bounded, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS, MIN_ROW_SHIFT,
@@ -141,6 +141,7 @@ impl DeformerSection for RbfDeformer<'_> {
                 + core::mem::size_of::<[[i32; 3]; MAX_ROWS]>(),
             frame_builds: 0,
             normalisations: 0,
+            normals: NormalsCost::default(),
         }
     }
 

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::deformer::{Deformer, Shared};
 use crate::error::{expect_len, LoadError, Section};
+use crate::normals::Normals;
 use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
@@ -40,11 +41,25 @@ use crate::stages::Stages;
 /// | `marker_names` | marker | `u8` length, then that many UTF-8 bytes |
 /// | `marker_rest` | marker | 3 × `i32` LE, Q8.24 rig units ([`POSITION_BYTES`]) |
 /// | `vertex_rest` | vertex | 3 × `i16` LE, Q0.15 rig units ([`REST_BYTES`]) |
+/// | `normals` | — | [`Normals`], below |
 /// | `deformer` | — | one of [`Deformer`] (a varint variant index, then its section) |
 /// | `stages` | — | `0`, or `1` then [`Stages`] |
 ///
 /// A packed influence word ([`records::INFLUENCE_BYTES`]) is a `u32` LE: bits 0–7 a marker (or
 /// RBF centre) index, bits 8–31 the weight as a signed 24-bit integer.
+///
+/// # Normals section
+///
+/// [`Normals`]: the mesh's triangles as per-vertex fans over welded vertices, for
+/// [`crate::Rig::normals`] (method and bounds in the `normals` module's docs).
+///
+/// | section | per item | contents |
+/// |---|---|---|
+/// | `index_bytes` | — | `u8` W, 2 or 4: the width of a vertex index below |
+/// | `rest` | vertex | 3 × `i16` LE, Q1.14 unit rest normal, each component within ±2¹⁴ ([`records::NORMAL_BYTES`]) |
+/// | `fan_counts` | vertex | `u8`: triangle corners around the vertex; 0 for a welded vertex or one in no triangle |
+/// | `corners` | fan corner | 2 × W-byte LE vertex indices: the triangle's other two corners, in winding order |
+/// | `welds` | welded vertex | 2 × W-byte LE vertex indices: the vertex (strictly ascending, fan count 0) and the vertex whose normal it copies (fan count > 0) |
 ///
 /// # Deformer sections
 ///
@@ -137,7 +152,8 @@ use crate::stages::Stages;
 /// | `derivative_cutoff` | — | varint `u32`, Q16.16, in [1, 2²⁴]: 2π f_d / rate |
 ///
 /// Version 2 added the optional capture stages, version 3 their `head_tolerance`, `max_step`
-/// and `smoothing`, version 4 `head_smoothing`; older blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
+/// and `smoothing`, version 4 the `normals` section and the stages' `head_smoothing`; older
+/// blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
 /// them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigData<'a> {
@@ -156,6 +172,9 @@ pub struct RigData<'a> {
     /// Vertex rest positions: 3 × `i16` LE (Q0.15) per vertex, in the mesh's vertex order.
     #[serde(borrow)]
     pub vertex_rest: Bytes<'a>,
+    /// The mesh's triangles and welds, for the deformed normals.
+    #[serde(borrow)]
+    pub normals: Normals<'a>,
     /// The deformer.
     #[serde(borrow)]
     pub deformer: Deformer<'a>,
@@ -208,6 +227,7 @@ fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
         shared.vertices,
         REST_BYTES,
     )?;
+    d.normals.validate(shared.vertices)?;
     d.deformer.validate(&shared)?;
     if let Some(stages) = &d.stages {
         stages.validate(markers).map_err(LoadError::Stages)?;

@@ -52,6 +52,8 @@ pub struct CostSummary {
     pub normalisations: usize,
     /// The runtime's own one-line description.
     pub text: String,
+    /// The work of one `Rig::normals` call, as the runtime describes it.
+    pub normals: String,
 }
 
 impl From<Cost> for CostSummary {
@@ -69,6 +71,7 @@ impl From<Cost> for CostSummary {
             frame_builds: c.frame_builds,
             normalisations: c.normalisations,
             text: c.to_string(),
+            normals: c.normals.to_string(),
         }
     }
 }
@@ -95,6 +98,8 @@ pub struct Sections {
     pub influences: usize,
     /// Capture stages' byte sections (neutral, head, fill, radii, coefficients).
     pub stages: usize,
+    /// The normals section's byte sections (rest normals, fan counts, fan corners, welds).
+    pub normals: usize,
     /// Everything else: the space, counts and postcard length prefixes.
     pub other: usize,
 }
@@ -206,7 +211,10 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                 Retarget::Proportional(p) => p.matrices.0.len() + p.rest.0.len(),
             }
     });
+    let n = &data.normals;
+    let normals_bytes = n.rest.0.len() + n.fan_counts.0.len() + n.corners.0.len() + n.welds.0.len();
     let known = stages_bytes
+        + normals_bytes
         + HEADER_LEN
         + data.marker_names.0.len()
         + data.marker_rest.0.len()
@@ -225,6 +233,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         matrix,
         influences,
         stages: stages_bytes,
+        normals: normals_bytes,
         other: bytes.len().saturating_sub(known),
     };
     let cost = rig.cost();
@@ -365,11 +374,12 @@ fn print_text(s: &InspectSummary) {
     );
     outln!(
         out,
-        "                header {}, marker names {}, marker rest {}, vertex rest {}, {}influences {}, other {}",
+        "                header {}, marker names {}, marker rest {}, vertex rest {}, normals {}, {}influences {}, other {}",
         sec.header,
         sec.marker_names,
         sec.marker_rest,
         sec.vertex_rest,
+        sec.normals,
         if s.affine.is_some() {
             format!("coefficient shifts {}, coefficient map {}, ", sec.row_shifts, sec.matrix)
         } else if s.deformer == "planar" {
@@ -384,6 +394,11 @@ fn print_text(s: &InspectSummary) {
         sec.other
     );
     outln!(out, "  per frame     {}", s.cost.text);
+    outln!(
+        out,
+        "  normals       {} (Rig::normals, when called)",
+        s.cost.normals
+    );
     if let Some(c) = &s.capture {
         outln!(
             out,

@@ -1,0 +1,315 @@
+//! Deformed vertex normals: [`Normals`], the blob's normals section, and the per-frame call
+//! behind [`crate::Rig::normals`].
+//!
+//! # Method
+//!
+//! Area-weighted vertex normals recomputed from the deformed positions, over the mesh's
+//! triangles baked as per-vertex **fans**: for each vertex that owns its normal, the other two
+//! corners (a, b) of every triangle around it, in the triangle's winding order, so that
+//!
+//! ```text
+//! e₁ = clamp(p[a] − p[v], ±2²⁶)    e₂ = clamp(p[b] − p[v], ±2²⁶)        Q8.24, i64
+//! s  = Σ_fan e₁ × e₂                                                   i64, exact
+//! n[v] = s / |s|                                                       Q1.14, via 1/√
+//! ```
+//!
+//! `e₁ × e₂` is twice the triangle's area along its normal, so `s` weights each triangle by its
+//! area (as the baker's f64 reference does). The cross products are exact integers: every
+//! corner of a triangle gives bit for bit the same vector, so computing it once per corner
+//! instead of once per triangle costs multiplies but needs no scratch buffer (the runtime has
+//! no heap) and no scattered writes, and each vertex's normal depends on its own fan only.
+//!
+//! **Seams** (vertices split for UVs or hard edges but sharing a rest position) are welded: the
+//! baker gives the fan to one vertex of each group, the canonical one, over the canonical
+//! vertices of its neighbours; every other vertex of the group is listed in `welds` and gets a
+//! copy of its canonical vertex's normal, so split vertices get identical normals.
+//!
+//! **Overflow, by design**: an edge's axis saturates at ±[`NORMAL_EDGE_LIMIT`] (four rig units,
+//! twice the mesh's extent; only an absurd pose gets there), so a cross component is below 2⁵³
+//! and a fan of at most 255 corners sums below 2⁶¹.
+//!
+//! **Normalisation**: `s` is shifted (exactly, by a power of two) so that its largest component
+//! lies in [2³⁰, 2³¹), its squared length (below 3 · 2⁶², a `u64`) goes through a table-seeded
+//! integer 1/√ ([`crate::sqrt::rsqrt_table`]: 384 values and one Newton step, relative error
+//! below 2⁻¹⁷; the capture stages' five-step `rsqrt_u64` cost twice the whole normals pass for
+//! precision Q1.14 cannot hold) and each component is multiplied by the root, rounded half up
+//! to Q1.14 and clamped to ±1: within ⅝ LSB of the exact unit vector. No division, no loop.
+//!
+//! **Degenerate fans**: a vertex whose fan sums to the zero vector (its triangles collapsed to
+//! lines or points), and a vertex in no triangle, gets its baked rest normal.
+//!
+//! Cost per call ([`NormalsCost`]): per fan corner two edge subtractions and clamps per axis and
+//! one cross product (6 multiplies); per vertex with a fan one normalisation (a table look-up,
+//! one Newton step and six multiplies); per weld one copy. The cost is bounded, not constant:
+//! it branches on the positions twice, once per call (the clamp-free loop when every position
+//! is within ±2 rig units) and once per vertex (the degenerate-fan fallback).
+
+use serde::{Deserialize, Serialize};
+
+use crate::cost::NormalsCost;
+use crate::error::{expect_len, LoadError, Section};
+use crate::fixed::{NORMAL_EDGE_LIMIT, NORMAL_FRAC_BITS};
+use crate::records::{Bytes, COUNT_BYTES, NORMAL_BYTES, VERTEX_INDEX_BYTES};
+use crate::sqrt::rsqrt_table;
+
+/// The normals section: what [`crate::Rig::normals`] needs besides the positions (layout:
+/// [`crate::format::RigData`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Normals<'a> {
+    /// Bytes of one vertex index in `corners` and `welds`: 2 (`u16`) or 4 (`u32`), LE.
+    pub index_bytes: u8,
+    /// Per vertex, the rest pose's unit normal, 3 × `i16` LE, Q1.14: the fallback for a vertex
+    /// without area.
+    #[serde(borrow)]
+    pub rest: Bytes<'a>,
+    /// Per vertex, how many triangle corners its fan has (`u8`); 0 for a welded vertex and a
+    /// vertex in no triangle.
+    #[serde(borrow)]
+    pub fan_counts: Bytes<'a>,
+    /// The fans, vertex after vertex: per corner two vertex indices, the triangle's other two
+    /// corners in winding order.
+    #[serde(borrow)]
+    pub corners: Bytes<'a>,
+    /// Per welded vertex, two vertex indices: the vertex (strictly ascending) and the vertex
+    /// whose normal it copies (which has a fan).
+    #[serde(borrow)]
+    pub welds: Bytes<'a>,
+}
+
+impl Normals<'_> {
+    /// Check the section against the vertex count: everything [`Self::compute`] relies on.
+    pub(crate) fn validate(&self, vertices: usize) -> Result<(), LoadError> {
+        if !VERTEX_INDEX_BYTES.contains(&self.index_bytes) {
+            return Err(LoadError::BadIndexWidth {
+                found: self.index_bytes,
+            });
+        }
+        let width = usize::from(self.index_bytes);
+        expect_len(Section::RestNormals, self.rest, vertices, NORMAL_BYTES)?;
+        let one = 1i16 << NORMAL_FRAC_BITS;
+        for (vertex, n) in self.rest.0.chunks_exact(NORMAL_BYTES).enumerate() {
+            if read_normal(n).iter().any(|c| !(-one..=one).contains(c)) {
+                return Err(LoadError::BadRestNormal { vertex });
+            }
+        }
+        expect_len(Section::FanCounts, self.fan_counts, vertices, COUNT_BYTES)?;
+        let corners: usize = self.fan_counts.0.iter().map(|&c| usize::from(c)).sum();
+        expect_len(Section::Corners, self.corners, corners, 2 * width)?;
+        let mut fan = self.corners.0.chunks_exact(width);
+        for (vertex, &count) in self.fan_counts.0.iter().enumerate() {
+            for corner in fan.by_ref().take(2 * usize::from(count)) {
+                let corner = read_index(corner);
+                if corner as usize >= vertices {
+                    return Err(LoadError::CornerOutOfRange { vertex, corner });
+                }
+            }
+        }
+        if !self.welds.0.len().is_multiple_of(2 * width) {
+            return Err(LoadError::SectionLength {
+                section: Section::Welds,
+                expected: self.welds.0.len() / (2 * width) * 2 * width,
+                found: self.welds.0.len(),
+            });
+        }
+        let fan_count = |v: u32| self.fan_counts.0.get(v as usize).copied();
+        let mut last = None;
+        for (entry, pair) in self.welds.0.chunks_exact(2 * width).enumerate() {
+            let (vertex, canonical) = (read_index(&pair[..width]), read_index(&pair[width..]));
+            let ok = last.is_none_or(|l| vertex > l)
+                && fan_count(vertex) == Some(0)
+                && fan_count(canonical).is_some_and(|c| c > 0);
+            if !ok {
+                return Err(LoadError::BadWeld { entry });
+            }
+            last = Some(vertex);
+        }
+        Ok(())
+    }
+
+    /// The work of [`Self::compute`].
+    pub(crate) fn cost(&self) -> NormalsCost {
+        let width = usize::from(self.index_bytes).max(1);
+        let corners = self.corners.0.len() / (2 * width);
+        let normalisations = self.fan_counts.0.iter().filter(|&&c| c > 0).count();
+        NormalsCost {
+            vertices: self.fan_counts.0.len(),
+            corners,
+            multiplies: 6 * corners + 6 * normalisations,
+            normalisations,
+            welds: self.welds.0.len() / (2 * width),
+        }
+    }
+
+    /// The unit normal of every vertex of the mesh at `positions` (Q8.24, one per vertex) into
+    /// `out` (Q1.14, one per vertex): both have the rig's vertex count (the caller checked), and
+    /// the section was validated against it. Never fails.
+    pub(crate) fn compute(&self, positions: &[[i32; 3]], out: &mut [[i16; 3]]) {
+        // Within ±2 rig units no edge exceeds the limit, so the clamp cannot bind: the same
+        // integers without it.
+        let half = NORMAL_EDGE_LIMIT / 2;
+        let inside = positions
+            .iter()
+            .flatten()
+            .all(|&c| (-half..=half).contains(&i64::from(c)));
+        match (self.index_bytes == 2, inside) {
+            (true, true) => self.compute_with::<2, false>(positions, out),
+            (true, false) => self.compute_with::<2, true>(positions, out),
+            (false, true) => self.compute_with::<4, false>(positions, out),
+            (false, false) => self.compute_with::<4, true>(positions, out),
+        }
+    }
+
+    /// [`Self::compute`] with `W`-byte vertex indices, clamping the edges when `CLAMP`.
+    #[inline(always)]
+    fn compute_with<const W: usize, const CLAMP: bool>(
+        &self,
+        positions: &[[i32; 3]],
+        out: &mut [[i16; 3]],
+    ) {
+        let at = |i: u32| positions.get(i as usize).copied().unwrap_or_default();
+        let mut corners = self.corners.0.chunks_exact(2 * W);
+        let rest = self.rest.0.chunks_exact(NORMAL_BYTES);
+        for (((n, &count), p), rest) in out
+            .iter_mut()
+            .zip(self.fan_counts.0)
+            .zip(positions)
+            .zip(rest)
+        {
+            let mut sum = [0i64; 3];
+            for pair in corners.by_ref().take(usize::from(count)) {
+                let a = at(read_index(&pair[..W]));
+                let b = at(read_index(&pair[W..]));
+                let c = cross(edge::<CLAMP>(a, *p), edge::<CLAMP>(b, *p));
+                sum = [sum[0] + c[0], sum[1] + c[1], sum[2] + c[2]];
+            }
+            *n = unit_q14(sum).unwrap_or_else(|| read_normal(rest));
+        }
+        for pair in self.welds.0.chunks_exact(2 * W) {
+            let (vertex, canonical) = (read_index(&pair[..W]), read_index(&pair[W..]));
+            if let Some(&copy) = out.get(canonical as usize) {
+                if let Some(n) = out.get_mut(vertex as usize) {
+                    *n = copy;
+                }
+            }
+        }
+    }
+
+    /// The stored rest normal of vertex `i` (Q1.14), or `None` past the last vertex.
+    pub(crate) fn rest_normal(&self, i: usize) -> Option<[i16; 3]> {
+        self.rest.0.chunks_exact(NORMAL_BYTES).nth(i).map(read_normal)
+    }
+}
+
+/// `b − a` per axis in `i64`, saturated to ±[`NORMAL_EDGE_LIMIT`] when `CLAMP` (the caller
+/// leaves it out only where it cannot bind).
+#[inline(always)]
+fn edge<const CLAMP: bool>(b: [i32; 3], a: [i32; 3]) -> [i64; 3] {
+    [0, 1, 2].map(|c| {
+        let d = i64::from(b[c]) - i64::from(a[c]);
+        if CLAMP {
+            d.clamp(-NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT)
+        } else {
+            d
+        }
+    })
+}
+
+/// `u × v`, exact for edges within ±[`NORMAL_EDGE_LIMIT`] (each product below 2⁵², each
+/// component below 2⁵³).
+#[inline(always)]
+fn cross(u: [i64; 3], v: [i64; 3]) -> [i64; 3] {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+/// The unit vector along `s` in Q1.14, or `None` for the zero vector (see the module docs).
+#[inline(always)]
+pub(crate) fn unit_q14(s: [i64; 3]) -> Option<[i16; 3]> {
+    let largest = s.iter().map(|c| c.unsigned_abs()).max().unwrap_or(0);
+    // Bring the largest magnitude into [2^30, 2^31): its highest set bit to bit 30.
+    let shift = (63 - largest.leading_zeros() as i32) - 30;
+    let scaled = s.map(|c| if shift >= 0 { c >> shift } else { c << -shift });
+    // |c| < 2^31: three squares sum below 3 · 2^62 < 2^64.
+    let sum = scaled.iter().map(|&c| (c * c) as u64).sum::<u64>();
+    // None exactly when s is zero: a non-zero s has a scaled component of at least 2^30.
+    let (root, root_shift) = rsqrt_table(sum)?;
+    // |c| · root < 2^31 · 2^31; the sum is at least 2^60, so root_shift ≥ 60 and the shift to
+    // Q1.14 is at least 46.
+    let down = root_shift - NORMAL_FRAC_BITS;
+    let half = 1i64 << (down - 1);
+    // |c| ≤ |s| and the root is within 2^−17 of 1/√sum: the result is within 2^14 + 1, and
+    // clamped to the unit.
+    let one = 1i64 << NORMAL_FRAC_BITS;
+    Some(scaled.map(|c| ((c * i64::from(root) + half) >> down).clamp(-one, one) as i16))
+}
+
+/// Decode one vertex index of `W` = `b.len()` bytes (2 or 4, LE).
+#[inline(always)]
+fn read_index(b: &[u8]) -> u32 {
+    match *b {
+        [lo, hi] => u32::from(u16::from_le_bytes([lo, hi])),
+        [b0, b1, b2, b3] => u32::from_le_bytes([b0, b1, b2, b3]),
+        _ => u32::MAX,
+    }
+}
+
+/// Decode one stored normal (3 × `i16` LE, Q1.14) from a [`NORMAL_BYTES`]-long chunk.
+#[inline(always)]
+pub(crate) fn read_normal(b: &[u8]) -> [i16; 3] {
+    let b: [u8; NORMAL_BYTES] = b.try_into().unwrap_or([0; NORMAL_BYTES]);
+    [0, 1, 2].map(|c| i16::from_le_bytes([b[2 * c], b[2 * c + 1]]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_q14_is_within_five_eighths_of_an_lsb_of_the_exact_unit_vector() {
+        assert_eq!(unit_q14([0, 0, 0]), None);
+        assert_eq!(unit_q14([5, 0, 0]), Some([1 << 14, 0, 0]));
+        assert_eq!(unit_q14([0, 0, -(1 << 61)]), Some([0, 0, -(1 << 14)]));
+        assert_eq!(unit_q14([3, 4, 0]), Some([9830, 13107, 0]));
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..20_000 {
+            let mut v = [0i64; 3];
+            for c in &mut v {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                *c = (s as i64) >> (3 + s % 60);
+            }
+            let Some(u) = unit_q14(v) else {
+                assert_eq!(v, [0, 0, 0]);
+                continue;
+            };
+            let len = v.iter().map(|&c| (c as f64).powi(2)).sum::<f64>().sqrt();
+            for (c, q) in v.iter().zip(u) {
+                let exact = *c as f64 / len * 16384.0;
+                assert!((f64::from(q) - exact).abs() <= 0.625, "{v:?} → {u:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn edges_saturate_and_cross_products_stay_in_range() {
+        let far = edge::<true>([i32::MAX; 3], [i32::MIN; 3]);
+        assert_eq!(far, [NORMAL_EDGE_LIMIT; 3]);
+        let c = cross(
+            [NORMAL_EDGE_LIMIT, -NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT],
+            [-NORMAL_EDGE_LIMIT, -NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT],
+        );
+        assert!(c.iter().all(|x| x.unsigned_abs() <= 1 << 53));
+        // A full fan of 255 such corners sums without overflow.
+        let worst = cross(
+            [NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT, 0],
+            [-NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT, 0],
+        )[2];
+        assert_eq!(worst, 1 << 53);
+        let fan = (0..u8::MAX).try_fold(0i64, |acc, _| acc.checked_add(worst));
+        assert!(fan.is_some_and(|s| s < 1 << 61));
+    }
+}
