@@ -144,7 +144,7 @@ pub fn static_anchoring(
 }
 
 /// `3t² − 2t³` on `t` clamped to [0, 1].
-fn smoothstep(t: f64) -> f64 {
+pub(crate) fn smoothstep(t: f64) -> f64 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }

@@ -410,21 +410,22 @@ pub(crate) fn dense_weights(
         }
         None => dense,
     };
+    let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
+    // The mouth: the lowest opening, when it is below the markers' mean height.
+    let floor = geometry
+        .openings
+        .iter()
+        .map(|o| o.centre[1])
+        .fold(None, |low: Option<f64>, y| {
+            Some(low.map_or(y, |l| l.min(y)))
+        })
+        .filter(|&y| y < mean_height);
     let pieces = geometry.pieces_of(&d.fallback);
-    let mut dense = follow_nearest_reachable(dense, &pieces, &mesh.positions);
+    let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
+    let mut dense = follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref());
     let skull = anchoring::skull_markers(&rest, &rims_of(&geometry, mesh), spacing);
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear) => {
-            let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
-            // The mouth: the lowest opening, when it is below the markers' mean height.
-            let floor = geometry
-                .openings
-                .iter()
-                .map(|o| o.centre[1])
-                .fold(None, |low: Option<f64>, y| {
-                    Some(low.map_or(y, |l| l.min(y)))
-                })
-                .filter(|&y| y < mean_height);
             let a = anchoring::static_anchoring(
                 &mesh.positions,
                 &rest,
@@ -524,14 +525,80 @@ fn rims_of(geometry: &SurfaceGeometry, mesh: &FaceMesh) -> Vec<Vec<[f64; 3]>> {
         .collect()
 }
 
+/// Jaw markers are at least this many mean marker spacings below the mouth's centre: the chin's,
+/// not the lower lip's, which moves on its own (a funnel, a pout).
+const JAW_MARGIN: f64 = 0.5;
+/// Most jaw markers a piece follows: the linear deformer keeps K = 8 influences.
+const JAW_MARKERS: usize = 8;
+/// Width of the band about the mouth's height over which mouth-interior skin goes from riding
+/// the skin beside it to riding the jaw, in mean marker spacings.
+const JAW_BAND: f64 = 0.25;
+
+/// The markers below the mouth that carry the jaw, with their rest positions (asset units).
+struct JawMarkers {
+    /// The mouth's centre height.
+    mouth: f64,
+    /// [`JAW_BAND`] in asset units.
+    band: f64,
+    markers: Vec<(usize, [f64; 3])>,
+}
+
+impl JawMarkers {
+    /// The markers of `rest` more than [`JAW_MARGIN`] × `spacing` below the mouth's centre
+    /// height `mouth`.
+    fn below(rest: &[[f64; 3]], mouth: f64, spacing: f64) -> Self {
+        let margin = JAW_MARGIN * spacing;
+        Self {
+            mouth,
+            band: JAW_BAND * spacing,
+            markers: rest
+                .iter()
+                .copied()
+                .enumerate()
+                .filter(|(_, p)| p[1] < mouth - margin)
+                .collect(),
+        }
+    }
+
+    /// Weights (over all `n` markers) that move a piece centred at `centre` with the jaw: the
+    /// 1/d²-weighted mean displacement of its nearest [`JAW_MARKERS`] jaw markers (convex, so
+    /// nothing is extrapolated and a marker's jitter is not magnified). On FaceCap's `jawOpen`
+    /// the lower teeth move 43 mm and the chin's skin 37 mm: the teeth then land 17.6 mm off
+    /// on average against 20.7 mm riding the nearest skin (an affine fit of the chin markers,
+    /// whose skin does not move rigidly, 23 mm; their best rigid fit, which weights cannot
+    /// express, 15.7 mm). `None` without jaw markers.
+    fn weights(&self, centre: &[f64; 3], n: usize) -> Option<Vec<f64>> {
+        let mut near: Vec<(f64, usize)> = self
+            .markers
+            .iter()
+            .map(|(m, p)| (crate::mesh::distance(p, centre), *m))
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        near.truncate(JAW_MARKERS);
+        let total: f64 = near.iter().map(|(d, _)| 1.0 / (d * d).max(1e-12)).sum();
+        if near.is_empty() || !total.is_finite() {
+            return None;
+        }
+        let mut w = vec![0.0; n];
+        for (d, m) in near {
+            w[m] = 1.0 / (d * d).max(1e-12) / total;
+        }
+        Some(w)
+    }
+}
+
 /// Pieces of the mesh that not every marker reaches along the surface (mouth-interior pieces:
-/// teeth, gums, tongue) ride the skin beside them as one: every vertex of a piece takes the
-/// weights of the reachable vertex nearest the piece's centre, so the piece moves rigidly with
-/// that skin instead of being stretched between the lips or pulled by markers across the face.
+/// teeth, gums, tongue, the mouth's lining) ride the skin beside them as one: every vertex takes
+/// the weights of the reachable vertex nearest the piece's centre, so the piece moves rigidly
+/// with that skin instead of being stretched between the lips or pulled by markers across the
+/// face. Below the mouth they ride the jaw instead ([`JawMarkers::weights`]), so the lower
+/// teeth go down with the chin; across a band of [`JAW_BAND`] spacings about the mouth's height, a
+/// piece that reaches both (the lining) blends from the one to the other.
 fn follow_nearest_reachable(
     mut dense: Vec<Vec<f64>>,
     pieces: &[(u32, Vec<u32>)],
     positions: &[[f64; 3]],
+    jaw: Option<&JawMarkers>,
 ) -> Vec<Vec<f64>> {
     if pieces.is_empty() {
         return dense;
@@ -541,6 +608,7 @@ fn follow_nearest_reachable(
         cut[v as usize] = true;
     }
     let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
+    let n = dense.first().map_or(0, Vec::len);
     for (_, piece) in pieces {
         let centre = crate::mesh::centroid(positions, piece);
         let Some(&near) = reachable.iter().min_by(|&&a, &&b| {
@@ -549,9 +617,20 @@ fn follow_nearest_reachable(
         }) else {
             continue;
         };
-        let weights = dense[near].clone();
+        let skin = dense[near].clone();
+        let jaw_weights = jaw.and_then(|j| Some((j, j.weights(&centre, n)?)));
         for &v in piece {
-            dense[v as usize] = weights.clone();
+            dense[v as usize] = match &jaw_weights {
+                Some((j, w)) => {
+                    let y = positions[v as usize][1];
+                    let t = anchoring::smoothstep((j.mouth - y) / j.band + 0.5);
+                    skin.iter()
+                        .zip(w)
+                        .map(|(s, w)| (1.0 - t) * s + t * w)
+                        .collect()
+                }
+                None => skin.clone(),
+            };
         }
     }
     dense
