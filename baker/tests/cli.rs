@@ -4,7 +4,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
-use facebake::ground_truth::GroundTruth;
 use facebake::io::capture::write_csv;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::npy::read_npy_f32;
@@ -186,10 +185,11 @@ fn render_draws_the_demo_frames_and_measures_them() {
     assert_eq!(summary["frames"], serde_json::json!([0, 2]));
     let take = &summary["structure"]["take"];
     assert_eq!(take["against_truth"], true);
-    // The demo's default bake (static anchoring) on its 40 sampled markers: 2.93 mm, where the
-    // Euclidean RBF it replaced moved the crown 12.63 mm.
+    // The demo's default bake (static anchoring) on the bundled 41-marker layout: 0.59 mm (the
+    // truth's own forehead markers move 0.59 mm in the frown), where the Euclidean RBF moved the
+    // crown 26.5 mm; the same figure as `tests/tests/structure.rs`.
     let drift = take["static_drift_mm"][0].as_f64().unwrap();
-    assert!((drift - 2.93).abs() < 0.01, "{take}");
+    assert!((drift - 0.59).abs() < 0.01, "{take}");
     // Without a truth: result and displacement only.
     let out = facebake(&[
         "render",
@@ -232,7 +232,7 @@ fn bake_inspect_verify_round_trip() {
         &rig,
         &["--mesh-name", "head", "--json"],
     ));
-    assert_eq!(baked["markers"], 40);
+    assert_eq!(baked["markers"], 41);
     assert_eq!(baked["report"]["k"], 8);
     // The demo bakes its layout with the default configuration: the same blob.
     assert_eq!(
@@ -242,9 +242,9 @@ fn bake_inspect_verify_round_trip() {
 
     let info = json_ok(&facebake(&["inspect", s(&rig), "--json"]));
     assert_eq!(info["vertices"], VERTICES);
-    assert_eq!(info["markers"], 40);
+    assert_eq!(info["markers"], 41);
     assert_eq!(info["k"], 8);
-    assert_eq!(info["marker_names"][0], "M00");
+    assert_eq!(info["marker_names"][0], "ForeHead_M");
     assert_eq!(info["position_format"], "Q8.24");
     assert_eq!(info["bytes_per_influence"], 4.0);
     assert_eq!(info["blob_bytes"], baked["report"]["sizes"]["total"]);
@@ -276,15 +276,17 @@ fn play_reproduces_the_runtime() {
     let (demo_dir, _) = demo();
     let dir = temp_dir("play");
     let rig_path = demo_dir.join("facecap.fbk");
-    // A capture of the ground-truth markers, in millimetres and with the columns reversed, so
-    // units and marker order both have to be handled.
-    let truth = GroundTruth::new(load_mesh(&mesh_path(), Some("head"), None).unwrap(), 40, 6)
-        .expect("ground truth");
-    let frames: Vec<Vec<[f64; 3]>> = (0..truth.frames.len())
-        .map(|f| truth.markers_of(&truth.positions(f)))
+    // The demo's capture of the ground-truth markers, rewritten in millimetres and with the
+    // columns reversed, so units and marker order both have to be handled.
+    let demo_capture =
+        facebake::io::capture::read_capture(&demo_dir.join("facecap_capture.csv")).unwrap();
+    let frames: Vec<Vec<[f64; 3]>> = demo_capture
+        .frames
+        .iter()
+        .map(|f| f.iter().map(|p| p.expect("complete")).collect())
         .collect();
     let csv = dir.join("capture.csv");
-    let mut names = truth.marker_names();
+    let mut names = demo_capture.marker_names.clone();
     names.reverse();
     write_csv(
         &csv,
@@ -364,7 +366,7 @@ fn a_missing_sample_is_bad_input_naming_frame_and_marker() {
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let row = lines.iter().position(|l| l.starts_with("3,")).unwrap();
     let mut cells: Vec<&str> = lines[row].split(',').collect();
-    cells[2 + 3 * 7] = ""; // M07's x in frame index 2
+    cells[2 + 3 * 7] = ""; // the eighth marker's (Reyebrow_M) x in frame index 2
     lines[row] = cells.join(",");
     let csv = dir.join("gap.csv");
     std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
@@ -382,7 +384,7 @@ fn a_missing_sample_is_bad_input_naming_frame_and_marker() {
         err.starts_with("error: ") && err.contains("gap.csv") && err.contains("frame 2"),
         "{err}"
     );
-    assert!(err.contains("\"M07\""), "{err}");
+    assert!(err.contains("\"Reyebrow_M\""), "{err}");
 }
 
 /// Exit code 2, one `error:` line naming `file`, no panic.

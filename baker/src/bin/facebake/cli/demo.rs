@@ -17,12 +17,14 @@ use super::{
     weight_format, write_file, CliError,
 };
 use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
-use facebake::demo::{CAPTURE_RATE_HZ, GLB_FRAMES, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS};
+use facebake::demo::{
+    CAPTURE_RATE_HZ, GLB_FRAMES, JAWMOCAP_LAYOUT, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS,
+};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::io::capture::write_csv;
 use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
-use facebake::io::layout::{read_layout, write_layout};
+use facebake::io::layout::read_layout;
 use facebake::io::npy::write_npy_f32;
 use facebake::model::{place_markers, Capture, Units, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::{BakeOptions, Scene};
@@ -85,8 +87,8 @@ pub struct DemoSummary {
     pub morph_targets: usize,
     /// Markers.
     pub markers: usize,
-    /// Of which on still skin.
-    pub static_markers: usize,
+    /// The marker layout (the bundled JawMoCap layout).
+    pub layout: PathBuf,
     /// Ground-truth frames.
     pub frames: usize,
     /// Blob size, bytes.
@@ -139,7 +141,8 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         })
     };
 
-    // Ground truth, layout, bake: the same path as `facebake bake --layout`.
+    // Ground truth, layout, bake: the same path as `facebake bake --layout`, with the bundled
+    // layout of JawMoCap's 41 markers (lips, eyelids, brows, cheeks, chin) on the head.
     let mesh = load_mesh(&mesh_path, Some(MESH_NAME), None)?;
     let truth = GroundTruth::new(mesh, MARKERS, STATIC_MARKERS).map_err(|source| {
         CliError::GroundTruth {
@@ -147,10 +150,17 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
             source,
         }
     })?;
+    let bundled = fixtures.join(JAWMOCAP_LAYOUT);
     let layout_path = dir.join("facecap_markers.toml");
-    write_layout(&layout_path, &truth.layout())?;
-    wrote(&layout_path, "marker layout (40 vertex anchors)");
+    std::fs::copy(&bundled, &layout_path).map_err(|e| CliError::io(&layout_path, e))?;
     let layout = read_layout(&layout_path)?;
+    wrote(
+        &layout_path,
+        &format!(
+            "marker layout ({} markers, {JAWMOCAP_LAYOUT})",
+            layout.markers.len()
+        ),
+    );
     let placed = place_markers(
         &layout,
         &truth.mesh,
@@ -173,7 +183,13 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     // The ground-truth sequence through the runtime, the f64 evaluation and the dense reference.
     let frames = truth.frames.len();
     let truths: Vec<Vec<[f64; 3]>> = (0..frames).map(|f| truth.positions(f)).collect();
-    let markers: Vec<Vec<[f64; 3]>> = truths.iter().map(|t| truth.markers_of(t)).collect();
+    // The markers ride the true surface where they were placed.
+    let markers: Vec<Vec<[f64; 3]>> = truths
+        .iter()
+        .map(|t| placed.iter().map(|m| m.surface.interpolate(t)).collect())
+        .collect();
+    let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+    let rest: Vec<[f64; 3]> = placed.iter().map(|m| m.surface.point).collect();
     let quantised: Vec<Vec<[i32; 3]>> = markers
         .iter()
         .enumerate()
@@ -252,7 +268,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
             source: capture_path.clone(),
             rate_hz: CAPTURE_RATE_HZ,
             units: Units::Metres,
-            marker_names: truth.marker_names(),
+            marker_names: names.clone(),
             frames: markers
                 .iter()
                 .map(|m| m.iter().map(|p| Some(*p)).collect())
@@ -274,8 +290,13 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         &format!("{} runtime frames as morph targets", morphs.len()),
     );
 
-    let (structure, pictures) =
-        super::render::demo_ground_truth(dir, &truth, &played, &GLB_FRAMES)?;
+    let (structure, pictures) = super::render::demo_ground_truth(
+        dir,
+        &truth,
+        (&played, &markers),
+        (&names, &rest),
+        &GLB_FRAMES,
+    )?;
     pictures.iter().for_each(|(p, w)| wrote(p, w));
     let mocap = super::mocap::run(&fixtures, args.mocap.as_deref(), dir, args.json)?;
     let summary = DemoSummary {
@@ -283,7 +304,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         vertices: n,
         morph_targets: truth.mesh.morph_targets.len(),
         markers: rig.marker_count(),
-        static_markers: STATIC_MARKERS,
+        layout: bundled,
         frames,
         blob_bytes: baked.blob.len(),
         deformer: match rig.deformer() {
@@ -323,9 +344,9 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
     );
     outln!(
         out,
-        "  markers         {} at vertices ({} on skin no morph target moves)",
+        "  markers         {} ({})",
         s.markers,
-        s.static_markers
+        s.layout.display()
     );
     outln!(
         out,

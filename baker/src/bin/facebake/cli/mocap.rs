@@ -37,6 +37,8 @@ pub struct MocapSummary {
     pub markers: usize,
     /// Head markers used for compensation.
     pub head_markers: Vec<String>,
+    /// How the actor's markers become the character's.
+    pub retarget: facebake::RetargetKind,
     /// Blob size with the stages.
     pub blob_bytes: usize,
     /// What the runtime's stages did.
@@ -259,6 +261,7 @@ pub fn run(
         rate_hz: capture.rate_hz,
         markers: names.len(),
         head_markers: stages_report.head_markers.clone(),
+        retarget: stages_report.retarget,
         blob_bytes: blob.len(),
         stages: summary,
         runtime_vs_f64_fraction: worst / mesh.diagonal(),
@@ -283,8 +286,12 @@ pub fn text(s: &MocapSummary) -> String {
     );
     outln!(
         out,
-        "  stages          head markers {}; retargeting IMQ + affine; rig {} bytes",
+        "  stages          head markers {}; retargeting {}; rig {} bytes",
         s.head_markers.join(", "),
+        match s.retarget {
+            facebake::RetargetKind::Proportional => "proportional (paper 003)",
+            facebake::RetargetKind::Rbf => "IMQ + affine RBF map (paper 000)",
+        },
         s.blob_bytes
     );
     let st = &s.stages;

@@ -328,36 +328,31 @@ pub fn weight_format(frac_bits: u8) -> String {
     format!("Q{}.{}", 23 - i32::from(frac_bits), frac_bits)
 }
 
-/// Indices of mesh vertices at the rig's marker rest positions: the nearest vertex (lowest
-/// index on ties) within `1e-6 ×` the mesh's diagonal, else an error naming the marker.
-pub fn marker_vertices(
+/// The points of the mesh's surface at the rig's marker rest positions (markers at vertices
+/// or placed on triangles by a layout): the closest surface point, within `1e-6 ×` the mesh's
+/// diagonal, else an error naming the marker.
+pub fn marker_surface_points(
     rig: &Rig<'_>,
     mesh: &facebake::model::FaceMesh,
-) -> Result<Vec<u32>, CliError> {
+) -> Result<Vec<facebake::mesh::SurfacePoint>, CliError> {
     let space = rig.space();
     let tolerance = 1e-6 * mesh.diagonal();
     let names = marker_names(rig);
     (0..rig.marker_count())
         .map(|m| {
             let p = space.to_asset_f64(rig.marker_rest(m).unwrap_or_default());
-            let (best, d) = mesh
-                .positions
-                .iter()
-                .enumerate()
-                .map(|(v, q)| (v, facebake::mesh::distance(&p, q)))
-                .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
-            if d <= tolerance {
-                Ok(best as u32)
-            } else {
-                Err(CliError::input(
+            match facebake::mesh::closest_point(&mesh.positions, &mesh.triangles, p) {
+                Some(s) if s.distance <= tolerance => Ok(s),
+                found => Err(CliError::input(
                     &mesh.source,
                     format!(
-                        "the rig's marker \"{}\" is {d:.3e} from the nearest vertex of mesh \"{}\"; \
-                         a ground-truth check needs markers at vertices",
+                        "the rig's marker \"{}\" is {:.3e} from the surface of mesh \"{}\"; a \
+                         ground-truth check needs markers on it",
                         facebake::io::escape_control(&names[m]),
+                        found.map_or(f64::INFINITY, |s| s.distance),
                         mesh.mesh_name
                     ),
-                ))
+                )),
             }
         })
         .collect()

@@ -348,13 +348,13 @@ fn file_name(path: &Path) -> String {
 pub(crate) fn demo_ground_truth(
     dir: &Path,
     truth: &facebake::ground_truth::GroundTruth,
-    played: &[Vec<[f64; 3]>],
+    (played, markers): (&[Positions], &[Positions]),
+    (names, rest): (&[String], &[[f64; 3]]),
     rows: &[&str],
 ) -> Result<(Structure, Vec<(PathBuf, String)>), CliError> {
     let truths: Vec<Vec<[f64; 3]>> = (0..truth.frames.len())
         .map(|f| truth.positions(f))
         .collect();
-    let markers: Vec<Vec<[f64; 3]>> = truths.iter().map(|t| truth.markers_of(t)).collect();
     let rows: Vec<(String, usize)> = rows
         .iter()
         .filter_map(|name| {
@@ -380,17 +380,16 @@ pub(crate) fn demo_ground_truth(
         mesh,
         played,
         Some(&truths),
-        Some(&markers),
+        Some(markers),
         &rows,
         PANEL,
     )
     .render();
     write_sheet(&sheet_path, &image)?;
     let marker_path = dir.join("facecap_markers.png");
-    let rest = truth.marker_rest();
-    let title = format!("FACECAP: {} SAMPLED MARKERS", rest.len());
-    write_marker_sheet(&marker_path, title, mesh, &truth.marker_names(), &rest)?;
-    let regions = regions(mesh, &rest, &[])?;
+    let title = format!("FACECAP: {} LAYOUT MARKERS", rest.len());
+    write_marker_sheet(&marker_path, title, mesh, names, rest)?;
+    let regions = regions(mesh, &truth.marker_rest(), &[])?;
     let s = structure(
         &regions,
         played,

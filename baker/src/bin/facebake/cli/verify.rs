@@ -10,8 +10,8 @@ use serde::Serialize;
 
 use super::play::load_matching_mesh;
 use super::{
-    deform_to_asset, emit, load_rig, marker_vertices, markers_to_rig, max_distance, parse_units,
-    print_json, progress, read_file, CliError, EXIT_VERIFY_FAILED,
+    deform_to_asset, emit, load_rig, marker_surface_points, markers_to_rig, max_distance,
+    parse_units, print_json, progress, read_file, CliError, EXIT_VERIFY_FAILED,
 };
 use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth, SplitMix64};
@@ -109,18 +109,20 @@ fn sequence(rig: &Rig<'_>, mesh: FaceMesh) -> Result<Sequence, CliError> {
             truth: None,
         });
     }
-    let vertices = marker_vertices(rig, &mesh)?;
+    let surface = marker_surface_points(rig, &mesh)?;
     let source = mesh.source.clone();
-    // One marker is enough to build the sequence; the rig's own markers replace it.
-    let mut truth = GroundTruth::new(mesh, 1, 0).map_err(|source_err| CliError::GroundTruth {
+    // One marker is enough to build the sequence; the rig's own markers ride the true surface.
+    let truth = GroundTruth::new(mesh, 1, 0).map_err(|source_err| CliError::GroundTruth {
         path: source,
         source: source_err,
     })?;
-    truth.marker_vertices = vertices;
     let frames: Vec<usize> = (0..truth.frames.len()).collect();
     let markers = frames
         .iter()
-        .map(|&f| truth.markers_of(&truth.positions(f)))
+        .map(|&f| {
+            let positions = truth.positions(f);
+            surface.iter().map(|s| s.interpolate(&positions)).collect()
+        })
         .collect();
     Ok(Sequence {
         name: "ground truth",
