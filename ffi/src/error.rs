@@ -150,7 +150,7 @@ impl From<FrameError> for FbError {
             FrameError::MarkerCount { .. } => Self::MarkerCount,
             FrameError::NoStages => Self::NoStages,
             FrameError::OutputLength { .. } => Self::BufferTooSmall,
-            FrameError::PositionCount { .. } => Self::VertexCount,
+            FrameError::PositionCount { .. } | FrameError::VertexRange { .. } => Self::VertexCount,
         }
     }
 }

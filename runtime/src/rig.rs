@@ -49,6 +49,15 @@ pub enum FrameError {
         /// Entries given.
         found: usize,
     },
+    /// [`Rig::deform_range`]: the vertex range runs past the rig's last vertex.
+    VertexRange {
+        /// First vertex asked for.
+        first: usize,
+        /// Vertices asked for (the output's length).
+        len: usize,
+        /// Vertices the rig has.
+        vertices: usize,
+    },
 }
 
 impl core::error::Error for FrameError {}
@@ -75,6 +84,15 @@ impl core::fmt::Display for FrameError {
                     "{found} vertex positions given, the rig has {expected} vertices"
                 )
             }
+            Self::VertexRange {
+                first,
+                len,
+                vertices,
+            } => write!(
+                f,
+                "vertices {first}..{} asked for, the rig has {vertices}",
+                first.saturating_add(*len)
+            ),
         }
     }
 }
@@ -200,6 +218,42 @@ impl<'a> Rig<'a> {
     /// offset moves every vertex by exactly that offset (barring saturation at ±128 rig units).
     pub fn deform(&self, markers: &[[i32; 3]], out: &mut [[i32; 3]]) -> Result<(), FrameError> {
         self.deform_report(markers, out).map(|_| ())
+    }
+
+    /// [`Self::deform`] for the vertices `first .. first + out.len()` only, into `out`: the
+    /// same integers [`Self::deform`] writes there. A job system can split one face over
+    /// workers, each deforming its own chunk of `out` from the same `markers` (a `Rig` is
+    /// `Sync`: share it read-only). Each call redoes the per-frame marker work (a table of
+    /// marker displacements; the RBF deformer's coefficients, planar bones' triangle frames), a
+    /// few thousand instructions against the chunk's vertices × K, and finds its first
+    /// influence by summing the counts before it (one byte a vertex).
+    pub fn deform_range(
+        &self,
+        markers: &[[i32; 3]],
+        first: usize,
+        out: &mut [[i32; 3]],
+    ) -> Result<(), FrameError> {
+        if markers.len() != self.marker_count() {
+            return Err(FrameError::MarkerCount {
+                expected: self.marker_count(),
+                found: markers.len(),
+            });
+        }
+        let vertices = self.vertex_count();
+        let len = out.len();
+        if first.checked_add(len).is_none_or(|end| end > vertices) {
+            return Err(FrameError::VertexRange {
+                first,
+                len,
+                vertices,
+            });
+        }
+        let shared = self.data.shared().vertex_range(first, len);
+        self.data
+            .deformer
+            .vertex_range(first, len)
+            .deform(&shared, markers, out);
+        Ok(())
     }
 
     /// [`Self::deform`], also reporting the control triangles of a planar rig that were

@@ -8,7 +8,7 @@
 use crate::cost::Cost;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
 use crate::error::{expect_len, LoadError, Section};
-use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES};
+use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
 
 /// The rig's counts and the sections every deformer reads besides its own.
 #[derive(Clone, Copy, Debug)]
@@ -21,6 +21,21 @@ pub(crate) struct Shared<'a> {
     pub marker_rest: &'a [u8],
     /// The `vertex_rest` section (validated before the deformer).
     pub vertex_rest: &'a [u8],
+}
+
+impl<'a> Shared<'a> {
+    /// The same rig seen as its vertices `first .. first + len` only (in range: the caller
+    /// checked).
+    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+        Self {
+            vertices: len,
+            vertex_rest: self
+                .vertex_rest
+                .get(first * REST_BYTES..(first + len) * REST_BYTES)
+                .unwrap_or(&[]),
+            ..*self
+        }
+    }
 }
 
 /// One deformer's operations. Each section type implements it in its own module.
@@ -80,6 +95,25 @@ pub(crate) mod check {
         let total: usize = counts.0.iter().map(|&c| usize::from(c)).sum();
         expect_len(Section::Influences, records, total, record_bytes)
     }
+}
+
+/// The counts and records of vertices `first .. first + len` of a section that stores, vertex
+/// after vertex, `counts[v]` records of `record_bytes` each (validated at load, so the slices
+/// are in range; the fallback, empty, is never taken).
+pub(crate) fn counted_range<'a>(
+    counts: &'a [u8],
+    records: &'a [u8],
+    record_bytes: usize,
+    first: usize,
+    len: usize,
+) -> (&'a [u8], &'a [u8]) {
+    let before: usize = counts.iter().take(first).map(|&c| usize::from(c)).sum();
+    let mine = counts.get(first..first + len).unwrap_or(&[]);
+    let count: usize = mine.iter().map(|&c| usize::from(c)).sum();
+    let records = records
+        .get(before * record_bytes..(before + count) * record_bytes)
+        .unwrap_or(&[]);
+    (mine, records)
 }
 
 /// Which control triangles of a planar rig were degenerate in a frame (collinear or coincident

@@ -39,7 +39,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::cost::{Cost, NormalsCost};
-use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
+use crate::deformer::contract::{
+    check, counted_range, DeformerSection, DegenerateTriangles, Shared,
+};
 use crate::fixed::{
     linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
     LINEAR_WEIGHT_ABS_SUM_MAX,
@@ -64,6 +66,24 @@ pub struct LinearDeformer<'a> {
     /// The packed influences, vertex after vertex (`u32` LE each).
     #[serde(borrow)]
     pub influences: Bytes<'a>,
+}
+
+impl<'a> LinearDeformer<'a> {
+    /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]).
+    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+        let (counts, influences) = counted_range(
+            self.influence_counts.0,
+            self.influences.0,
+            INFLUENCE_BYTES,
+            first,
+            len,
+        );
+        Self {
+            influence_counts: Bytes(counts),
+            influences: Bytes(influences),
+            ..*self
+        }
+    }
 }
 
 impl DeformerSection for LinearDeformer<'_> {

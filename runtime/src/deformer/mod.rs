@@ -70,6 +70,16 @@ impl<'a> Deformer<'a> {
         self.section().weight_frac_bits()
     }
 
+    /// The section seen as its vertices `first .. first + len` only (in range: the caller
+    /// checked): the per-vertex sections sliced, everything else shared.
+    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+        match self {
+            Self::Linear(d) => Self::Linear(d.vertex_range(first, len)),
+            Self::Rbf(d) => Self::Rbf(d.vertex_range(first, len)),
+            Self::Planar(d) => Self::Planar(d.vertex_range(first, len)),
+        }
+    }
+
     /// See [`DeformerSection::deform`].
     pub(crate) fn deform(
         &self,

@@ -41,7 +41,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::cost::{Cost, NormalsCost};
-use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
+use crate::deformer::contract::{
+    check, counted_range, DeformerSection, DegenerateTriangles, Shared,
+};
 use crate::fixed::round_shift_bounded;
 use crate::error::{expect_len, LoadError, Section};
 use crate::records::{
@@ -422,6 +424,24 @@ fn validate(
         }
     }
     Ok(())
+}
+
+impl<'a> PlanarDeformer<'a> {
+    /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]).
+    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+        let (counts, influences) = counted_range(
+            self.influence_counts.0,
+            self.influences.0,
+            PLANAR_INFLUENCE_BYTES,
+            first,
+            len,
+        );
+        Self {
+            influence_counts: Bytes(counts),
+            influences: Bytes(influences),
+            ..*self
+        }
+    }
 }
 
 impl DeformerSection for PlanarDeformer<'_> {

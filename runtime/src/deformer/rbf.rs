@@ -68,6 +68,23 @@ impl RbfDeformer<'_> {
     }
 }
 
+impl<'a> RbfDeformer<'a> {
+    /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]):
+    /// every vertex has `influences_per_vertex` records.
+    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+        let per_vertex = INFLUENCE_BYTES * usize::from(self.influences_per_vertex);
+        Self {
+            influences: Bytes(
+                self.influences
+                    .0
+                    .get(first * per_vertex..(first + len) * per_vertex)
+                    .unwrap_or(&[]),
+            ),
+            ..*self
+        }
+    }
+}
+
 impl DeformerSection for RbfDeformer<'_> {
     fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError> {
         let markers = rig.markers;
