@@ -32,7 +32,9 @@
 //! Without the `std` feature the crate is `#![no_std]` and allocation-free, for firmware written
 //! in C: `cargo build -p facebake-ffi --release --no-default-features --target
 //! thumbv7em-none-eabihf` builds `libfacebake_ffi.a` for a Cortex-M4F, with a panic handler that
-//! halts (it cannot be reached by construction). `.ci/ffi.sh` builds it.
+//! halts (it cannot be reached by construction). `.ci/ffi.sh` builds it. The same build for
+//! `wasm32-unknown-unknown` is the runtime in a browser (`web/`, `.ci/browser.sh`): a module
+//! with no imports whose caller reserves every buffer in its linear memory above `__heap_base`.
 //!
 //! # Threads
 //!
@@ -79,12 +81,16 @@ pub const FB_MARKER_WORDS: usize = 8;
 const _: () = assert!(FB_MAX_MARKERS == facebake_runtime::MAX_MARKERS);
 const _: () = assert!(FB_MARKER_WORDS * 32 == FB_MAX_MARKERS);
 
-/// Without `std` (firmware), a panic halts the core: none can happen by construction (see
-/// "Panics" above), and none may unwind into C. Rust firmware uses the runtime crate directly
-/// rather than this one.
+/// Without `std` (firmware, WebAssembly), a panic halts the core, or traps in a WebAssembly
+/// engine (the JavaScript call throws a `RuntimeError` instead of hanging the page): none can
+/// happen by construction (see "Panics" above), and none may unwind into C. Rust firmware uses
+/// the runtime crate directly rather than this one.
 #[cfg(all(not(feature = "std"), not(test)))]
 #[panic_handler]
 fn halt(_: &core::panic::PanicInfo) -> ! {
+    #[cfg(target_arch = "wasm32")]
+    core::arch::wasm32::unreachable();
+    #[cfg(not(target_arch = "wasm32"))]
     loop {
         core::hint::spin_loop();
     }

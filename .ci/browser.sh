@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The runtime in a browser: builds the C ABI (facebake-ffi, no_std) for wasm32-unknown-unknown,
+# installs the viewer's npm packages (three, playwright-core) and, where missing, Debian's
+# Chromium, then runs web/test/browser-test.mjs: headless Chromium opens the viewer, which
+# plays every golden rig and the capture through the wasm module; every hash line (positions
+# and normals) must equal fixtures/golden/hashes.txt, hashes_planar.txt and hashes_normals.txt,
+# the viewer's TRC input must equal the golden actor frames, and screenshots of the drawn face
+# (out/browser/) must be neither blank nor identical at rest and with the mouth open.
+set -euo pipefail
+export LC_ALL=C
+cd "$(dirname "$0")/.."
+
+tdir=${CARGO_TARGET_DIR:-$PWD/target}
+rustup target add wasm32-unknown-unknown >/dev/null 2>&1 || true
+# Without the release profile's debug info: the module the page loads is then about 110 KB.
+CARGO_PROFILE_RELEASE_DEBUG=0 cargo build -p facebake-ffi --release --no-default-features \
+  --target wasm32-unknown-unknown
+mkdir -p web/build
+cp "$tdir/wasm32-unknown-unknown/release/facebake_ffi.wasm" web/build/
+echo "browser: web/build/facebake_ffi.wasm, $(wc -c < web/build/facebake_ffi.wasm) bytes"
+
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+if [ ! -x "$CHROMIUM" ] && command -v apt-get >/dev/null; then
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
+fi
+export CHROMIUM
+(cd web && npm ci --no-audit --no-fund)
+node web/test/browser-test.mjs 2>&1 | grep -v 'GL Driver Message'
