@@ -24,5 +24,8 @@ if [ ! -x "$CHROMIUM" ] && command -v apt-get >/dev/null; then
   apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
 fi
 export CHROMIUM
+if ! command -v npm >/dev/null && command -v apt-get >/dev/null; then
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nodejs npm >/dev/null
+fi
 (cd web && npm ci --no-audit --no-fund)
 node web/test/browser-test.mjs 2>&1 | grep -v 'GL Driver Message'

@@ -23,8 +23,10 @@ async function fetchBytes(url) {
 }
 
 /** Frame `f`'s normals of the rig's current output: printed, and fed to `sequence`. */
-function normalsLine(rig, name, f, sequence, lines) {
+function normalsLine(rig, name, f, sequence, lines, timing) {
+  const t0 = performance.now();
   rig.normals();
+  timing.normalsMs += performance.now() - t0;
   const h = new Fnv1a64();
   h.write(rig.normalsView());
   sequence.write(rig.normalsView());
@@ -38,7 +40,7 @@ function deformTake(runtime, name, blob, markers, lines) {
   const words = new DataView(markers.buffer, markers.byteOffset, markers.byteLength);
   const sequence = new Fnv1a64();
   const normalsSequence = new Fnv1a64();
-  let time = 0;
+  const timing = { ms: 0, normalsMs: 0 };
   let frames = 0;
   for (let f = 0; (f + 1) * frameBytes <= markers.length; f++) {
     const input = rig.markerView();
@@ -47,17 +49,17 @@ function deformTake(runtime, name, blob, markers, lines) {
     }
     const t0 = performance.now();
     rig.deform();
-    time += performance.now() - t0;
+    timing.ms += performance.now() - t0;
     frames++;
     const h = new Fnv1a64();
     h.write(rig.outView());
     sequence.write(rig.outView());
     lines.push(`${name} frame ${f} ${h.hex()}`);
-    normalsLine(rig, name, f, normalsSequence, lines);
+    normalsLine(rig, name, f, normalsSequence, lines, timing);
   }
   lines.push(`${name} sequence ${sequence.hex()}`);
   lines.push(`normals ${name} sequence ${normalsSequence.hex()}`);
-  return { rig: name, frames, msPerFrame: time / frames };
+  return { rig: name, frames, msPerFrame: timing.ms / frames, normalsMsPerFrame: timing.normalsMs / frames };
 }
 
 /** Every frame of jawmocap_actor.bin through `fb_play`, one play state (one character). */
@@ -69,7 +71,7 @@ function playTake(runtime, blob, take, lines) {
   const sequence = new Fnv1a64();
   const normalsSequence = new Fnv1a64();
   const tail = new Int32Array(3);
-  let time = 0;
+  const timing = { ms: 0, normalsMs: 0 };
   let frames = 0;
   for (let f = 0; (f + 1) * frameBytes <= take.length; f++) {
     const actor = rig.actorView();
@@ -83,7 +85,7 @@ function playTake(runtime, blob, take, lines) {
     }
     const t0 = performance.now();
     const report = rig.play();
-    time += performance.now() - t0;
+    timing.ms += performance.now() - t0;
     frames++;
     tail[0] = report.rigidResidual;
     tail[1] = report.rebuiltCount;
@@ -95,16 +97,16 @@ function playTake(runtime, blob, take, lines) {
       hash.write(tail);
     }
     lines.push(`capture frame ${f} ${h.hex()}`);
-    normalsLine(rig, 'capture', f, normalsSequence, lines);
+    normalsLine(rig, 'capture', f, normalsSequence, lines, timing);
   }
   lines.push(`capture sequence ${sequence.hex()}`);
   lines.push(`normals capture sequence ${normalsSequence.hex()}`);
-  return { rig: 'capture', frames, msPerFrame: time / frames };
+  return { rig: 'capture', frames, msPerFrame: timing.ms / frames, normalsMsPerFrame: timing.normalsMs / frames };
 }
 
 /**
  * Play every golden rig from `dir` (a URL prefix ending in '/') through `runtime`; returns the
- * hash lines and the mean time of a frame's deform or play call per rig (without normals).
+ * hash lines and per rig the mean time of a frame's deform or play call and of its normals.
  */
 export async function goldenHashes(runtime, dir) {
   const lines = [];

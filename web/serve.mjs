@@ -41,6 +41,9 @@ export function serve(port = 8080) {
       'content-type': TYPES[extname(file)] ?? 'application/octet-stream',
       'content-length': size,
       'cache-control': 'no-store',
+      // Cross-origin isolation: performance.now() then has 5 µs resolution, not 100 µs.
+      'cross-origin-opener-policy': 'same-origin',
+      'cross-origin-embedder-policy': 'require-corp',
     });
     if (req.method === 'HEAD') {
       res.end();

@@ -151,7 +151,10 @@ try {
     summary.hashes = { expected: expected.length, computed: golden.lines.length, equal, timing: golden.timing };
     console.log(`browser: ${equal} of ${expected.length} golden hash lines equal (${golden.lines.length} computed in the page)`);
     for (const t of golden.timing) {
-      console.log(`browser: ${t.rig}: ${t.frames} frames, ${t.msPerFrame.toFixed(3)} ms per ${t.rig === 'capture' ? 'fb_play' : 'fb_deform'} call`);
+      console.log(
+        `browser: ${t.rig}: ${t.frames} frames, ${t.msPerFrame.toFixed(3)} ms per ${t.rig === 'capture' ? 'fb_play' : 'fb_deform'} call, ` +
+          `${t.normalsMsPerFrame.toFixed(3)} ms per fb_normals call`,
+      );
     }
     if (wrong.length || extra.length) {
       fail(`hashes: ${wrong.length} differ or missing, ${extra.length} extra:\n  ${[...wrong, ...extra].slice(0, 20).join('\n  ')}`);
@@ -207,17 +210,32 @@ try {
     }, MOUTH_OPEN);
     const open = await canvas.screenshot({ path: join(OUT, 'screenshot.png') });
     const all = await page.evaluate(() => {
-      const t = performance.now();
-      window.viewer.showFrame(window.viewer.frames - 1);
-      const before = window.viewer.cost();
       window.viewer.showFrame(0); // a seek back: a fresh state, frame 0 replayed
-      return { last: performance.now() - t, cost: before };
+      const t = performance.now();
+      window.viewer.showFrame(window.viewer.frames - 1); // the whole take, in order
+      return { ms: performance.now() - t, cost: window.viewer.cost() };
     });
-    summary.viewer = { replay: t0, playMsPerFrame: all.cost.playMs / all.cost.frames, frames: all.cost.frames };
+    summary.viewer = { toMouthOpen: t0, wholeTakeMs: all.ms, playMsPerFrame: all.cost.playMs / all.cost.frames };
     console.log(
-      `browser: viewer played ${t0.frames} frames to frame ${MOUTH_OPEN} in ${t0.ms.toFixed(1)} ms ` +
-        `(fb_play ${summary.viewer.playMsPerFrame.toFixed(3)} ms per frame over ${all.cost.frames} frames)`,
+      `browser: viewer played ${t0.frames} frames to frame ${MOUTH_OPEN} in ${t0.ms.toFixed(1)} ms, ` +
+        `a seek to the last frame (the whole take) ${all.ms.toFixed(1)} ms; ` +
+        `fb_play ${summary.viewer.playMsPerFrame.toFixed(3)} ms per frame over ${all.cost.frames} calls`,
     );
+    // The controls: a second of play at the take's rate (60 Hz), pause, and the slider.
+    await page.click('#play');
+    await page.waitForTimeout(1000);
+    await page.click('#play');
+    const played = Number(await page.inputValue('#frame'));
+    summary.viewer.playedInOneSecond = played;
+    console.log(`browser: play, 1 s, pause: at frame ${played} (the take's rate: 60 a second)`);
+    if (!(played >= 30 && played <= 120)) {
+      fail(`play for 1 s reached frame ${played}, not about 60`);
+    }
+    await page.locator('#frame').fill(String(MOUTH_OPEN));
+    const label = await page.textContent('#label');
+    if (!label.startsWith(`frame ${MOUTH_OPEN + 1} /`)) {
+      fail(`the slider set to ${MOUTH_OPEN} shows "${label}"`);
+    }
     const stats = await pixelStats(page, open, rest);
     const restStats = await pixelStats(page, rest, null);
     summary.screenshot = { open: stats, rest: restStats };
