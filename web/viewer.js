@@ -3,7 +3,7 @@
 // Query parameters (URLs relative to this page; defaults: the bundled fixtures):
 //   mesh  the character's glTF binary       ../fixtures/FaceCapHeadGeneric.glb
 //   rig   a rig baked with --capture         ../fixtures/golden/jawmocap_capture.fbk
-//   take  a TRC capture of the actor         ../fixtures/JawMoCap.trc
+//   take  the actor's capture, TRC or CSV    ../fixtures/JawMoCap.trc
 //   wasm  facebake-ffi built for wasm32      build/facebake_ffi.wasm (.ci/browser.sh puts it there)
 //   frame the frame shown first (paused)
 //   test  golden: also play every golden rig and expose the hash lines as window.golden
@@ -17,7 +17,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { NORMAL_ONE, Runtime, toAsset, toRig } from './facebake.js';
-import { parseTrc } from './trc.js';
+import { parseCapture } from './capture.js';
 
 const params = new URLSearchParams(location.search);
 const urls = {
@@ -152,7 +152,7 @@ async function main() {
   if (!rig.hasStages) {
     throw new Error(`${urls.rig} has no capture stages: bake it with --capture`);
   }
-  const take = actorFrames(rig, parseTrc(takeText));
+  const take = actorFrames(rig, parseCapture(takeText));
   const { scene, head, markers, box } = buildScene(gltf, rig);
 
   const renderer = makeRenderer();
