@@ -103,7 +103,7 @@ function pixelStats(page, png, reference) {
         changed /= n;
       }
       const mean = sum / n;
-      return { width: p.width, height: p.height, covered: covered / n, lumaStd: Math.sqrt(sum2 / n - mean * mean), changed };
+      return { width: p.width, height: p.height, covered: covered / n, lumaStd: Math.sqrt(Math.max(0, sum2 / n - mean * mean)), changed };
     },
     [png.toString('base64'), reference?.toString('base64') ?? null],
   );
@@ -230,7 +230,8 @@ try {
     if (!webgl) {
       fail('WebGL is unavailable in this Chromium: the face was not drawn');
     }
-    const canvas = page.locator('#view');
+    // The canvas; without WebGL the whole page, whose status line says why nothing is drawn.
+    const canvas = page.locator(webgl ? '#view' : 'body');
     await page.evaluate(() => window.viewer.showFrame(0));
     const rest = await canvas.screenshot({ path: join(OUT, 'screenshot_rest.png') });
     const t0 = await page.evaluate((f) => {
