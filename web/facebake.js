@@ -18,6 +18,8 @@ const REPORT_BYTES = 4 * (7 + 3 * 8);
 /** `sizeof(FbSpace)`: centre[3] and half_extent, `float`. */
 const SPACE_BYTES = 16;
 const PAGE = 65536;
+/** `FB_ERROR_END_OF_TAKE`. */
+const END_OF_TAKE = 24;
 
 /** A failed call: `code` is the `FbError`, the message is `fb_error_message`'s. */
 export class FacebakeError extends Error {
@@ -98,6 +100,81 @@ export class Runtime {
   loadRig(blob) {
     return new LoadedRig(this, new Uint8Array(blob));
   }
+
+  /** Copy a packed take (.fbt) into the memory and load it with its reader. */
+  loadTake(bytes) {
+    return new LoadedTake(this, new Uint8Array(bytes));
+  }
+
+  /** Copy `bytes` into the arena; returns their address. */
+  copyIn(bytes) {
+    const at = this.arena.reserve(bytes.length, 8);
+    this.bytes(at, bytes.length).set(bytes);
+    return at;
+  }
+
+  /** The `count` marker names of a rig or take, through `fb_marker_name` or `fb_take_marker_name`. */
+  names(call, ptr, count, what) {
+    const out = [];
+    for (let j = 0; j < count; j++) {
+      this.check(call(ptr, j, this.scratch, this.scratch + 4), what);
+      const [at, len] = this.u32(this.scratch, 2);
+      out.push(new TextDecoder().decode(this.bytes(at, len).slice()));
+    }
+    return out;
+  }
+
+  /** An FbSpace through `call(ptr, out)` (`fb_rig_space`, `fb_rig_actor_space`, `fb_take_space`). */
+  space(call, ptr, what) {
+    this.check(call(ptr, this.scratch), what);
+    const s = this.f32(this.scratch, 4);
+    return { centre: [s[0], s[1], s[2]], halfExtent: s[3] };
+  }
+}
+
+/** A loaded packed take and its reader, with buffers for one frame. */
+export class LoadedTake {
+  constructor(runtime, bytes) {
+    const { fb, arena } = runtime;
+    this.runtime = runtime;
+    this.bytes = runtime.copyIn(bytes);
+    this.ptr = arena.reserve(fb.fb_take_size(), fb.fb_take_align());
+    runtime.check(fb.fb_take_load(this.bytes, bytes.length, this.ptr, fb.fb_take_size()), 'fb_take_load');
+    this.frameCount = fb.fb_take_frame_count(this.ptr);
+    this.markerCount = fb.fb_take_marker_count(this.ptr);
+    this.rate = fb.fb_take_rate(this.ptr);
+    this.markerNames = runtime.names(fb.fb_take_marker_name, this.ptr, this.markerCount, 'fb_take_marker_name');
+    this.space = runtime.space(fb.fb_take_space, this.ptr, 'fb_take_space');
+    this.samples = arena.reserve(12 * this.markerCount, 4);
+    this.present = arena.reserve(this.markerCount, 1);
+    this.frame = arena.reserve(4, 4);
+  }
+
+  /**
+   * Decode the next frame into `samplesView()` / `presentView()`: its index, or -1 after the
+   * last frame (FB_ERROR_END_OF_TAKE).
+   */
+  next() {
+    const rt = this.runtime;
+    const code = rt.fb.fb_take_next_frame(this.ptr, this.samples, this.present, this.markerCount, this.frame);
+    if (code === END_OF_TAKE) {
+      return -1;
+    }
+    rt.check(code, 'fb_take_next_frame');
+    return rt.u32(this.frame, 1)[0];
+  }
+
+  /** Make `frame` the next one decoded. */
+  seek(frame) {
+    this.runtime.check(this.runtime.fb.fb_take_seek(this.ptr, frame), 'fb_take_seek');
+  }
+
+  samplesView() {
+    return this.runtime.i32(this.samples, 3 * this.markerCount);
+  }
+  presentView() {
+    return this.runtime.bytes(this.present, this.markerCount);
+  }
 }
 
 /** A loaded rig with the buffers of one character: markers, vertices, normals, a play state. */
@@ -105,22 +182,15 @@ export class LoadedRig {
   constructor(runtime, blob) {
     const { fb, arena } = runtime;
     this.runtime = runtime;
-    this.blob = arena.reserve(blob.length, 8);
-    runtime.bytes(this.blob, blob.length).set(blob);
+    this.blob = runtime.copyIn(blob);
     this.ptr = arena.reserve(fb.fb_rig_size(), fb.fb_rig_align());
     runtime.check(fb.fb_rig_load(this.blob, blob.length, this.ptr, fb.fb_rig_size()), 'fb_rig_load');
     this.vertexCount = fb.fb_rig_vertex_count(this.ptr);
     this.markerCount = fb.fb_rig_marker_count(this.ptr);
     this.hasStages = fb.fb_rig_has_stages(this.ptr) !== 0;
-    this.markerNames = [];
-    const namePtr = runtime.scratch;
-    for (let j = 0; j < this.markerCount; j++) {
-      runtime.check(fb.fb_marker_name(this.ptr, j, namePtr, namePtr + 4), 'fb_marker_name');
-      const [at, len] = runtime.u32(namePtr, 2);
-      this.markerNames.push(new TextDecoder().decode(runtime.bytes(at, len).slice()));
-    }
-    this.space = this.readSpace(fb.fb_rig_space, 'fb_rig_space');
-    this.actorSpace = this.hasStages ? this.readSpace(fb.fb_rig_actor_space, 'fb_rig_actor_space') : null;
+    this.markerNames = runtime.names(fb.fb_marker_name, this.ptr, this.markerCount, 'fb_marker_name');
+    this.space = runtime.space(fb.fb_rig_space, this.ptr, 'fb_rig_space');
+    this.actorSpace = this.hasStages ? runtime.space(fb.fb_rig_actor_space, this.ptr, 'fb_rig_actor_space') : null;
 
     const m = this.markerCount;
     const v = this.vertexCount;
@@ -135,13 +205,6 @@ export class LoadedRig {
       this.state = arena.reserve(fb.fb_play_state_size(), fb.fb_play_state_align());
       this.resetState();
     }
-  }
-
-  readSpace(call, what) {
-    const rt = this.runtime;
-    rt.check(call(this.ptr, rt.scratch), what);
-    const s = rt.f32(rt.scratch, 4);
-    return { centre: [s[0], s[1], s[2]], halfExtent: s[3] };
   }
 
   /** A fresh play state: the character's first frame comes next. */

@@ -1,6 +1,6 @@
-// The golden check in the browser: every bundled golden rig and input played through the wasm
-// runtime, each frame hashed as fixtures/golden/hashes.txt, hashes_planar.txt and
-// hashes_normals.txt record it (as ffi/examples/c/play_golden.c does natively). The lines are
+// The golden check in the browser: every bundled golden rig, input and packed take played
+// through the wasm runtime, each frame hashed as fixtures/golden/hashes.txt, hashes_planar.txt,
+// hashes_normals.txt and hashes_take.txt record it (as ffi/examples/c/play_golden.c does natively). The lines are
 // printed in that program's format, so web/test/browser-test.mjs compares them with the files
 // exactly as .ci/ffi.sh does.
 
@@ -105,6 +105,61 @@ function playTake(runtime, blob, take, lines) {
 }
 
 /**
+ * The packed take jawmocap.fbt, decoded by `fb_take_next_frame` and played through the capture
+ * rig, hashed as hashes_take.txt records it: the samples (presence byte, x y z), the character
+ * markers, the vertices and (head residual, rebuilt, held).
+ */
+function playPackedTake(runtime, blob, bytes, lines) {
+  const rig = runtime.loadRig(blob);
+  const take = runtime.loadTake(bytes);
+  const map = rig.markerNames.map((name) => take.markerNames.indexOf(name));
+  const sequence = new Fnv1a64();
+  const sample = new Uint8Array(13);
+  const sampleWords = new DataView(sample.buffer);
+  const tail = new Int32Array(3);
+  const timing = { ms: 0, decodeMs: 0 };
+  let f;
+  for (;;) {
+    let t0 = performance.now();
+    f = take.next();
+    timing.decodeMs += performance.now() - t0;
+    if (f < 0) {
+      break;
+    }
+    const samples = take.samplesView();
+    const present = take.presentView();
+    const actor = rig.actorView();
+    const given = rig.presentView();
+    const h = new Fnv1a64();
+    map.forEach((k, j) => {
+      const here = k >= 0 && present[k] === 1;
+      given[j] = here ? 1 : 0;
+      sample[0] = given[j];
+      for (let c = 0; c < 3; c++) {
+        actor[3 * j + c] = here ? samples[3 * k + c] : 0;
+        sampleWords.setInt32(1 + 4 * c, actor[3 * j + c], true);
+      }
+      h.write(sample);
+      sequence.write(sample);
+    });
+    t0 = performance.now();
+    const report = rig.play();
+    timing.ms += performance.now() - t0;
+    tail[0] = report.rigidResidual;
+    tail[1] = report.rebuiltCount;
+    tail[2] = report.heldCount;
+    for (const hash of [h, sequence]) {
+      hash.write(rig.characterView());
+      hash.write(rig.outView());
+      hash.write(tail);
+    }
+    lines.push(`take frame ${f} ${h.hex()}`);
+  }
+  lines.push(`take sequence ${sequence.hex()}`);
+  return { rig: 'take', frames: take.frameCount, msPerFrame: timing.ms / take.frameCount, decodeMsPerFrame: timing.decodeMs / take.frameCount };
+}
+
+/**
  * Play every golden rig from `dir` (a URL prefix ending in '/') through `runtime`; returns the
  * hash lines and per rig the mean time of a frame's deform or play call and of its normals.
  */
@@ -117,5 +172,6 @@ export async function goldenHashes(runtime, dir) {
   }
   const capture = await fetchBytes(dir + 'jawmocap_capture.fbk');
   timing.push(playTake(runtime, capture, await fetchBytes(dir + 'jawmocap_actor.bin'), lines));
+  timing.push(playPackedTake(runtime, capture, await fetchBytes(dir + 'jawmocap.fbt'), lines));
   return { lines, timing };
 }

@@ -3,7 +3,8 @@
 // Query parameters (URLs relative to this page; defaults: the bundled fixtures):
 //   mesh  the character's glTF binary       ../fixtures/FaceCapHeadGeneric.glb
 //   rig   a rig baked with --capture         ../fixtures/golden/jawmocap_capture.fbk
-//   take  the actor's capture, TRC or CSV    ../fixtures/JawMoCap.trc
+//   take  the actor's capture: TRC, CSV or   ../fixtures/JawMoCap.trc
+//         a packed take (.fbt)
 //   wasm  facebake-ffi built for wasm32      build/facebake_ffi.wasm (.ci/browser.sh puts it there)
 //   frame the frame shown first (paused)
 //   test  golden: also play every golden rig and expose the hash lines as window.golden
@@ -47,6 +48,35 @@ async function fetchOk(url) {
   return r;
 }
 
+/**
+ * A packed take as a capture ({ rate, names, frames }), decoded by the runtime. Packed with
+ * `--rig` for this rig (its space is the rig's actor space), the samples are kept as they are,
+ * Q8.24 actor units (`actorUnits`), as `fb_play` takes them; otherwise converted to metres.
+ */
+function decodePackedTake(runtime, bytes, actorSpace) {
+  const take = runtime.loadTake(bytes);
+  const s = take.space;
+  const actorUnits = s.halfExtent === actorSpace.halfExtent && s.centre.every((c, i) => c === actorSpace.centre[i]);
+  const frames = [];
+  while (take.next() >= 0) {
+    const samples = take.samplesView();
+    const present = take.presentView();
+    frames.push(
+      take.markerNames.map((_, k) => {
+        if (present[k] !== 1) {
+          return null;
+        }
+        const q = Array.from(samples.subarray(3 * k, 3 * k + 3));
+        if (!actorUnits) {
+          toAsset(s, q, q);
+        }
+        return q;
+      }),
+    );
+  }
+  return { rate: take.rate, names: take.markerNames, frames, actorUnits };
+}
+
 /** The take as rig input: per frame, Q8.24 actor units and presence, in the rig's marker order. */
 function actorFrames(rig, take) {
   const m = rig.markerCount;
@@ -57,7 +87,7 @@ function actorFrames(rig, take) {
   take.frames.forEach((frame, f) => {
     for (let j = 0; j < m; j++) {
       const p = index[j] < 0 ? null : frame[index[j]];
-      const q = p && toRig(rig.actorSpace, p);
+      const q = p && (take.actorUnits ? p : toRig(rig.actorSpace, p));
       if (q) {
         actor.set(q, (f * m + j) * 3);
         present[f * m + j] = 1;
@@ -142,17 +172,21 @@ function makeRenderer() {
 
 async function main() {
   say('loading…');
-  const [runtime, blob, takeText, gltf] = await Promise.all([
+  const [runtime, blob, takeBytes, gltf] = await Promise.all([
     Runtime.load(urls.wasm),
     fetchOk(urls.rig).then((r) => r.arrayBuffer()),
-    fetchOk(urls.take).then((r) => r.text()),
+    fetchOk(urls.take).then((r) => r.arrayBuffer()),
     new GLTFLoader().loadAsync(urls.mesh),
   ]);
   const rig = runtime.loadRig(blob);
   if (!rig.hasStages) {
     throw new Error(`${urls.rig} has no capture stages: bake it with --capture`);
   }
-  const take = actorFrames(rig, parseCapture(takeText));
+  const packed = new TextDecoder().decode(new Uint8Array(takeBytes, 0, Math.min(8, takeBytes.byteLength))) === 'FACETAKE';
+  const take = actorFrames(
+    rig,
+    packed ? decodePackedTake(runtime, takeBytes, rig.actorSpace) : parseCapture(new TextDecoder().decode(takeBytes)),
+  );
   const { scene, head, markers, box } = buildScene(gltf, rig);
 
   const renderer = makeRenderer();

@@ -1,8 +1,9 @@
 // The runtime in headless Chromium: serves the repository, opens the viewer with ?test=golden,
 // and checks
 //   1. the hash lines the page computes through the wasm runtime (every golden rig and the
-//      capture, positions and normals) equal fixtures/golden/hashes.txt, hashes_planar.txt and
-//      hashes_normals.txt, line for line, as .ci/ffi.sh checks the C examples;
+//      capture, positions and normals, and the packed take decoded and played) equal
+//      fixtures/golden/hashes.txt, hashes_planar.txt, hashes_normals.txt and hashes_take.txt,
+//      line for line, as .ci/ffi.sh checks the C examples;
 //   2. the viewer draws the face: a screenshot at rest and one at JawMoCap's frame 388 (mouth
 //      open) each cover the canvas with more than the background, and differ from each other
 //      around the mouth (the face deforms).
@@ -38,7 +39,8 @@ function expectedLines() {
   const normals = golden('hashes_normals.txt')
     .filter((l) => pattern.test(l))
     .map((l) => `normals ${l}`);
-  return [...positions, ...normals];
+  const take = golden('hashes_take.txt').filter((l) => /^take (frame \d+|sequence) [0-9a-f]{16}$/.test(l));
+  return [...positions, ...normals, ...take];
 }
 
 /** Compare by key (the line without its hash): counts of equal, different, missing, extra. */
@@ -194,10 +196,11 @@ try {
     summary.hashes = { expected: expected.length, computed: golden.lines.length, equal, timing: golden.timing };
     console.log(`browser: ${equal} of ${expected.length} golden hash lines equal (${golden.lines.length} computed in the page)`);
     for (const t of golden.timing) {
-      console.log(
-        `browser: ${t.rig}: ${t.frames} frames, ${t.msPerFrame.toFixed(3)} ms per ${t.rig === 'capture' ? 'fb_play' : 'fb_deform'} call, ` +
-          `${t.normalsMsPerFrame.toFixed(3)} ms per fb_normals call`,
-      );
+      const call = t.rig === 'capture' || t.rig === 'take' ? 'fb_play' : 'fb_deform';
+      const then = t.decodeMsPerFrame === undefined
+        ? `${t.normalsMsPerFrame.toFixed(3)} ms per fb_normals call`
+        : `${t.decodeMsPerFrame.toFixed(4)} ms per fb_take_next_frame call`;
+      console.log(`browser: ${t.rig}: ${t.frames} frames, ${t.msPerFrame.toFixed(3)} ms per ${call} call, ${then}`);
     }
     if (wrong.length || extra.length) {
       fail(`hashes: ${wrong.length} differ or missing, ${extra.length} extra:\n  ${[...wrong, ...extra].slice(0, 20).join('\n  ')}`);
@@ -221,6 +224,21 @@ try {
       await checkTakeInput(csvPage, 'CSV');
     }
     await csvPage.close();
+
+    // The packed take in the viewer: decoded through fb_take_next_frame, the samples as they
+    // are (it was packed in this rig's actor space), every frame.
+    const fbtPage = await browser.newPage();
+    fbtPage.on('pageerror', (e) => fail(`page error (packed take): ${e.message}`));
+    await fbtPage.goto(`http://127.0.0.1:${server.address().port}/web/?take=../fixtures/golden/jawmocap.fbt&frame=${MOUTH_OPEN}`);
+    await fbtPage.waitForFunction(() => window.viewer || window.viewerError, null, { timeout: 120_000 });
+    const fbt = await fbtPage.evaluate(() => window.viewerError ?? { frames: window.viewer.frames, label: document.getElementById('label').textContent });
+    summary.packedTake = fbt;
+    console.log(`browser: the viewer with the packed take: ${JSON.stringify(fbt)}`);
+    if (typeof fbt === 'string' || fbt.frames !== 1590 || !fbt.label.startsWith(`frame ${MOUTH_OPEN + 1} / 1590`)) {
+      fail(`the viewer does not play the packed take: ${JSON.stringify(fbt)}`);
+    }
+    await fbtPage.locator('#view').screenshot({ path: join(OUT, 'screenshot_packed.png') });
+    await fbtPage.close();
   }
 
   // 2. The face, drawn.
