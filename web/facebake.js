@@ -6,8 +6,9 @@
 // this wrapper reserves its buffers there, bump by bump, growing the memory by whole pages
 // (`Arena`). Every buffer is reserved once, when a rig is loaded; nothing is freed.
 //
-// Integer calls (`deform`, `play`, `normals`) are the bit-identical ones the golden hashes are
-// made of; `toAsset` converts their Q8.24 output to the asset's units for a renderer.
+// Integer calls (`deform`, `play`, `normals`, and a packed take's `next`) are the bit-identical
+// ones the golden hashes are made of; `toAsset` converts their Q8.24 output to the asset's units
+// for a renderer.
 
 /** Q8.24: 1.0 = 2^24. */
 export const POS_ONE = 1 << 24;

@@ -217,7 +217,7 @@ async function main() {
   let shown = -1;
   let playing = false;
   let clock = { start: 0, frame: 0 }; // playing: frame `frame` was due at time `start`
-  const cost = { frames: 0, playMs: 0, normalsMs: 0 };
+  const cost = { frames: 0, playMs: 0, normalFrames: 0, normalsMs: 0 };
 
   /** Play frame `f` through the runtime (input copied from the precomputed take). */
   function playFrame(f) {
@@ -246,6 +246,7 @@ async function main() {
       const t0 = performance.now();
       rig.normals();
       cost.normalsMs += performance.now() - t0;
+      cost.normalFrames++;
       toAsset(rig.space, rig.outView(), head.geometry.attributes.position.array);
       const n = rig.normalsView();
       const normals = head.geometry.attributes.normal.array;
@@ -258,7 +259,8 @@ async function main() {
       markers.geometry.attributes.position.needsUpdate = true;
       ui.stats.textContent =
         `rebuilt ${report.rebuiltCount}, held ${report.heldCount} · ` +
-        `play ${(cost.playMs / cost.frames).toFixed(3)} ms/frame`;
+        `fb_play ${(cost.playMs / cost.frames).toFixed(3)} ms, ` +
+        `fb_normals ${(cost.normalsMs / cost.normalFrames).toFixed(3)} ms a frame`;
     }
     shown = f;
     ui.slider.value = String(f);
@@ -314,7 +316,6 @@ async function main() {
       actor: Array.from(take.actor.subarray(f * m * 3, (f + 1) * m * 3)),
       present: Array.from(take.present.subarray(f * m, (f + 1) * m)),
     }),
-    marker: (j) => Array.from(markers.geometry.attributes.position.array.slice(3 * j, 3 * j + 3)),
   };
 }
 
