@@ -3,7 +3,8 @@
 # ffi/examples/cpp with the system compilers against the checked-in header and the static
 # library (the C one against the shared library too), plays every golden rig and take through
 # them, and compares their per-frame hashes with fixtures/golden/hashes.txt and
-# hashes_planar.txt, and the C example's normals with hashes_normals.txt (exact match of every frame and sequence line; the files are read at run
+# hashes_planar.txt, and the C example's normals with hashes_normals.txt and its packed take
+# with hashes_take.txt (exact match of every frame and sequence line; the files are read at run
 # time, so a re-bless of the goldens needs no change here). Also compiles the README's C
 # example, and builds the no_std static library for thumbv7em-none-eabihf (firmware in C).
 # Exits non-zero on any difference.
@@ -62,8 +63,10 @@ echo "ffi: $(echo "$declared" | wc -l) functions declared, defined by the host a
 pattern='^(coefficients|weights|coefficients_k4|planar|capture) (frame [0-9]+|sequence) [0-9a-f]{16}$'
 cat fixtures/golden/hashes.txt fixtures/golden/hashes_planar.txt | grep -E "$pattern" \
   | sort -s -k1,1 > "$out/expected.txt"
-# The C example also prints every frame's normals (fb_normals) behind the word "normals".
-{ cat "$out/expected.txt"; grep -E "$pattern" fixtures/golden/hashes_normals.txt | sed 's/^/normals /'; } \
+# The C example also prints every frame's normals (fb_normals) behind the word "normals", and
+# plays the packed take (fb_take_next_frame) as hashes_take.txt records it.
+{ cat "$out/expected.txt"; grep -E "$pattern" fixtures/golden/hashes_normals.txt | sed 's/^/normals /'
+  grep -E '^take (frame [0-9]+|sequence) [0-9a-f]{16}$' fixtures/golden/hashes_take.txt; } \
   | sort -s -k1,1 > "$out/expected_c.txt"
 
 status=0

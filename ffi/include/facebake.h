@@ -18,9 +18,10 @@
  * can check that the library it loaded matches (bumped on any incompatible change).
  *
  * Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
- * `FB_ERROR_VERTEX_COUNT` were added.
+ * `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
+ * functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`).
  */
-#define FB_ABI_VERSION 2
+#define FB_ABI_VERSION 3
 
 /**
  * The most markers a rig can have.
@@ -96,7 +97,8 @@ enum FbError
    */
   FB_ERROR_TRAILING_BYTES = 12,
   /**
-   * The blob does not start with the facebake magic bytes.
+   * The blob does not start with the facebake magic bytes (of a rig, or of a take for
+   * `fb_take_load`).
    */
   FB_ERROR_BAD_MAGIC = 13,
   /**
@@ -132,6 +134,20 @@ enum FbError
    * The vertex count given is not the rig's vertex count (`fb_normals`' positions).
    */
   FB_ERROR_VERTEX_COUNT = 21,
+  /**
+   * The packed take fails validation (a count, field, name, step or key frame offset is
+   * wrong), or its stream is corrupt behind a valid checksum.
+   */
+  FB_ERROR_INVALID_TAKE = 22,
+  /**
+   * The `FbTake` storage does not hold a take loaded by `fb_take_load` (never loaded, or its
+   * last load failed).
+   */
+  FB_ERROR_TAKE_NOT_LOADED = 23,
+  /**
+   * `fb_take_next_frame` after the take's last frame: nothing was written.
+   */
+  FB_ERROR_END_OF_TAKE = 24,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -196,6 +212,14 @@ typedef struct FbPlayState FbPlayState;
  * across threads.
  */
 typedef struct FbRig FbRig;
+
+/**
+ * Storage of a loaded packed take and its read position (`fb_take_size()` bytes, aligned to
+ * `fb_take_align()`, about 8 KB), filled by `fb_take_load`. It borrows the take's bytes and
+ * owns nothing. Decoding moves its position, so one reader serves one consumer at a time;
+ * load the same bytes into a second storage to read from two places.
+ */
+typedef struct FbTake FbTake;
 
 /**
  * What the capture stages did with one frame. Marker sets are bitsets: marker `j` is in the
@@ -634,6 +658,115 @@ FbError fb_normals(const struct FbRig *rig,
                    size_t vertex_count,
                    int16_t *out,
                    size_t out_capacity);
+
+/**
+ * Bytes of storage an `FbTake` needs.
+ */
+size_t fb_take_size(void);
+
+/**
+ * Alignment the storage of an `FbTake` needs.
+ */
+size_t fb_take_align(void);
+
+/**
+ * Validate the packed take `bytes[0..len]` (header, checksum, every count, field and key frame
+ * offset) and load it into `storage` (`storage_len` bytes, at least `fb_take_size()`, aligned
+ * to `fb_take_align()`), positioned at its first frame. The bytes need no alignment; they are
+ * borrowed, not copied, and must outlive every use of the take. On error the storage holds no
+ * take (`FB_ERROR_TAKE_NOT_LOADED` if used).
+ *
+ * # Safety
+ * `bytes` must be valid for reads of `len` bytes and `storage` for writes of `storage_len`
+ * bytes (or be null). Neither may be written by anyone else during the call; the bytes not
+ * while the take is in use.
+ */
+FbError fb_take_load(const uint8_t *bytes, size_t len, struct FbTake *storage, size_t storage_len);
+
+/**
+ * Frames in the take; 0 if `take` is not a loaded take.
+ *
+ * # Safety
+ * `take` is null or valid for reads of `fb_take_size()` bytes.
+ */
+size_t fb_take_frame_count(const struct FbTake *take);
+
+/**
+ * Markers per frame (1 to `FB_MAX_MARKERS`); 0 if `take` is not a loaded take.
+ *
+ * # Safety
+ * As `fb_take_frame_count`.
+ */
+size_t fb_take_marker_count(const struct FbTake *take);
+
+/**
+ * Frames per second of the capture; 0 if `take` is not a loaded take.
+ *
+ * # Safety
+ * As `fb_take_frame_count`.
+ */
+double fb_take_rate(const struct FbTake *take);
+
+/**
+ * The frame `fb_take_next_frame` decodes next (the frame count once the take has ended); 0 if
+ * `take` is not a loaded take.
+ *
+ * # Safety
+ * As `fb_take_frame_count`.
+ */
+size_t fb_take_position(const struct FbTake *take);
+
+/**
+ * Write where the take's units sit in the capture's space to `*space` (for a take packed with
+ * `--rig`, the rig's actor space: `fb_rig_actor_space`).
+ *
+ * # Safety
+ * `take` as `fb_take_frame_count`; `space` null or valid for a write.
+ */
+FbError fb_take_space(const struct FbTake *take, struct FbSpace *space);
+
+/**
+ * Point `*name` at the UTF-8 name of the take's marker `index` inside its bytes (NOT
+ * NUL-terminated; valid while the bytes are) and write its length in bytes to `*name_len`.
+ * Match these to `fb_marker_name`'s to feed a rig the take's markers in its own order.
+ *
+ * # Safety
+ * `take` as `fb_take_frame_count`; `name` and `name_len` null or valid for a write.
+ */
+FbError fb_take_marker_name(const struct FbTake *take,
+                            size_t index,
+                            const char **name,
+                            size_t *name_len);
+
+/**
+ * Decode the next frame: `samples` gets `marker_count` (= `fb_take_marker_count`) positions,
+ * Q8.24 in the take's space, x y z each, in the take's marker order, and `present` one byte
+ * per marker, 0 where the sample is missing (its position is then written as 0 0 0); `*frame`
+ * gets the frame's index. Once every frame has been decoded: `FB_ERROR_END_OF_TAKE`, nothing
+ * written (`fb_take_seek` starts again). A corrupt stream behind a valid checksum gives
+ * `FB_ERROR_INVALID_TAKE` and ends the take. Allocates nothing; decoding costs at most a few
+ * bit reads per marker.
+ *
+ * # Safety
+ * `take` null or valid for reads and writes of `fb_take_size()` bytes and used by no one else
+ * during the call; `samples`, `present` and `frame` null or valid for the writes their counts
+ * imply, overlapping nothing else.
+ */
+FbError fb_take_next_frame(struct FbTake *take,
+                           int32_t *samples,
+                           uint8_t *present,
+                           size_t marker_count,
+                           size_t *frame);
+
+/**
+ * Position the take so that `fb_take_next_frame` decodes `frame` next (0 ≤ `frame` ≤ the frame
+ * count; `FB_ERROR_INDEX_OUT_OF_RANGE` beyond). Decodes forward from the key frame at or before
+ * it, at most one key interval; the frames then decoded are bit-identical to a sequential read.
+ *
+ * # Safety
+ * As `fb_take_next_frame`, for `take`.
+ */
+FbError fb_take_seek(struct FbTake *take, size_t frame);
 
 #ifdef __cplusplus
 }  // extern "C"

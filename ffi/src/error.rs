@@ -38,7 +38,8 @@ pub enum FbError {
     Truncated = 11,
     /// The blob has bytes after its payload.
     TrailingBytes = 12,
-    /// The blob does not start with the facebake magic bytes.
+    /// The blob does not start with the facebake magic bytes (of a rig, or of a take for
+    /// `fb_take_load`).
     BadMagic = 13,
     /// The blob's format version is not the one this library reads.
     UnsupportedVersion = 14,
@@ -57,11 +58,19 @@ pub enum FbError {
     Internal = 20,
     /// The vertex count given is not the rig's vertex count (`fb_normals`' positions).
     VertexCount = 21,
+    /// The packed take fails validation (a count, field, name, step or key frame offset is
+    /// wrong), or its stream is corrupt behind a valid checksum.
+    InvalidTake = 22,
+    /// The `FbTake` storage does not hold a take loaded by `fb_take_load` (never loaded, or its
+    /// last load failed).
+    TakeNotLoaded = 23,
+    /// `fb_take_next_frame` after the take's last frame: nothing was written.
+    EndOfTake = 24,
 }
 
 impl FbError {
     /// Every code, in value order.
-    pub(crate) const ALL: [FbError; 22] = [
+    pub(crate) const ALL: [FbError; 25] = [
         Self::None,
         Self::NullPointer,
         Self::Misaligned,
@@ -84,6 +93,9 @@ impl FbError {
         Self::NotFound,
         Self::Internal,
         Self::VertexCount,
+        Self::InvalidTake,
+        Self::TakeNotLoaded,
+        Self::EndOfTake,
     ];
 
     /// The static, NUL-terminated message of this code.
@@ -102,7 +114,7 @@ impl FbError {
             Self::OutOfRange => c"a position is outside the rig's range (128 half extents)",
             Self::Truncated => c"the blob is truncated",
             Self::TrailingBytes => c"the blob has trailing bytes after its payload",
-            Self::BadMagic => c"the blob is not a facebake rig (bad magic)",
+            Self::BadMagic => c"the blob is not a facebake rig or take (bad magic)",
             Self::UnsupportedVersion => c"the blob's format version is not supported",
             Self::ChecksumMismatch => c"the blob's checksum does not match its payload",
             Self::Malformed => c"the blob's payload is malformed",
@@ -111,6 +123,9 @@ impl FbError {
             Self::NotFound => c"no marker has that name",
             Self::Internal => c"internal error in facebake-ffi (please report it)",
             Self::VertexCount => c"the vertex count given is not the rig's vertex count",
+            Self::InvalidTake => c"the packed take fails validation or its stream is corrupt",
+            Self::TakeNotLoaded => c"the FbTake storage does not hold a loaded take",
+            Self::EndOfTake => c"the take has no more frames",
         }
     }
 }

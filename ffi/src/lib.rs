@@ -9,7 +9,8 @@
 //!
 //! The caller provides every byte: the rig blob (borrowed, never copied: it must outlive the
 //! rig), the storage of a loaded rig (`fb_rig_size`, `fb_rig_align`), the storage of each play
-//! state (`fb_play_state_size`, `fb_play_state_align`), and every output buffer (sized by
+//! state (`fb_play_state_size`, `fb_play_state_align`), of each packed take being read
+//! (`fb_take_size`, `fb_take_align`), and every output buffer (sized by
 //! `fb_rig_vertex_count` and `fb_rig_marker_count`). The library keeps no global state.
 //!
 //! # Checks
@@ -32,7 +33,9 @@
 //! Without the `std` feature the crate is `#![no_std]` and allocation-free, for firmware written
 //! in C: `cargo build -p facebake-ffi --release --no-default-features --target
 //! thumbv7em-none-eabihf` builds `libfacebake_ffi.a` for a Cortex-M4F, with a panic handler that
-//! halts (it cannot be reached by construction). `.ci/ffi.sh` builds it.
+//! halts (it cannot be reached by construction). `.ci/ffi.sh` builds it. The same build for
+//! `wasm32-unknown-unknown` is the runtime in a browser (`web/`, `.ci/browser.sh`): a module
+//! with no imports whose caller reserves every buffer in its linear memory above `__heap_base`.
 //!
 //! # Threads
 //!
@@ -49,6 +52,7 @@ pub mod error;
 mod memory;
 pub mod play;
 pub mod rig;
+pub mod take;
 
 pub use error::{fb_error_message, FbError};
 pub use play::{
@@ -62,13 +66,19 @@ pub use rig::{
     fb_rig_validate, fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost,
     FbNormalsCost, FbRig, FbSpace,
 };
+pub use take::{
+    fb_take_align, fb_take_frame_count, fb_take_load, fb_take_marker_count, fb_take_marker_name,
+    fb_take_next_frame, fb_take_position, fb_take_rate, fb_take_seek, fb_take_size, fb_take_space,
+    FbTake,
+};
 
 /// The version of this ABI, which `fb_abi_version` returns: a host built against one header
 /// can check that the library it loaded matches (bumped on any incompatible change).
 ///
 /// Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
-/// `FB_ERROR_VERTEX_COUNT` were added.
-pub const FB_ABI_VERSION: u32 = 2;
+/// `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
+/// functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`).
+pub const FB_ABI_VERSION: u32 = 3;
 
 /// The most markers a rig can have.
 pub const FB_MAX_MARKERS: usize = 256;
@@ -79,12 +89,16 @@ pub const FB_MARKER_WORDS: usize = 8;
 const _: () = assert!(FB_MAX_MARKERS == facebake_runtime::MAX_MARKERS);
 const _: () = assert!(FB_MARKER_WORDS * 32 == FB_MAX_MARKERS);
 
-/// Without `std` (firmware), a panic halts the core: none can happen by construction (see
-/// "Panics" above), and none may unwind into C. Rust firmware uses the runtime crate directly
-/// rather than this one.
+/// Without `std` (firmware, WebAssembly), a panic halts the core, or traps in a WebAssembly
+/// engine (the JavaScript call throws a `RuntimeError` instead of hanging the page): none can
+/// happen by construction (see "Panics" above), and none may unwind into C. Rust firmware uses
+/// the runtime crate directly rather than this one.
 #[cfg(all(not(feature = "std"), not(test)))]
 #[panic_handler]
 fn halt(_: &core::panic::PanicInfo) -> ! {
+    #[cfg(target_arch = "wasm32")]
+    core::arch::wasm32::unreachable();
+    #[cfg(not(target_arch = "wasm32"))]
     loop {
         core::hint::spin_loop();
     }

@@ -14,6 +14,8 @@ const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fb
 const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
 const NORMALS: &str = include_str!("../../fixtures/golden/hashes_normals.txt");
+const TAKE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap.fbt");
+const TAKE_HASHES: &str = include_str!("../../fixtures/golden/hashes_take.txt");
 
 /// Storage aligned to 16 bytes (more than any `_align` function asks; checked).
 struct Storage(Vec<u128>);
@@ -539,13 +541,13 @@ fn bad_blobs_and_storage_are_refused_and_leave_no_rig() {
 #[test]
 fn error_messages_are_static_distinct_and_total() {
     let message = |code: i32| unsafe { std::ffi::CStr::from_ptr(fb_error_message(code)) };
-    let known: Vec<_> = (0..=FbError::VertexCount as i32).map(message).collect();
+    let known: Vec<_> = (0..=FbError::EndOfTake as i32).map(message).collect();
     for (i, m) in known.iter().enumerate() {
         assert!(!m.to_bytes().is_empty());
         assert!(!known[..i].contains(m), "code {i} repeats a message");
     }
     assert_eq!(message(0).to_str().unwrap(), "no error");
-    for unknown in [-1, FbError::VertexCount as i32 + 1, i32::MIN, i32::MAX] {
+    for unknown in [-1, FbError::EndOfTake as i32 + 1, i32::MIN, i32::MAX] {
         assert_eq!(
             message(unknown).to_str().unwrap(),
             "unknown facebake error code"
@@ -592,4 +594,226 @@ fn one_rig_is_shared_by_threads_with_one_state_each() {
         workers.into_iter().map(|w| w.join().unwrap()).collect()
     });
     assert!(hashes.windows(2).all(|w| w[0] == w[1]));
+}
+
+/// A packed take loaded through the ABI, in its own storage.
+fn load_take(bytes: &'static [u8]) -> Storage {
+    let mut storage = Storage::new(fb_take_size(), fb_take_align());
+    let len = storage.len();
+    let status = unsafe { fb_take_load(bytes.as_ptr(), bytes.len(), storage.ptr(), len) };
+    assert_eq!(status, FbError::None);
+    storage
+}
+
+/// `fb_take_next_frame` into whole buffers (one sample and one presence byte per marker).
+fn next_frame(
+    t: *mut FbTake,
+    samples: &mut [i32],
+    present: &mut [u8],
+    frame: &mut usize,
+) -> FbError {
+    unsafe {
+        fb_take_next_frame(
+            t,
+            samples.as_mut_ptr(),
+            present.as_mut_ptr(),
+            present.len(),
+            frame,
+        )
+    }
+}
+
+/// The marker names of a rig or a take, through their `_marker_name` call.
+fn names(
+    count: usize,
+    name: impl Fn(usize, *mut *const std::ffi::c_char, *mut usize) -> FbError,
+) -> Vec<String> {
+    (0..count)
+        .map(|j| {
+            let (mut at, mut len) = (null(), 0usize);
+            assert_eq!(name(j, &mut at, &mut len), FbError::None);
+            let bytes = unsafe { std::slice::from_raw_parts(at.cast::<u8>(), len) };
+            String::from_utf8(bytes.to_vec()).unwrap()
+        })
+        .collect()
+}
+
+/// The golden take decoded through `fb_take_next_frame` and played through `fb_play` hashes as
+/// `hashes_take.txt` records it; a seek then decodes the same frames again.
+#[test]
+fn the_golden_take_decodes_and_plays_as_hashes_take_txt() {
+    let mut take = load_take(TAKE);
+    let t = take.ptr::<FbTake>();
+    let mut loaded = Loaded::new(CAPTURE);
+    let rig = loaded.rig();
+    let (n, m) = unsafe { (fb_rig_vertex_count(rig), fb_rig_marker_count(rig)) };
+    let (frames, tm) = unsafe { (fb_take_frame_count(t), fb_take_marker_count(t)) };
+    assert_eq!((frames, tm), (1590, m));
+    assert_eq!(unsafe { fb_take_rate(t) }, 60.0);
+    let mut space = FbSpace::default();
+    let mut actor_space = FbSpace::default();
+    unsafe {
+        assert_eq!(fb_take_space(t, &mut space), FbError::None);
+        assert_eq!(fb_rig_actor_space(rig, &mut actor_space), FbError::None);
+    }
+    assert_eq!(
+        space, actor_space,
+        "packed with --rig: the rig's actor units"
+    );
+    let rig_names = names(m, |j, a, l| unsafe { fb_marker_name(rig, j, a, l) });
+    let take_names = names(tm, |j, a, l| unsafe { fb_take_marker_name(t, j, a, l) });
+    let map: Vec<usize> = rig_names
+        .iter()
+        .map(|r| take_names.iter().position(|t| t == r).unwrap())
+        .collect();
+
+    let mut state = new_state();
+    let (mut samples, mut present) = (vec![0i32; 3 * tm], vec![0u8; tm]);
+    let (mut actor, mut given) = (vec![0i32; 3 * m], vec![0u8; m]);
+    let (mut markers, mut out) = (vec![0i32; 3 * m], vec![0i32; 3 * n]);
+    let mut lines = TAKE_HASHES.lines().filter(|l| l.starts_with("take "));
+    let mut sequence = Fnv1a64::new();
+    let mut decoded = Vec::new();
+    let mut frame = usize::MAX;
+    loop {
+        assert_eq!(unsafe { fb_take_position(t) }, decoded.len());
+        let status = next_frame(t, &mut samples, &mut present, &mut frame);
+        if status == FbError::EndOfTake {
+            break;
+        }
+        assert_eq!(status, FbError::None);
+        assert_eq!(frame, decoded.len());
+        decoded.push((samples.clone(), present.clone()));
+        for (j, &k) in map.iter().enumerate() {
+            actor[3 * j..3 * j + 3].copy_from_slice(&samples[3 * k..3 * k + 3]);
+            given[j] = present[k];
+        }
+        let mut report = std::mem::MaybeUninit::<FbFrameReport>::uninit();
+        let status = unsafe {
+            fb_play(
+                rig,
+                state.ptr(),
+                actor.as_ptr(),
+                given.as_ptr(),
+                m,
+                markers.as_mut_ptr(),
+                out.as_mut_ptr(),
+                n,
+                report.as_mut_ptr(),
+            )
+        };
+        assert_eq!(status, FbError::None);
+        let report = unsafe { report.assume_init() };
+        let rows: Vec<Option<[i32; 3]>> = triples(&actor)
+            .into_iter()
+            .zip(&given)
+            .map(|(p, &k)| (k != 0).then_some(p))
+            .collect();
+        let tail = [
+            report.rigid_residual,
+            report.rebuilt_count as i32,
+            report.held_count as i32,
+        ];
+        let mut h = Fnv1a64::new();
+        for hash in [&mut h, &mut sequence] {
+            hash.write_samples(&rows);
+            hash.write_positions(&triples(&markers));
+            hash.write_positions(&triples(&out));
+            hash.write_positions(&[tail]);
+        }
+        let line = format!("take frame {frame} {:016x}", h.finish());
+        assert_eq!(lines.next(), Some(line.as_str()));
+    }
+    assert_eq!(decoded.len(), frames);
+    let line = format!("take sequence {:016x}", sequence.finish());
+    assert_eq!(lines.next(), Some(line.as_str()));
+    // The end writes nothing; a seek anywhere decodes the same frames as the sequential read.
+    samples.fill(7);
+    let status = next_frame(t, &mut samples, &mut present, &mut frame);
+    assert_eq!(status, FbError::EndOfTake);
+    assert!(samples.iter().all(|&s| s == 7));
+    for start in [0, 1, 127, 128, 700, 1589] {
+        assert_eq!(unsafe { fb_take_seek(t, start) }, FbError::None);
+        for (f, want) in decoded.iter().enumerate().skip(start).take(3) {
+            let status = next_frame(t, &mut samples, &mut present, &mut frame);
+            assert_eq!((status, frame), (FbError::None, f));
+            assert_eq!(
+                (&samples, &present),
+                (&want.0, &want.1),
+                "frame {f} after a seek to {start}"
+            );
+        }
+    }
+}
+
+/// Every misuse of the take calls returns its code and leaves outputs and position unchanged.
+#[test]
+fn take_misuse_returns_its_error_code_and_writes_nothing() {
+    let mut take = load_take(TAKE);
+    let t = take.ptr::<FbTake>();
+    let m = unsafe { fb_take_marker_count(t) };
+    let (mut samples, mut present, mut frame) = (vec![7i32; 3 * m], vec![7u8; m], 7usize);
+    let next = |t: *mut FbTake, s: *mut i32, p: *mut u8, count: usize, f: *mut usize| unsafe {
+        fb_take_next_frame(t, s, p, count, f)
+    };
+    let (s, p) = (samples.as_mut_ptr(), present.as_mut_ptr());
+    assert_eq!(next(t, s, p, m + 1, &mut frame), FbError::MarkerCount);
+    assert_eq!(next(t, null_mut(), p, m, &mut frame), FbError::NullPointer);
+    assert_eq!(next(t, s, null_mut(), m, &mut frame), FbError::NullPointer);
+    assert_eq!(next(t, s, p, m, null_mut()), FbError::NullPointer);
+    assert_eq!(
+        next(t, unsafe { s.cast::<u8>().add(1) }.cast(), p, m, &mut frame),
+        FbError::Misaligned
+    );
+    assert_eq!(next(null_mut(), s, p, m, &mut frame), FbError::NullPointer);
+    assert_eq!(unsafe { fb_take_seek(t, 1591) }, FbError::IndexOutOfRange);
+    assert_eq!(unsafe { fb_take_position(t) }, 0);
+    assert!(samples.iter().all(|&x| x == 7) && present.iter().all(|&x| x == 7) && frame == 7);
+    let (mut at, mut len) = (null(), 0usize);
+    assert_eq!(
+        unsafe { fb_take_marker_name(t, m, &mut at, &mut len) },
+        FbError::IndexOutOfRange
+    );
+
+    // Storage never loaded, too small, misaligned; bad bytes leave no take behind.
+    let mut zeroed = Storage::new(fb_take_size(), fb_take_align());
+    let z = zeroed.ptr::<FbTake>();
+    assert_eq!(next(z, s, p, m, &mut frame), FbError::TakeNotLoaded);
+    assert_eq!(unsafe { fb_take_seek(z, 0) }, FbError::TakeNotLoaded);
+    assert_eq!(
+        unsafe {
+            (
+                fb_take_frame_count(z),
+                fb_take_marker_count(z),
+                fb_take_rate(z),
+            )
+        },
+        (0, 0, 0.0)
+    );
+    assert_eq!(
+        unsafe { fb_take_load(TAKE.as_ptr(), TAKE.len(), z, fb_take_size() - 1) },
+        FbError::BufferTooSmall
+    );
+    let misaligned = unsafe { zeroed.ptr::<u8>().add(1) }.cast::<FbTake>();
+    assert_eq!(
+        unsafe { fb_take_load(TAKE.as_ptr(), TAKE.len(), misaligned, fb_take_size()) },
+        FbError::Misaligned
+    );
+    let len = zeroed.len();
+    let mut corrupt = TAKE.to_vec();
+    corrupt[30] ^= 1;
+    let cases: [(&[u8], FbError); 4] = [
+        (&TAKE[..TAKE.len() - 1], FbError::Truncated),
+        (&corrupt, FbError::ChecksumMismatch),
+        (CAPTURE, FbError::BadMagic),
+        (&[], FbError::Truncated),
+    ];
+    for (bytes, want) in cases {
+        let bytes: &'static [u8] = Box::leak(bytes.to_vec().into_boxed_slice());
+        assert_eq!(
+            unsafe { fb_take_load(bytes.as_ptr(), bytes.len(), z, len) },
+            want
+        );
+        assert_eq!(next(z, s, p, m, &mut frame), FbError::TakeNotLoaded);
+    }
 }

@@ -8,7 +8,8 @@
  * Deform rigs: every frame of facecap_markers.bin through fb_deform. Capture rig: every frame of
  * jawmocap_actor.bin through fb_play (capture stages, then the deformer), hashing the
  * character's markers, the vertices and (head residual, rebuilt count, held count), as
- * tests/tests/golden.rs does. After each frame, its normals through fb_normals, hashed as
+ * tests/tests/golden.rs does; then the packed take jawmocap.fbt through fb_take_next_frame and
+ * fb_play, hashed as fixtures/golden/hashes_take.txt records it. After each frame, its normals through fb_normals, hashed as
  * fixtures/golden/hashes_normals.txt records them and printed behind the word "normals". Only
  * hash lines go to stdout; a summary of each rig goes to stderr.
  *
@@ -235,6 +236,92 @@ static void play_take(const char *dir) {
     unload(&l);
 }
 
+/* The index of `name` (`len` bytes) among the take's markers, or SIZE_MAX. */
+static size_t take_marker(const FbTake *take, const char *name, size_t len) {
+    for (size_t k = 0; k < fb_take_marker_count(take); k++) {
+        const char *other;
+        size_t other_len;
+        check(fb_take_marker_name(take, k, &other, &other_len), "fb_take_marker_name");
+        if (other_len == len && memcmp(other, name, len) == 0) {
+            return k;
+        }
+    }
+    return SIZE_MAX;
+}
+
+/* The packed take jawmocap.fbt decoded by fb_take_next_frame and played through fb_play, hashed
+ * as fixtures/golden/hashes_take.txt records it: each rig marker's sample (present byte, x y z),
+ * then the character's markers, the vertices and (head residual, rebuilt, held). */
+static void play_packed_take(const char *dir) {
+    Loaded l = load(dir, "jawmocap_capture.fbk");
+    size_t len;
+    uint8_t *bytes = read_file(dir, "jawmocap.fbt", &len);
+    FbTake *take = aligned_storage(fb_take_size(), fb_take_align());
+    check(fb_take_load(bytes, len, take, fb_take_size()), "fb_take_load");
+    size_t tm = fb_take_marker_count(take);
+    size_t *map = xmalloc(l.markers * sizeof(size_t)); /* take marker of each rig marker */
+    for (size_t j = 0; j < l.markers; j++) {
+        const char *name;
+        size_t name_len;
+        check(fb_marker_name(l.rig, j, &name, &name_len), "fb_marker_name");
+        map[j] = take_marker(take, name, name_len);
+    }
+    FbPlayState *state = aligned_storage(fb_play_state_size(), fb_play_state_align());
+    check(fb_play_state_init(state, fb_play_state_size()), "fb_play_state_init");
+    int32_t *samples = xmalloc(tm * 3 * sizeof(int32_t));
+    uint8_t *present = xmalloc(tm);
+    int32_t *actor = xmalloc(l.markers * 3 * sizeof(int32_t));
+    uint8_t *given = xmalloc(l.markers);
+    int32_t *character = xmalloc(l.markers * 3 * sizeof(int32_t));
+    int32_t *out = xmalloc(l.vertices * 3 * sizeof(int32_t));
+    Fnv1a64 sequence = fnv_new();
+    size_t f;
+    FbError status;
+    while ((status = fb_take_next_frame(take, samples, present, tm, &f)) == FB_ERROR_NONE) {
+        Fnv1a64 h = fnv_new();
+        Fnv1a64 *hs[2] = {&h, &sequence};
+        for (size_t j = 0; j < l.markers; j++) {
+            size_t k = map[j];
+            given[j] = k != SIZE_MAX && present[k];
+            for (size_t c = 0; c < 3; c++) {
+                actor[3 * j + c] = given[j] ? samples[3 * k + c] : 0;
+            }
+            for (int i = 0; i < 2; i++) {
+                hs[i]->state = (hs[i]->state ^ given[j]) * UINT64_C(0x100000001b3);
+                fnv_i32s(hs[i], actor + 3 * j, 3);
+            }
+        }
+        FbFrameReport report;
+        check(fb_play(l.rig, state, actor, given, l.markers, character, out, l.vertices, &report),
+              "fb_play");
+        int32_t tail[3] = {report.rigid_residual, (int32_t)report.rebuilt_count,
+                           (int32_t)report.held_count};
+        for (int i = 0; i < 2; i++) {
+            fnv_i32s(hs[i], character, l.markers * 3);
+            fnv_i32s(hs[i], out, l.vertices * 3);
+            fnv_i32s(hs[i], tail, 3);
+        }
+        printf("take frame %zu %016" PRIx64 "\n", f, h.state);
+    }
+    if (status != FB_ERROR_END_OF_TAKE) {
+        check(status, "fb_take_next_frame");
+    }
+    printf("take sequence %016" PRIx64 "\n", sequence.state);
+    fprintf(stderr, "jawmocap.fbt: %zu frames at %g Hz, %zu markers\n", fb_take_frame_count(take),
+            fb_take_rate(take), tm);
+    free(out);
+    free(character);
+    free(given);
+    free(actor);
+    free(present);
+    free(samples);
+    free(state);
+    free(map);
+    free(take);
+    free(bytes);
+    unload(&l);
+}
+
 int main(int argc, char **argv) {
     if (argc != 2) {
         fprintf(stderr, "usage: %s FIXTURES_GOLDEN_DIR\n", argv[0]);
@@ -250,5 +337,6 @@ int main(int argc, char **argv) {
     deform_take(dir, "coefficients_k4", "facecap_coefficients_k4.fbk");
     deform_take(dir, "planar", "facecap_planar.fbk");
     play_take(dir);
+    play_packed_take(dir);
     return 0;
 }
