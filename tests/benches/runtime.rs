@@ -34,7 +34,7 @@
 //! Run: `cargo bench -p facebake-tests --bench runtime`.
 
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use criterion::{Criterion, Throughput};
 use facebake::geodesic::Source;
@@ -47,7 +47,7 @@ use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
 use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
-use facebake_tests::{bake_truth, facecap_truth, median, weights_config};
+use facebake_tests::{bake_truth, facecap_truth, median, median_ratio, weights_config};
 
 /// Vertices of the synthetic head.
 const SYNTH_VERTICES: usize = 50_000;
@@ -433,31 +433,9 @@ fn bench_case(c: &mut Criterion, case: &Case) {
     group.finish();
 }
 
-/// Time every path in `paths` in interleaved rounds: each round runs each path for
-/// [`SLICE`] in turn; the first round is a warm-up. Returns per path the seconds per call of
-/// every timed round.
+/// [`facebake_tests::interleaved`] with this bench's rounds and slices.
 fn interleaved(paths: &mut [&mut dyn FnMut()]) -> Vec<Vec<f64>> {
-    let mut times = vec![Vec::with_capacity(ROUNDS); paths.len()];
-    for round in 0..=ROUNDS {
-        for (path, t) in paths.iter_mut().zip(&mut times) {
-            let start = Instant::now();
-            let mut calls = 0u32;
-            while start.elapsed() < SLICE {
-                path();
-                calls += 1;
-            }
-            if round > 0 {
-                t.push(start.elapsed().as_secs_f64() / f64::from(calls));
-            }
-        }
-    }
-    times
-}
-
-/// Median over rounds of `a[r] / b[r]`.
-fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
-    let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-    median(&mut r)
+    facebake_tests::interleaved(paths, ROUNDS, SLICE)
 }
 
 /// Same-run figures of one rig: median seconds per frame of each path and ratios.

@@ -368,3 +368,34 @@ pub fn median(x: &mut [f64]) -> f64 {
         0.5 * (x[n / 2 - 1] + x[n / 2])
     }
 }
+
+/// Time every path in `paths` in interleaved rounds, so that a machine shared with other work
+/// slows them alike: each round runs each path for `slice` in turn; the first round is a
+/// warm-up. Returns per path the seconds per call of each of the `rounds` timed rounds.
+pub fn interleaved(
+    paths: &mut [&mut dyn FnMut()],
+    rounds: usize,
+    slice: std::time::Duration,
+) -> Vec<Vec<f64>> {
+    let mut times = vec![Vec::with_capacity(rounds); paths.len()];
+    for round in 0..=rounds {
+        for (path, t) in paths.iter_mut().zip(&mut times) {
+            let start = std::time::Instant::now();
+            let mut calls = 0u32;
+            while start.elapsed() < slice {
+                path();
+                calls += 1;
+            }
+            if round > 0 {
+                t.push(start.elapsed().as_secs_f64() / f64::from(calls));
+            }
+        }
+    }
+    times
+}
+
+/// Median over rounds of `a[r] / b[r]`: a ratio measured in one run.
+pub fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
+    let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    median(&mut r)
+}
