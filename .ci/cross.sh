@@ -371,7 +371,7 @@ if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.
         [ "${NORMALS_IR[truth]}" -eq "${NORMALS_IR[rest]}" ] &&
         [ $(( 2 * NORMALS_IR[extreme] )) -le $(( 3 * NORMALS_IR[truth] )) ]; then
         pass "host normals: ${NORMALS_IR[truth]} instructions per frame for truth and rest alike, ${NORMALS_IR[extreme]} for extreme poses (edges clamped)"
-        figure "host ($HOST) normals: ${NORMALS_IR[truth]} Ir/frame ($(awk -v i="${NORMALS_IR[truth]}" -v d="${HOST_IR[weights.truth]:-0}" 'BEGIN {printf "%.2f", d > 0 ? i / d : 0}') x the weights rig's deform), ${NORMALS_IR[extreme]} with clamped edges"
+        figure "host ($HOST) normals: ${NORMALS_IR[truth]} Ir/frame ($(awk -v i="${NORMALS_IR[truth]}" -v d="${HOST_IR[weights.truth]:-0}" 'BEGIN {printf "%.2f", (d > 0 ? i / d : 0)}') x the weights rig's deform), ${NORMALS_IR[extreme]} with clamped edges"
     else
         fail "host normals: instructions per frame truth=${NORMALS_IR[truth]} rest=${NORMALS_IR[rest]} extreme=${NORMALS_IR[extreme]}"
     fi
