@@ -628,6 +628,24 @@ FbError fb_deform(const struct FbRig *rig,
                   size_t vertex_capacity);
 
 /**
+ * Deform the vertices `first_vertex .. first_vertex + vertex_count` only, into `out` (room for
+ * exactly `vertex_count` positions, Q8.24): the same integers `fb_deform` writes there. For a
+ * job system that splits one face over workers: each worker calls this on its own chunk of
+ * the output with the same `markers`, concurrently on one rig. A range past the last vertex
+ * is `FB_ERROR_VERTEX_COUNT`; nothing is written on error.
+ *
+ * # Safety
+ * `rig` as `fb_rig_vertex_count`; `markers` as in `fb_deform`; `out` null or valid for writes
+ * of `3 * vertex_count` values, not overlapping `markers`.
+ */
+FbError fb_deform_range(const struct FbRig *rig,
+                        const int32_t *markers,
+                        size_t marker_count,
+                        size_t first_vertex,
+                        int32_t *out,
+                        size_t vertex_count);
+
+/**
  * `fb_deform` in the character asset's units: marker positions in, vertex positions out, as
  * `f32` (converted through `fb_rig_space`; the deformation itself is the integer one). A
  * marker that is not finite or lies beyond 128 half extents fails the frame

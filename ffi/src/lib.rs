@@ -60,9 +60,9 @@ pub use play::{
     FbFrameReport, FbPlayState, FbRigidStatus,
 };
 pub use rig::{
-    fb_cost, fb_deform, fb_deform_f32, fb_marker_index, fb_marker_name, fb_marker_name_copy,
-    fb_marker_rest, fb_marker_rest_f32, fb_normals, fb_rig_actor_space, fb_rig_align,
-    fb_rig_has_stages, fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space,
+    fb_cost, fb_deform, fb_deform_f32, fb_deform_range, fb_marker_index, fb_marker_name,
+    fb_marker_name_copy, fb_marker_rest, fb_marker_rest_f32, fb_normals, fb_rig_actor_space,
+    fb_rig_align, fb_rig_has_stages, fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space,
     fb_rig_validate, fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost,
     FbNormalsCost, FbRig, FbSpace,
 };

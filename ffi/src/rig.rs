@@ -497,6 +497,35 @@ pub unsafe extern "C" fn fb_deform(
     })
 }
 
+/// Deform the vertices `first_vertex .. first_vertex + vertex_count` only, into `out` (room for
+/// exactly `vertex_count` positions, Q8.24): the same integers `fb_deform` writes there. For a
+/// job system that splits one face over workers: each worker calls this on its own chunk of
+/// the output with the same `markers`, concurrently on one rig. A range past the last vertex
+/// is `FB_ERROR_VERTEX_COUNT`; nothing is written on error.
+///
+/// # Safety
+/// `rig` as `fb_rig_vertex_count`; `markers` as in `fb_deform`; `out` null or valid for writes
+/// of `3 * vertex_count` values, not overlapping `markers`.
+#[no_mangle]
+pub unsafe extern "C" fn fb_deform_range(
+    rig: *const FbRig,
+    markers: *const i32,
+    marker_count: usize,
+    first_vertex: usize,
+    out: *mut i32,
+    vertex_count: usize,
+) -> FbError {
+    guard(|| {
+        // SAFETY: the caller's contract.
+        let rig = unsafe { loaded(rig)? };
+        // SAFETY: the caller's contract.
+        let markers = unsafe { positions(markers, marker_count, rig.marker_count())? };
+        // SAFETY: the caller's contract.
+        let out = unsafe { positions_out(out, vertex_count, vertex_count)? };
+        Ok(rig.deform_range(markers, first_vertex, out)?)
+    })
+}
+
 /// `fb_deform` in the character asset's units: marker positions in, vertex positions out, as
 /// `f32` (converted through `fb_rig_space`; the deformation itself is the integer one). A
 /// marker that is not finite or lies beyond 128 half extents fails the frame

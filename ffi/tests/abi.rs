@@ -115,6 +115,42 @@ fn every_golden_deform_frame_hashes_as_the_rust_api_and_hashes_txt() {
     }
 }
 
+/// Two halves deformed by `fb_deform_range` (as two workers would) equal one `fb_deform`; a
+/// range past the last vertex is an error and writes nothing.
+#[test]
+fn deform_range_halves_equal_the_whole_frame() {
+    let mut loaded = Loaded::new(COEFFICIENTS);
+    let ffi = loaded.rig();
+    let (n, m) = unsafe { (fb_rig_vertex_count(ffi), fb_rig_marker_count(ffi)) };
+    let (mut whole, mut split) = (vec![0i32; 3 * n], vec![7i32; 3 * n]);
+    let half = n / 2;
+    for markers in le_words(MARKERS).chunks_exact(3 * m) {
+        let p = markers.as_ptr();
+        assert_eq!(
+            unsafe { fb_deform(ffi, p, m, whole.as_mut_ptr(), n) },
+            FbError::None
+        );
+        let (a, b) = split.split_at_mut(3 * half);
+        assert_eq!(
+            unsafe { fb_deform_range(ffi, p, m, 0, a.as_mut_ptr(), half) },
+            FbError::None
+        );
+        let rest = n - half;
+        assert_eq!(
+            unsafe { fb_deform_range(ffi, p, m, half, b.as_mut_ptr(), rest) },
+            FbError::None
+        );
+        assert_eq!(whole, split);
+    }
+    let before = split.clone();
+    let markers = le_words(MARKERS);
+    assert_eq!(
+        unsafe { fb_deform_range(ffi, markers.as_ptr(), m, n - 1, split.as_mut_ptr(), 2) },
+        FbError::VertexCount
+    );
+    assert_eq!(split, before);
+}
+
 #[test]
 fn every_golden_normals_frame_hashes_as_hashes_normals_txt() {
     let mut loaded = Loaded::new(COEFFICIENTS);
