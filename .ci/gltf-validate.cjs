@@ -18,7 +18,7 @@ async function main(files) {
     const bad = n.numErrors + n.numWarnings;
     console.log(`${file}: ${n.numErrors} errors, ${n.numWarnings} warnings, ${n.numInfos} infos, ` +
       `${n.numHints} hints (${report.info.animationCount} animations, ` +
-      `${report.info.morphedPrimitivesCount ?? '?'} morphed primitives)`);
+      `morph targets: ${report.info.hasMorphTargets})`);
     for (const m of n.messages) {
       if (m.severity <= 1) console.log(`  ${m.severity === 0 ? 'ERROR' : 'WARNING'} ${m.code} ${m.pointer ?? ''}: ${m.message}`);
     }
