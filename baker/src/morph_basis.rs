@@ -130,7 +130,10 @@ pub fn fit(
                 actual: positions.len(),
             });
         }
-        if let Some(vertex) = positions.iter().position(|p| p.iter().any(|x| !x.is_finite())) {
+        if let Some(vertex) = positions
+            .iter()
+            .position(|p| p.iter().any(|x| !x.is_finite()))
+        {
             return Err(MorphBasisError::NotFinite { frame, vertex });
         }
     }
@@ -273,7 +276,9 @@ mod tests {
 
     /// `frames` frames of `n` vertices moving along `modes` independent patterns.
     fn take(n: usize, frames: usize, modes: usize) -> (Vec<[f64; 3]>, Vec<Vec<[f64; 3]>>) {
-        let rest: Vec<[f64; 3]> = (0..n).map(|v| [v as f64, (v * v % 7) as f64, 1.0]).collect();
+        let rest: Vec<[f64; 3]> = (0..n)
+            .map(|v| [v as f64, (v * v % 7) as f64, 1.0])
+            .collect();
         let pattern = |m: usize, v: usize| {
             [0, 1, 2].map(|k| (((m * 31 + v * 7 + k * 3).pow(2)) as f64 * 0.37).sin() * 0.01)
         };
@@ -284,8 +289,8 @@ mod tests {
                         let mut p = rest[v];
                         for m in 0..modes {
                             let w = ((f * (m + 1)) as f64 * 0.05).cos() / (m + 1) as f64;
-                            for k in 0..3 {
-                                p[k] += w * pattern(m, v)[k];
+                            for (c, d) in p.iter_mut().zip(pattern(m, v)) {
+                                *c += w * d;
                             }
                         }
                         p
@@ -345,7 +350,11 @@ mod tests {
             },
         )
         .unwrap();
-        assert!(loose.targets.len() <= 3 && loose.bound_met, "{}", loose.targets.len());
+        assert!(
+            loose.targets.len() <= 3 && loose.bound_met,
+            "{}",
+            loose.targets.len()
+        );
     }
 
     #[test]
@@ -400,7 +409,10 @@ mod tests {
             max_error: 0.0,
             max_targets: 4,
         };
-        assert_eq!(fit(&rest, &[], &options).unwrap_err(), MorphBasisError::Empty);
+        assert_eq!(
+            fit(&rest, &[], &options).unwrap_err(),
+            MorphBasisError::Empty
+        );
         frames[3][7][1] = f64::NAN;
         assert_eq!(
             fit(&rest, &frames, &options).unwrap_err(),

@@ -317,17 +317,24 @@ fn play_reproduces_the_runtime() {
     .unwrap();
     let npy = dir.join("frames.npy");
     let glb = dir.join("frames.glb");
-    let played = json_ok(&facebake(&[
-        "play",
-        s(&rig_path),
-        "--markers",
-        s(&csv),
-        "-o",
-        s(&npy),
-        "--glb",
-        s(&glb),
-        "--mesh",
-        s(&mesh_path()),
+    let mesh = mesh_path();
+    let play = |more: &[&str]| {
+        let mut args = vec![
+            "play",
+            s(&rig_path),
+            "--markers",
+            s(&csv),
+            "-o",
+            s(&npy),
+            "--glb",
+            s(&glb),
+            "--mesh",
+            s(&mesh),
+        ];
+        args.extend_from_slice(more);
+        facebake(&args)
+    };
+    let played = json_ok(&play(&[
         "--mesh-name",
         "head",
         "--frames",
@@ -381,28 +388,17 @@ fn play_reproduces_the_runtime() {
         .collect();
     assert_eq!(keys, [0.0, 2.0 / 60.0, 5.0 / 60.0]);
     // A range beyond the take is bad input naming the capture and the range.
-    let beyond = |frames: &str| {
-        facebake(&[
-            "play",
-            s(&rig_path),
-            "--markers",
-            s(&csv),
-            "-o",
-            s(&npy),
-            "--glb",
-            s(&glb),
-            "--mesh",
-            s(&mesh_path()),
-            "--frames",
-            frames,
-        ])
-    };
+    let beyond = |frames: &str| play(&["--frames", frames]);
     let out = beyond("0..100:2");
     assert_bad_input(&out, "capture.csv");
     assert!(stderr(&out).contains("--frames 0..100:2: the take has"));
     let out = beyond("3..1");
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("the range is empty"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("the range is empty"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]

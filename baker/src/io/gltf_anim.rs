@@ -484,6 +484,19 @@ fn strip_weights(root: &mut Map<String, Value>, m: usize, nodes: &[usize]) {
     }
 }
 
+/// The objects in the array `key` of each of `items` (a mesh's primitives, an animation's
+/// samplers).
+fn nested<'a>(
+    items: &'a mut [Value],
+    key: &'a str,
+) -> impl Iterator<Item = &'a mut Map<String, Value>> + 'a {
+    items
+        .iter_mut()
+        .filter_map(move |item| item.get_mut(key).and_then(Value::as_array_mut))
+        .flatten()
+        .filter_map(Value::as_object_mut)
+}
+
 /// Every accessor reference of the core specification in `root`, as mutable index values.
 fn accessor_refs(root: &mut Map<String, Value>) -> Vec<&mut Value> {
     let mut refs = Vec::new();
@@ -491,25 +504,19 @@ fn accessor_refs(root: &mut Map<String, Value>) -> Vec<&mut Value> {
         let Value::Array(items) = value else { continue };
         match key.as_str() {
             "meshes" => {
-                for mesh in items.iter_mut() {
-                    let Some(Value::Array(primitives)) = mesh.get_mut("primitives") else {
-                        continue;
-                    };
-                    for prim in primitives.iter_mut().filter_map(Value::as_object_mut) {
-                        for (key, value) in prim.iter_mut() {
-                            match (key.as_str(), value) {
-                                ("indices", v) => refs.push(v),
-                                ("attributes", Value::Object(attributes)) => {
-                                    refs.extend(attributes.values_mut());
-                                }
-                                ("targets", Value::Array(targets)) => {
-                                    for target in targets.iter_mut().filter_map(Value::as_object_mut)
-                                    {
-                                        refs.extend(target.values_mut());
-                                    }
-                                }
-                                _ => {}
+                for prim in nested(items, "primitives") {
+                    for (key, value) in prim.iter_mut() {
+                        match (key.as_str(), value) {
+                            ("indices", v) => refs.push(v),
+                            ("attributes", Value::Object(attributes)) => {
+                                refs.extend(attributes.values_mut());
                             }
+                            ("targets", Value::Array(targets)) => {
+                                for target in targets.iter_mut().filter_map(Value::as_object_mut) {
+                                    refs.extend(target.values_mut());
+                                }
+                            }
+                            _ => {}
                         }
                     }
                 }
@@ -520,15 +527,10 @@ fn accessor_refs(root: &mut Map<String, Value>) -> Vec<&mut Value> {
                 }
             }
             "animations" => {
-                for animation in items.iter_mut() {
-                    let Some(Value::Array(samplers)) = animation.get_mut("samplers") else {
-                        continue;
-                    };
-                    for sampler in samplers.iter_mut().filter_map(Value::as_object_mut) {
-                        for (key, value) in sampler.iter_mut() {
-                            if key == "input" || key == "output" {
-                                refs.push(value);
-                            }
+                for sampler in nested(items, "samplers") {
+                    for (key, value) in sampler.iter_mut() {
+                        if key == "input" || key == "output" {
+                            refs.push(value);
                         }
                     }
                 }
@@ -570,7 +572,9 @@ fn copy_through(
         }
         view_map[v]
     };
-    let remap_view = |value: &mut Value, bin: &mut Bin, copy: &mut dyn FnMut(&mut Bin, usize) -> Option<usize>| {
+    let remap_view = |value: &mut Value,
+                      bin: &mut Bin,
+                      copy: &mut dyn FnMut(&mut Bin, usize) -> Option<usize>| {
         if let Some(new) = value.as_u64().and_then(|v| copy(bin, v as usize)) {
             *value = json!(new);
         }
@@ -596,7 +600,10 @@ fn copy_through(
         accessor_map[a] = Some(bin.accessor(accessor));
     }
     for r in accessor_refs(root) {
-        if let Some(new) = r.as_u64().and_then(|a| accessor_map.get(a as usize).copied().flatten()) {
+        if let Some(new) = r
+            .as_u64()
+            .and_then(|a| accessor_map.get(a as usize).copied().flatten())
+        {
             *r = json!(new);
         }
     }
@@ -631,7 +638,10 @@ fn copy_through(
                     .to_string(),
             };
             image.insert("mimeType".into(), json!(mime));
-            image.insert("bufferView".into(), json!(bin.bytes_view(&bytes, json!({}))));
+            image.insert(
+                "bufferView".into(),
+                json!(bin.bytes_view(&bytes, json!({}))),
+            );
         }
     }
     Ok(())
@@ -714,7 +724,10 @@ mod tests {
                     r.read_tex_coords(0).unwrap().into_f32().collect()
                 };
                 assert_eq!(uv(&ra), uv(&rb));
-                assert!(ra.read_positions().unwrap().eq(rb.read_positions().unwrap()));
+                assert!(ra
+                    .read_positions()
+                    .unwrap()
+                    .eq(rb.read_positions().unwrap()));
                 assert!(ra.read_normals().unwrap().eq(rb.read_normals().unwrap()));
                 let indices = |r: &gltf::mesh::Reader<'_, '_, _>| -> Vec<u32> {
                     r.read_indices().unwrap().into_u32().collect()
@@ -766,7 +779,10 @@ mod tests {
                 worst = worst.max(crate::mesh::distance(&q, played));
             }
         }
-        assert!(worst <= written.max_error * 1.0001 + 1e-9, "{worst} {written:?}");
+        assert!(
+            worst <= written.max_error * 1.0001 + 1e-9,
+            "{worst} {written:?}"
+        );
         assert!(written.max_error < 1e-4);
     }
 
@@ -837,16 +853,17 @@ mod tests {
         let times: Vec<f64> = (0..30).map(|f| f as f64 / 30.0).collect();
         let path = dir.join("out").join("face.glb");
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        let written = write_animated_glb(
-            &path,
-            &mesh,
-            &frames,
-            &times,
-            &options(4),
-            BufferAccess::AssetFolder,
-        )
-        .unwrap();
-        assert_eq!(written.targets, 1);
+        let write = || {
+            write_animated_glb(
+                &path,
+                &mesh,
+                &frames,
+                &times,
+                &options(4),
+                BufferAccess::AssetFolder,
+            )
+        };
+        assert_eq!(write().unwrap().targets, 1);
         let (doc, buffers) = gltf_check::import(&path, BufferAccess::AssetFolder).unwrap();
         assert_eq!(doc.nodes().count(), 2);
         assert_eq!(doc.materials().next().unwrap().name(), Some("skin"));
@@ -880,20 +897,10 @@ mod tests {
         assert_eq!(indices, [0, 1, 2]);
 
         // An image outside the asset's folder is refused.
-        let mut json: Value =
-            serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        let mut json: Value = serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
         json["images"][0]["uri"] = json!("../skin.png");
         std::fs::write(&source, serde_json::to_vec(&json).unwrap()).unwrap();
-        let e = write_animated_glb(
-            &path,
-            &mesh,
-            &frames,
-            &times,
-            &options(4),
-            BufferAccess::AssetFolder,
-        )
-        .unwrap_err()
-        .to_string();
+        let e = write().unwrap_err().to_string();
         assert!(e.contains("images[0].uri") && e.contains("\"..\""), "{e}");
     }
 

@@ -134,7 +134,11 @@ pub fn import(
     let document = gltf::Document::from_json(json_root).map_err(GltfCheckError::Document)?;
     Ok((
         document,
-        checked.buffers.into_iter().map(gltf::buffer::Data).collect(),
+        checked
+            .buffers
+            .into_iter()
+            .map(gltf::buffer::Data)
+            .collect(),
     ))
 }
 

@@ -42,7 +42,10 @@ impl fmt::Display for Item {
 pub fn parse_frames(text: &str) -> Result<FrameSelection, String> {
     let number = |s: &str, what: &str, item: &str| -> Result<usize, String> {
         s.trim().parse::<usize>().map_err(|_| {
-            format!("\"{item}\": {what} \"{}\" is not a frame number (0, 1, 2, ...)", s.trim())
+            format!(
+                "\"{item}\": {what} \"{}\" is not a frame number (0, 1, 2, ...)",
+                s.trim()
+            )
         })
     };
     let mut items = Vec::new();
@@ -149,7 +152,10 @@ mod tests {
     #[test]
     fn clear_errors() {
         let e = parse_frames("0..x").unwrap_err();
-        assert!(e.contains("\"0..x\": end \"x\" is not a frame number"), "{e}");
+        assert!(
+            e.contains("\"0..x\": end \"x\" is not a frame number"),
+            "{e}"
+        );
         let e = parse_frames("0..10:0").unwrap_err();
         assert!(e.contains("step must be at least 1"), "{e}");
         let e = parse_frames("5..5").unwrap_err();
@@ -161,7 +167,10 @@ mod tests {
         let e = parse_frames("-1").unwrap_err();
         assert!(e.contains("frame \"-1\""), "{e}");
         let e = frames("0..2000", 1590).unwrap_err();
-        assert!(e.contains("--frames 0..2000: the take has 1590 frames (0 to 1589)"), "{e}");
+        assert!(
+            e.contains("--frames 0..2000: the take has 1590 frames (0 to 1589)"),
+            "{e}"
+        );
         let e = frames("12", 10).unwrap_err();
         assert!(e.contains("--frames 12"), "{e}");
         let e = frames("10..", 10).unwrap_err();

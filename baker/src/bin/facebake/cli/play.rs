@@ -267,7 +267,11 @@ impl GlbSummary {
             self.p99_error_mm,
             self.max_error_mm,
             self.bound_mm,
-            if self.bound_met { "" } else { " NOT MET: more targets needed" },
+            if self.bound_met {
+                ""
+            } else {
+                " NOT MET: more targets needed"
+            },
             super::bake::bytes_text(self.bytes),
             super::bake::bytes_text(self.one_target_per_frame_bytes),
         )
