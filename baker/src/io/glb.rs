@@ -1,5 +1,7 @@
 //! Writing a face mesh with per-frame morph targets as binary glTF 2.0 (`.glb`), so baked or
-//! solved frames can be looked at in any glTF viewer.
+//! solved frames can be looked at in any glTF viewer. A played take is written by
+//! [`crate::io::gltf_anim`] instead: the source file kept whole, the take as a few morph
+//! targets animated at its rate.
 //!
 //! [`write_glb_with_morphs`] writes one node with one mesh: the rest positions (glTF vertex
 //! order), the normals if the mesh has them, the triangles, and one morph target per frame
