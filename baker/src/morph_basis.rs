@@ -13,9 +13,17 @@
 //! weights, which glTF viewers show by default, and an uncentred rank r+1 fits at least as
 //! well as the mean plus r centred components.
 //!
+//! **Weights in [0, 1].** Viewers and engines clamp morph weights: Blender's importer to its
+//! shape keys' [0, 1] slider range, Godot to [−1, 1], Unity (by default) to [0, 100] %. So each
+//! component's weights, which span some `[lo, hi]`, are rewritten as `lo + (hi − lo)·u` with
+//! `u` in [0, 1]: the component's target is scaled by `hi − lo`, and the constant part
+//! `Σ lo·component` becomes one more target, the **offset** (target 0), whose weight is 1 in
+//! every frame. Zero weights still give the rest pose.
+//!
 //! The **rank** is the smallest whose reconstruction keeps the 99th percentile of the vertex
 //! error (the distance between a reconstructed and a played vertex, over every vertex of every
-//! frame) within [`BasisOptions::max_error`], capped at [`BasisOptions::max_targets`]. Each
+//! frame) within [`BasisOptions::max_error`], capped at [`BasisOptions::max_targets`] targets
+//! (the offset included). Each
 //! frame's weights are its least-squares projection onto the basis, so the error measured is
 //! the real one whatever the accuracy of the iteration. The error reported in [`MorphBasis`]
 //! is measured once more on the `f32` targets and weights as a glTF file stores them.
@@ -41,16 +49,17 @@ pub const POWER_ITERATIONS: usize = 4;
 pub struct BasisOptions {
     /// The bound on the 99th percentile of the vertex error, in the frames' units.
     pub max_error: f64,
-    /// The most targets; when even these miss the bound, [`MorphBasis::bound_met`] is false.
+    /// The most targets, the offset included (at least 2); when even these miss the bound,
+    /// [`MorphBasis::bound_met`] is false.
     pub max_targets: usize,
 }
 
 /// The basis of a take and each frame's weights, as `f32` values a glTF file stores.
 #[derive(Debug, Clone)]
 pub struct MorphBasis {
-    /// Each target's position delta per vertex.
+    /// Each target's position delta per vertex: the offset first, then the components.
     pub targets: Vec<Vec<[f32; 3]>>,
-    /// Each frame's weight per target.
+    /// Each frame's weight per target, each in [0, 1]; the offset's is 1.
     pub weights: Vec<Vec<f32>>,
     /// The 99th percentile of the distance between `rest + Σ wₖ·targetₖ` and the frame, over
     /// every vertex of every frame (the frames' units).
@@ -85,8 +94,8 @@ pub enum MorphBasisError {
         /// The vertex.
         vertex: usize,
     },
-    /// The options ask for no targets at all, or a negative or NaN bound.
-    #[error("a basis needs at least one target and a bound ≥ 0 (got {max_targets} targets, bound {max_error})")]
+    /// The options ask for fewer than two targets, or a negative or NaN bound.
+    #[error("a basis needs at least two targets (the offset and one component) and a bound ≥ 0 (got {max_targets} targets, bound {max_error})")]
     Options {
         /// The cap asked for.
         max_targets: usize,
@@ -113,7 +122,7 @@ pub fn fit(
     options: &BasisOptions,
 ) -> Result<MorphBasis, MorphBasisError> {
     let (n, count) = (rest.len(), frames.len());
-    if options.max_targets == 0 || options.max_error.is_nan() || options.max_error < 0.0 {
+    if options.max_targets < 2 || options.max_error.is_nan() || options.max_error < 0.0 {
         return Err(MorphBasisError::Options {
             max_targets: options.max_targets,
             max_error: options.max_error,
@@ -147,12 +156,12 @@ pub fn fit(
             }
         }
     }
-    let (basis, weights) = principal_directions(&a, options.max_targets);
+    let (basis, weights) = principal_directions(&a, options.max_targets - 1);
 
     // The smallest rank within the bound: peel one component at a time off the residual.
     let mut errors = vec![0.0f64; n * count];
     let mut rank = 0;
-    let cap = options.max_targets.min(basis.ncols());
+    let cap = (options.max_targets - 1).min(basis.ncols());
     while rank < cap {
         a.ger(-1.0, &basis.column(rank), &weights.column(rank), 1.0);
         rank += 1;
@@ -167,16 +176,32 @@ pub fn fit(
         }
     }
     let rank = rank.max(1);
-    let targets: Vec<Vec<[f32; 3]>> = (0..rank)
-        .map(|t| {
-            let b = basis.column(t);
+    // Weights in [0, 1]: w = lo + span·u per component, the lo parts summed into the offset.
+    let mut offset = DVector::<f64>::zeros(rows);
+    let mut columns = Vec::with_capacity(rank + 1);
+    let mut unit_weights = DMatrix::<f64>::zeros(count, rank + 1);
+    unit_weights.column_mut(0).fill(1.0);
+    for t in 0..rank {
+        let w = weights.column(t);
+        let (lo, hi) = (w.min(), w.max());
+        let span = if hi > lo { hi - lo } else { 1.0 };
+        offset.axpy(lo, &basis.column(t), 1.0);
+        columns.push(basis.column(t) * span);
+        unit_weights
+            .column_mut(t + 1)
+            .copy_from(&w.map(|x| ((x - lo) / span).clamp(0.0, 1.0)));
+    }
+    columns.insert(0, offset);
+    let targets: Vec<Vec<[f32; 3]>> = columns
+        .iter()
+        .map(|b| {
             (0..n)
                 .map(|v| [0, 1, 2].map(|k| b[3 * v + k] as f32))
                 .collect()
         })
         .collect();
     let weights: Vec<Vec<f32>> = (0..count)
-        .map(|f| (0..rank).map(|t| weights[(f, t)] as f32).collect())
+        .map(|f| (0..=rank).map(|t| unit_weights[(f, t)] as f32).collect())
         .collect();
 
     // The error of the stored f32 values.
@@ -309,9 +334,21 @@ mod tests {
             max_targets: 12,
         };
         let basis = fit(&rest, &frames, &options).unwrap();
-        assert_eq!(basis.targets.len(), 5);
+        assert_eq!(basis.targets.len(), 6, "the offset and 5 components");
         assert!(basis.bound_met && basis.max_error < 1e-6, "{basis:?}");
         assert_eq!(basis.weights.len(), 200);
+        // Every weight in [0, 1], the offset's 1; each component spans the whole range.
+        for w in &basis.weights {
+            assert_eq!(w[0], 1.0);
+            assert!(w.iter().all(|x| (0.0..=1.0).contains(x)), "{w:?}");
+        }
+        for t in 1..6 {
+            let (lo, hi) = basis
+                .weights
+                .iter()
+                .fold((1.0f32, 0.0f32), |(lo, hi), w| (lo.min(w[t]), hi.max(w[t])));
+            assert!(lo == 0.0 && hi == 1.0, "{t}: {lo} {hi}");
+        }
         // rest + Σ w·target reproduces each frame within the reported error.
         for (f, frame) in frames.iter().enumerate() {
             for (v, p) in frame.iter().enumerate() {
@@ -369,7 +406,7 @@ mod tests {
             },
         )
         .unwrap();
-        assert!(basis.targets.len() <= 4);
+        assert!(basis.targets.len() <= 5);
         assert!(basis.max_error < 1e-8, "{}", basis.max_error);
     }
 
@@ -427,7 +464,7 @@ mod tests {
             MorphBasisError::FrameLength { frame: 2, .. }
         ));
         let zero = BasisOptions {
-            max_targets: 0,
+            max_targets: 1,
             ..options
         };
         assert!(matches!(

@@ -13,7 +13,8 @@
 //!   deformed primitive's own morph targets) are dropped;
 //! - gives the deformed primitive the take's basis ([`crate::morph_basis`]) as its morph
 //!   targets: `POSITION` deltas (with the `min`/`max` glTF requires) and, when the primitive
-//!   has normals, `NORMAL` deltas; the mesh's other primitives get zero targets, as glTF
+//!   has normals, `NORMAL` deltas (target 0 is the offset, whose weight is 1 in every frame,
+//!   so every weight stays in [0, 1]); the mesh's other primitives get zero targets, as glTF
 //!   requires the same target count across a mesh's primitives; `mesh.weights` are zeros and `mesh.extras.targetNames` name the targets;
 //! - adds an animation `take` with one `LINEAR` sampler whose input is the frames' times in
 //!   seconds and whose output is every frame's weights, on the `weights` of every node that
@@ -294,7 +295,9 @@ pub fn write_animated_glb(
         }
     }
     gmesh.insert("weights".into(), json!(vec![0.0; rank]));
-    let names: Vec<String> = (0..rank).map(|t| format!("basis {t}")).collect();
+    let names: Vec<String> = std::iter::once("offset".to_string())
+        .chain((1..rank).map(|t| format!("component {t}")))
+        .collect();
     match gmesh.get_mut("extras") {
         Some(Value::Object(extras)) => {
             extras.insert("targetNames".into(), json!(names));
@@ -697,7 +700,7 @@ mod tests {
             BufferAccess::AssetFolder,
         )
         .unwrap();
-        assert!(written.bound_met && written.targets <= 4, "{written:?}");
+        assert!(written.bound_met && written.targets <= 5, "{written:?}");
         assert!(written.bytes < written.one_target_per_frame_bytes / 5);
         let (p99, max) = written.normal_degrees.unwrap();
         // Three weights fit the blink's turning lids only roughly (measured 3.9° / 38°).
@@ -758,6 +761,9 @@ mod tests {
             panic!("a weights channel")
         };
         let weights: Vec<f32> = w.into_f32().collect();
+        // Every weight in [0, 1], as viewers that clamp them need; the offset's is 1.
+        assert!(weights.iter().all(|w| (0.0..=1.0).contains(w)));
+        assert!(weights.iter().step_by(written.targets).all(|&w| w == 1.0));
 
         // Frame f rebuilt from the file is within the reported error of the frame played.
         let reader = prim.reader(reader_of(&buffers));
@@ -863,7 +869,7 @@ mod tests {
                 BufferAccess::AssetFolder,
             )
         };
-        assert_eq!(write().unwrap().targets, 1);
+        assert_eq!(write().unwrap().targets, 2, "the offset and one component");
         let (doc, buffers) = gltf_check::import(&path, BufferAccess::AssetFolder).unwrap();
         assert_eq!(doc.nodes().count(), 2);
         assert_eq!(doc.materials().next().unwrap().name(), Some("skin"));
@@ -879,11 +885,11 @@ mod tests {
         );
         let texture = doc.textures().next().unwrap();
         assert_eq!(texture.source().index(), 0);
-        // Both primitives carry one target; the second's is zero.
+        // Both primitives carry two targets; the second's are zero.
         let gmesh = doc.meshes().next().unwrap();
         let prims: Vec<_> = gmesh.primitives().collect();
-        assert_eq!(prims[0].morph_targets().len(), 1);
-        assert_eq!(prims[1].morph_targets().len(), 1);
+        assert_eq!(prims[0].morph_targets().len(), 2);
+        assert_eq!(prims[1].morph_targets().len(), 2);
         let reader = prims[1].reader(reader_of(&buffers));
         let zero: Vec<[f32; 3]> = reader
             .read_morph_targets()

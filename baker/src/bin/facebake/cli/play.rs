@@ -52,10 +52,11 @@ pub struct PlayArgs {
     /// vertex error is within it, in millimetres.
     #[arg(long, value_name = "MM", default_value_t = DEFAULT_MAX_ERROR_MM, requires = "glb")]
     pub glb_max_error_mm: f64,
-    /// The most morph targets in the .glb, bound met or not.
+    /// The most morph targets in the .glb (the offset included, so at least 2), bound met or
+    /// not.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_TARGETS,
           value_parser = clap::builder::TypedValueParser::map(
-              clap::value_parser!(u32).range(1..), |n| n as usize), requires = "glb")]
+              clap::value_parser!(u32).range(2..), |n| n as usize), requires = "glb")]
     pub glb_max_targets: usize,
     /// The mesh the rig was baked from, for --glb.
     #[arg(long, value_name = "MESH")]
@@ -230,7 +231,7 @@ pub struct GlbSummary {
     pub frames: usize,
     /// Their rate: key `i` is at frame number / rate seconds.
     pub rate_hz: f64,
-    /// Morph targets of the basis.
+    /// Morph targets: the offset and the PCA components.
     pub targets: usize,
     /// 99th-percentile vertex error of the reconstruction against the played frames, mm.
     pub p99_error_mm: f64,
@@ -258,12 +259,14 @@ impl GlbSummary {
             _ => String::new(),
         };
         format!(
-            "{}: {} frames at {} Hz as {} morph targets (PCA; p99 error {:.3} mm, max {:.3} mm, \
-             bound {} mm{}{normals}); {} against {} with one target per frame",
+            "{}: {} frames at {} Hz as {} morph targets (an offset and {} PCA components; p99 \
+             error {:.3} mm, max {:.3} mm, bound {} mm{}{normals}); {} against {} with one \
+             target per frame",
             self.path.display(),
             self.frames,
             self.rate_hz,
             self.targets,
+            self.targets.saturating_sub(1),
             self.p99_error_mm,
             self.max_error_mm,
             self.bound_mm,
