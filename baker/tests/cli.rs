@@ -227,7 +227,11 @@ fn render_draws_the_demo_frames_and_measures_them() {
         s(&sheet),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("frame 99"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--frames 99: the take has"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
