@@ -902,8 +902,17 @@ mod tests {
         let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
         assert_eq!(indices, [0, 1, 2]);
 
-        // An image outside the asset's folder is refused.
+        // An extension that may reference buffers is refused, naming the source.
         let mut json: Value = serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        json["extensionsUsed"] = json!(["KHR_materials_unlit", "KHR_draco_mesh_compression"]);
+        std::fs::write(&source, serde_json::to_vec(&json).unwrap()).unwrap();
+        let e = write().unwrap_err().to_string();
+        assert!(
+            e.contains("face.gltf") && e.contains("extension KHR_draco_mesh_compression"),
+            "{e}"
+        );
+        // An image outside the asset's folder is refused.
+        json["extensionsUsed"] = json!(["KHR_materials_unlit"]);
         json["images"][0]["uri"] = json!("../skin.png");
         std::fs::write(&source, serde_json::to_vec(&json).unwrap()).unwrap();
         let e = write().unwrap_err().to_string();
