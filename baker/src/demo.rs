@@ -10,8 +10,8 @@ pub const MESH_NAME: &str = "head";
 pub const MARKERS: usize = 40;
 /// Of those, on skin that no morph target moves.
 pub const STATIC_MARKERS: usize = 6;
-/// Ground-truth frames put in the demo's `.glb`, by name.
-pub const GLB_FRAMES: [&str; 6] = [
+/// Ground-truth frames drawn on the demo's contact sheet, by name.
+pub const SHEET_FRAMES: [&str; 6] = [
     "jaw open",
     "open funnel",
     "blink",

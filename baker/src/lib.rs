@@ -14,6 +14,7 @@ pub mod io;
 pub mod mesh;
 pub mod metrics;
 pub mod model;
+pub mod morph_basis;
 pub mod normals;
 mod options;
 pub mod pivot;

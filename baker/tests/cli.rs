@@ -131,7 +131,17 @@ fn demo_writes_its_files() {
     let (doc, _, _) = gltf::import(dir.join("facecap_demo.glb")).expect("the GLB loads");
     let mesh = doc.meshes().next().expect("a mesh");
     let primitive = mesh.primitives().next().expect("a primitive");
-    assert_eq!(primitive.morph_targets().count(), 6);
+    let glb = &summary["glb"];
+    assert_eq!(
+        primitive.morph_targets().count() as u64,
+        glb["targets"].as_u64().unwrap()
+    );
+    // Every frame within the bound, eyes and teeth kept beside the head.
+    assert_eq!(glb["frames"], frames);
+    assert_eq!(glb["bound_met"], true, "{glb}");
+    assert!(glb["p99_error_mm"].as_f64().unwrap() <= 0.1, "{glb}");
+    assert_eq!(doc.meshes().count(), 4);
+    assert_eq!(doc.animations().count(), 1);
     // The rig loads and the text output names every file.
     let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
@@ -217,7 +227,11 @@ fn render_draws_the_demo_frames_and_measures_them() {
         s(&sheet),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("frame 99"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--frames 99: the take has"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
@@ -309,17 +323,24 @@ fn play_reproduces_the_runtime() {
     .unwrap();
     let npy = dir.join("frames.npy");
     let glb = dir.join("frames.glb");
-    let played = json_ok(&facebake(&[
-        "play",
-        s(&rig_path),
-        "--markers",
-        s(&csv),
-        "-o",
-        s(&npy),
-        "--glb",
-        s(&glb),
-        "--mesh",
-        s(&mesh_path()),
+    let mesh = mesh_path();
+    let play = |more: &[&str]| {
+        let mut args = vec![
+            "play",
+            s(&rig_path),
+            "--markers",
+            s(&csv),
+            "-o",
+            s(&npy),
+            "--glb",
+            s(&glb),
+            "--mesh",
+            s(&mesh),
+        ];
+        args.extend_from_slice(more);
+        facebake(&args)
+    };
+    let played = json_ok(&play(&[
         "--mesh-name",
         "head",
         "--frames",
@@ -353,9 +374,37 @@ fn play_reproduces_the_runtime() {
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f32, f32::max);
     assert!(worst < 1e-6, "largest difference {worst} m");
-    let (doc, _, _) = gltf::import(&glb).expect("the GLB loads");
+    let (doc, buffers, _) = gltf::import(&glb).expect("the GLB loads");
     let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
-    assert_eq!(primitive.morph_targets().count(), 3);
+    assert_eq!(
+        primitive.morph_targets().count() as u64,
+        played["glb"]["targets"].as_u64().unwrap()
+    );
+    assert_eq!(doc.nodes().count(), 4, "eyes and teeth kept");
+    // Frames 0, 2 and 5 at their times in the 60 Hz take.
+    let channel = doc.animations().next().unwrap().channels().next().unwrap();
+    assert_eq!(
+        channel.sampler().interpolation(),
+        gltf::animation::Interpolation::Linear
+    );
+    let keys: Vec<f32> = channel
+        .reader(|b| Some(&buffers[b.index()]))
+        .read_inputs()
+        .unwrap()
+        .collect();
+    assert_eq!(keys, [0.0, 2.0 / 60.0, 5.0 / 60.0]);
+    // A range beyond the take is bad input naming the capture and the range.
+    let beyond = |frames: &str| play(&["--frames", frames]);
+    let out = beyond("0..100:2");
+    assert_bad_input(&out, "capture.csv");
+    assert!(stderr(&out).contains("--frames 0..100:2: the take has"));
+    let out = beyond("3..1");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("the range is empty"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
@@ -450,10 +499,29 @@ fn demo_plays_the_capture_through_the_runtime_stages() {
     );
     let residual = m["stages"]["head_residual_mean_mm"].as_f64().unwrap();
     assert!((0.05..0.2).contains(&residual), "{m}");
-    let (doc, _, _) = gltf::import(dir.join("jawmocap_demo.glb")).expect("the GLB loads");
+    let (doc, buffers, _) = gltf::import(dir.join("jawmocap_demo.glb")).expect("the GLB loads");
     let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
-    assert_eq!(primitive.morph_targets().count(), 6);
-    let names: Vec<&str> = m["glb_frames"]
+    let glb = &m["glb"];
+    assert_eq!(
+        primitive.morph_targets().count() as u64,
+        glb["targets"].as_u64().unwrap()
+    );
+    assert!(glb["targets"].as_u64().unwrap() <= 64, "{glb}");
+    assert!(glb["p99_error_mm"].as_f64().unwrap() <= 0.1, "{glb}");
+    assert!(
+        glb["bytes"].as_u64().unwrap() * 10 < glb["one_target_per_frame_bytes"].as_u64().unwrap(),
+        "{glb}"
+    );
+    // The whole take, one key per frame at 60 Hz.
+    let channel = doc.animations().next().unwrap().channels().next().unwrap();
+    let keys: Vec<f32> = channel
+        .reader(|b| Some(&buffers[b.index()]))
+        .read_inputs()
+        .unwrap()
+        .collect();
+    assert_eq!(keys.len(), 1590);
+    assert_eq!(keys[1589], 1589.0f32 / 60.0);
+    let names: Vec<&str> = m["sheet_frames"]
         .as_array()
         .unwrap()
         .iter()

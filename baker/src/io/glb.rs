@@ -1,5 +1,7 @@
 //! Writing a face mesh with per-frame morph targets as binary glTF 2.0 (`.glb`), so baked or
-//! solved frames can be looked at in any glTF viewer.
+//! solved frames can be looked at in any glTF viewer. A played take is written by
+//! [`crate::io::gltf_anim`] instead: the source file kept whole, the take as a few morph
+//! targets animated at its rate.
 //!
 //! [`write_glb_with_morphs`] writes one node with one mesh: the rest positions (glTF vertex
 //! order), the normals if the mesh has them, the triangles, and one morph target per frame
@@ -68,22 +70,39 @@ pub enum GlbError {
     },
 }
 
-const ARRAY_BUFFER: u32 = 34962;
+pub(crate) const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
-const FLOAT: u32 = 5126;
+pub(crate) const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
 
 /// The binary chunk being assembled, with its buffer views and accessors.
 #[derive(Default)]
-struct Bin {
-    bytes: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
+pub(crate) struct Bin {
+    pub(crate) bytes: Vec<u8>,
+    pub(crate) views: Vec<Value>,
+    pub(crate) accessors: Vec<Value>,
 }
 
 impl Bin {
+    /// Appends `bytes` at the next 4-byte boundary as the buffer view `view` (whose buffer,
+    /// offset and length are set here); returns the view index.
+    pub(crate) fn bytes_view(&mut self, bytes: &[u8], mut view: Value) -> usize {
+        self.bytes.resize(self.bytes.len().next_multiple_of(4), 0);
+        view["buffer"] = json!(0);
+        view["byteOffset"] = json!(self.bytes.len());
+        view["byteLength"] = json!(bytes.len());
+        self.bytes.extend_from_slice(bytes);
+        self.views.push(view);
+        self.views.len() - 1
+    }
+
     /// Appends little-endian 4-byte values as a new buffer view; returns the view index.
-    fn view(&mut self, words: impl IntoIterator<Item = [u8; 4]>, target: Option<u32>) -> usize {
+    pub(crate) fn view(
+        &mut self,
+        words: impl IntoIterator<Item = [u8; 4]>,
+        target: Option<u32>,
+    ) -> usize {
+        self.bytes.resize(self.bytes.len().next_multiple_of(4), 0);
         let offset = self.bytes.len();
         self.bytes.extend(words.into_iter().flatten());
         let mut view =
@@ -96,13 +115,13 @@ impl Bin {
     }
 
     /// Adds an accessor; returns its index.
-    fn accessor(&mut self, accessor: Value) -> usize {
+    pub(crate) fn accessor(&mut self, accessor: Value) -> usize {
         self.accessors.push(accessor);
         self.accessors.len() - 1
     }
 
     /// A `VEC3` float accessor with the exact `min`/`max` the spec requires for positions.
-    fn vec3s(&mut self, values: &[[f32; 3]]) -> usize {
+    pub(crate) fn vec3s(&mut self, values: &[[f32; 3]]) -> usize {
         // Exact: f32 -> f64 -> f32 round-trips, and min/max pick one of the values.
         let (lo, hi) = bounds(values.iter().map(|v| v.map(f64::from)));
         let (lo, hi) = (lo.map(|x| x as f32), hi.map(|x| x as f32));
@@ -223,10 +242,16 @@ pub fn write_glb_with_morphs(
     root["bufferViews"] = json!(bin.views);
     root["accessors"] = json!(bin.accessors);
 
+    write_container(path, &root, bin.bytes).map(|_| ())
+}
+
+/// Writes `root` and `bin` as a GLB file at `path`: the JSON chunk padded with spaces and the
+/// `BIN` chunk with zeros to 4 bytes; returns the file's size.
+pub(crate) fn write_container(path: &Path, root: &Value, bin: Vec<u8>) -> Result<usize, GlbError> {
     let mut json_chunk =
-        serde_json::to_vec(&root).expect("a glTF document of finite numbers serialises");
+        serde_json::to_vec(root).expect("a glTF document of finite numbers serialises");
     json_chunk.resize(json_chunk.len().next_multiple_of(4), b' ');
-    let mut bin_chunk = bin.bytes;
+    let mut bin_chunk = bin;
     bin_chunk.resize(bin_chunk.len().next_multiple_of(4), 0);
     let total = 12 + 8 + json_chunk.len() + 8 + bin_chunk.len();
     let too_large = || GlbError::TooLarge {
@@ -247,7 +272,8 @@ pub fn write_glb_with_morphs(
     std::fs::write(path, out).map_err(|source| GlbError::Io {
         path: path.to_path_buf(),
         source,
-    })
+    })?;
+    Ok(total)
 }
 
 #[cfg(test)]

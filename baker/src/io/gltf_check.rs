@@ -127,24 +127,76 @@ pub fn import(
     path: &Path,
     access: BufferAccess,
 ) -> Result<(gltf::Document, Vec<gltf::buffer::Data>)> {
+    let checked = check(path, access)?;
+    let json_root: gltf::json::Root =
+        gltf::json::deserialize::from_value(Value::Object(checked.json))
+            .map_err(|e| GltfCheckError::Document(gltf::Error::Deserialize(e)))?;
+    let document = gltf::Document::from_json(json_root).map_err(GltfCheckError::Document)?;
+    Ok((
+        document,
+        checked
+            .buffers
+            .into_iter()
+            .map(gltf::buffer::Data)
+            .collect(),
+    ))
+}
+
+/// A glTF file that passed the checks: its JSON and its buffers' bytes.
+#[derive(Debug, Clone)]
+pub struct Checked {
+    /// The top-level JSON object.
+    pub json: Map<String, Value>,
+    /// Each buffer's bytes (its declared `byteLength`, zero-padded to 4).
+    pub buffers: Vec<Vec<u8>>,
+    /// The folder the file's relative URIs are read from.
+    pub folder: PathBuf,
+    /// Where its URIs may be read from.
+    pub access: BufferAccess,
+}
+
+/// Reads and checks a `.gltf` or `.glb` file as [`import`] does, returning its JSON and buffers
+/// instead of a `gltf::Document`, for a writer that copies the file through.
+pub fn check(path: &Path, access: BufferAccess) -> Result<Checked> {
     let bytes = crate::io::read_regular(path, MAX_FILE_BYTES, MAX_FILE_BYTES)
         .map_err(GltfCheckError::Read)?;
     let (json, bin) = split_glb(&bytes)?;
     let root: Value = serde_json::from_slice(json).map_err(GltfCheckError::Json)?;
-    let root = root
-        .as_object()
-        .ok_or_else(|| invalid("glTF JSON", "the top level is not an object"))?;
+    let Value::Object(root) = root else {
+        return Err(invalid("glTF JSON", "the top level is not an object"));
+    };
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let (data, external_bytes) = load_buffers(root, bin, folder, access)?;
+    let (data, external_bytes) = load_buffers(&root, bin, folder, access)?;
     let input_bytes = bytes.len() as u64 + external_bytes;
-    check_structure(root, &data, input_bytes)?;
-    let json_root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
-        .map_err(|e| GltfCheckError::Document(gltf::Error::Deserialize(e)))?;
-    let document = gltf::Document::from_json(json_root).map_err(GltfCheckError::Document)?;
-    Ok((document, data.into_iter().map(gltf::buffer::Data).collect()))
+    check_structure(&root, &data, input_bytes)?;
+    Ok(Checked {
+        json: root,
+        buffers: data,
+        folder: folder.to_path_buf(),
+        access,
+    })
+}
+
+impl Checked {
+    /// The bytes an image's (or any) `uri` names: a base64 `data:` URI, or a file read under
+    /// the same rules as buffers (in the asset's folder unless [`BufferAccess::Anywhere`]), at
+    /// most [`MAX_FILE_BYTES`]. `place` names the property in errors (`images[0].uri`).
+    pub fn read_uri(&self, uri: &str, place: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            return decode_data_uri(rest, place);
+        }
+        let file = resolve_uri(uri, &self.folder, self.access, place)?;
+        crate::io::read_regular(&file, MAX_FILE_BYTES, MAX_FILE_BYTES).map_err(|source| {
+            GltfCheckError::Buffer {
+                place: place.to_owned(),
+                file,
+                source,
+            }
+        })
+    }
 }
 
 fn le_u32(b: &[u8], at: usize) -> u32 {

@@ -400,6 +400,8 @@ fn load(
     Ok(FaceMesh {
         source: path.to_path_buf(),
         mesh_name: name,
+        mesh_index: gmesh.index(),
+        primitive_index: pi,
         positions,
         normals,
         triangles,

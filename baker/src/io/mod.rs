@@ -3,6 +3,7 @@
 
 pub mod capture;
 pub mod glb;
+pub mod gltf_anim;
 pub mod gltf_check;
 pub mod gltf_mesh;
 pub mod layout;

@@ -49,6 +49,10 @@ pub struct FaceMesh {
     pub source: PathBuf,
     /// The mesh's name in the file (`#<index>` when it has none).
     pub mesh_name: String,
+    /// The mesh's index in the file's `meshes` (0 for a mesh made in code).
+    pub mesh_index: usize,
+    /// The primitive's index in the mesh's `primitives` (0 for a mesh made in code).
+    pub primitive_index: usize,
     /// Rest positions, in glTF vertex order and asset units.
     pub positions: Vec<[f64; 3]>,
     /// Vertex normals as stored in the file, if the primitive has `NORMAL`.
@@ -99,6 +103,8 @@ impl FaceMesh {
         FaceMesh {
             source: PathBuf::new(),
             mesh_name: name.to_string(),
+            mesh_index: 0,
+            primitive_index: 0,
             positions,
             normals: None,
             triangles,

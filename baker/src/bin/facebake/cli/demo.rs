@@ -13,20 +13,21 @@ use serde::Serialize;
 use super::bake::bytes_text;
 use super::inspect::CostSummary;
 use super::{
-    deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress, to_f32,
+    deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress,
     weight_format, write_file, CliError,
 };
 use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
 use facebake::demo::{
-    CAPTURE_RATE_HZ, GLB_FRAMES, JAWMOCAP_LAYOUT, MARKERS, MESH_FILE, MESH_NAME, STATIC_MARKERS,
+    CAPTURE_RATE_HZ, JAWMOCAP_LAYOUT, MARKERS, MESH_FILE, MESH_NAME, SHEET_FRAMES,
+    STATIC_MARKERS,
 };
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::io::capture::write_csv;
-use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::read_layout;
 use facebake::io::npy::write_npy_f32;
 use facebake::model::{place_markers, Capture, Units, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::morph_basis::{DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS};
 use facebake::{BakeOptions, Scene};
 
 /// Arguments of `facebake demo`.
@@ -117,6 +118,8 @@ pub struct DemoSummary {
     pub files: Vec<Written>,
     /// Structure metrics of the ground-truth sequence.
     pub structure: super::render::Structure,
+    /// The ground truth's animated `.glb`.
+    pub glb: super::play::GlbSummary,
     /// The capture played through compensation, retargeting and deformation.
     pub mocap: super::mocap::MocapSummary,
 }
@@ -277,17 +280,21 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
     )?;
     wrote(&capture_path, "the sequence's marker positions, for `play`");
     let glb_path = dir.join("facecap_demo.glb");
-    let morphs: Vec<(String, Vec<[f32; 3]>)> = GLB_FRAMES
-        .iter()
-        .filter_map(|name| {
-            let f = truth.frames.iter().position(|fr| fr.name == *name)?;
-            Some((name.to_string(), to_f32(&played[f])))
-        })
-        .collect();
-    write_glb_with_morphs(&glb_path, &truth.mesh, &morphs)?;
+    let numbers: Vec<usize> = (0..frames).collect();
+    let glb = super::play::write_take_glb(
+        &glb_path,
+        &truth.mesh,
+        (&played, &numbers),
+        CAPTURE_RATE_HZ,
+        Units::Metres,
+        (DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS),
+    )?;
     wrote(
         &glb_path,
-        &format!("{} runtime frames as morph targets", morphs.len()),
+        &format!(
+            "all {frames} frames animated at {CAPTURE_RATE_HZ} Hz, {} morph targets",
+            glb.targets
+        ),
     );
 
     let (structure, pictures) = super::render::demo_ground_truth(
@@ -295,7 +302,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         &truth,
         (&played, &markers),
         (&names, &rest),
-        &GLB_FRAMES,
+        &SHEET_FRAMES,
     )?;
     pictures.iter().for_each(|(p, w)| wrote(p, w));
     let mocap = super::mocap::run(&fixtures, args.mocap.as_deref(), dir, args.json)?;
@@ -323,6 +330,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         speed,
         files,
         structure,
+        glb,
         mocap,
     };
     if args.json {
@@ -380,6 +388,7 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
     outln!(out, "    sparse runtime   {}", s.runtime_vs_truth);
     outln!(out, "    dense f64 RBF    {}", s.dense_vs_truth);
     out.push_str(&super::render::structure_text(&s.structure, false));
+    outln!(out, "  .glb            {}", s.glb.text());
     let sp = &s.speed;
     outln!(
         out,

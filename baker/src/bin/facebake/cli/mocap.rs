@@ -9,20 +9,20 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::play::{play_stages, StagesSummary};
-use super::{load_rig, max_distance, to_f32, write_file, CliError};
+use super::{load_rig, max_distance, write_file, CliError};
 use facebake::deformer::SparseF64;
 use facebake::demo::{JAWMOCAP_FILE, JAWMOCAP_LAYOUT, MESH_FILE, MESH_NAME};
 use facebake::io::capture::read_capture;
-use facebake::io::glb::write_glb_with_morphs;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::read_layout;
 use facebake::io::npy::write_npy_f32;
-use facebake::model::{place_markers, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::model::{place_markers, Units, DEFAULT_MAX_SNAP_FRACTION};
+use facebake::morph_basis::{DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS};
 use facebake::stages::reference::StateF64;
 use facebake::{BakeError, BakeOptions, Scene};
 
-/// Frames of the capture put in the `.glb` besides the chosen expressions.
-const EXTRA_GLB_FRAMES: usize = 3;
+/// Frames of the capture drawn on the contact sheet besides the chosen expressions.
+const EXTRA_SHEET_FRAMES: usize = 3;
 
 /// What the capture demo reports.
 #[derive(Debug, Serialize)]
@@ -50,8 +50,10 @@ pub struct MocapSummary {
     pub play_frames_per_s: f64,
     /// Indicative speed of the stages alone, frames per second.
     pub stages_frames_per_s: f64,
-    /// Frames in the `.glb`: (name, frame).
-    pub glb_frames: Vec<(String, usize)>,
+    /// Frames on the contact sheet: (name, frame).
+    pub sheet_frames: Vec<(String, usize)>,
+    /// The whole take's animated `.glb`.
+    pub glb: super::play::GlbSummary,
     /// Files written: (path, what).
     pub files: Vec<(PathBuf, String)>,
     /// Structure metrics of the played capture.
@@ -207,10 +209,10 @@ pub fn run(
             .unwrap_or(0);
         chosen.push((format!("jaw sideways (frame {f})"), f));
     }
-    for f in super::play::evenly_spaced(frames.len(), EXTRA_GLB_FRAMES + 2)
+    for f in super::play::evenly_spaced(frames.len(), EXTRA_SHEET_FRAMES + 2)
         .into_iter()
         .skip(1)
-        .take(EXTRA_GLB_FRAMES)
+        .take(EXTRA_SHEET_FRAMES)
     {
         chosen.push((format!("frame {f}"), f));
     }
@@ -245,14 +247,21 @@ pub fn run(
         ),
     ));
     let glb_path = dir.join("jawmocap_demo.glb");
-    let morphs: Vec<(String, Vec<[f32; 3]>)> = chosen
-        .iter()
-        .map(|(name, f)| (name.clone(), to_f32(&played[*f])))
-        .collect();
-    write_glb_with_morphs(&glb_path, &mesh, &morphs)?;
+    let numbers: Vec<usize> = (0..played.len()).collect();
+    let glb = super::play::write_take_glb(
+        &glb_path,
+        &mesh,
+        (&played, &numbers),
+        capture.rate_hz,
+        Units::Metres,
+        (DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS),
+    )?;
     files.push((
         glb_path,
-        format!("{} capture frames as morph targets", morphs.len()),
+        format!(
+            "the whole take animated at {} Hz, {} morph targets",
+            capture.rate_hz, glb.targets
+        ),
     ));
 
     Ok(MocapSummary {
@@ -267,7 +276,8 @@ pub fn run(
         runtime_vs_f64_fraction: worst / mesh.diagonal(),
         play_frames_per_s: play_fps,
         stages_frames_per_s: stages_fps,
-        glb_frames: chosen,
+        sheet_frames: chosen,
+        glb,
         files,
         structure,
     })
@@ -321,8 +331,9 @@ pub fn text(s: &MocapSummary) -> String {
         s.play_frames_per_s,
         s.stages_frames_per_s
     );
-    let names: Vec<&str> = s.glb_frames.iter().map(|(n, _)| n.as_str()).collect();
-    outln!(out, "  .glb frames     {}", names.join(", "));
+    let names: Vec<&str> = s.sheet_frames.iter().map(|(n, _)| n.as_str()).collect();
+    outln!(out, "  sheet frames    {}", names.join(", "));
+    outln!(out, "  .glb            {}", s.glb.text());
     for (path, what) in &s.files {
         outln!(out, "  {:40} {}", path.display().to_string(), what);
     }

@@ -15,6 +15,7 @@ macro_rules! outln {
 mod bake;
 mod compensate;
 mod demo;
+mod frame_selection;
 mod inspect;
 mod mask_images;
 mod mocap;
@@ -35,6 +36,7 @@ use facebake::bake::BakeError;
 use facebake::ground_truth::GroundTruthError;
 use facebake::io::capture::CaptureError;
 use facebake::io::glb::GlbError;
+use facebake::io::gltf_anim::GltfAnimError;
 use facebake::io::gltf_mesh::MeshLoadError;
 use facebake::model::LayoutError;
 use facebake::model::Units;
@@ -113,6 +115,9 @@ pub enum CliError {
     /// A GLB could not be written.
     #[error(transparent)]
     Glb(#[from] GlbError),
+    /// An animated GLB could not be written.
+    #[error(transparent)]
+    GltfAnim(#[from] GltfAnimError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -316,11 +321,6 @@ pub fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         .zip(b)
         .map(|(p, q)| facebake::mesh::distance(p, q))
         .fold(0.0, f64::max)
-}
-
-/// Flatten positions to f32 for `.npy` and `.glb` output.
-pub fn to_f32(positions: &[[f64; 3]]) -> Vec<[f32; 3]> {
-    positions.iter().map(|p| p.map(|x| x as f32)).collect()
 }
 
 /// The weight format `Q(23−F).F` as text.

@@ -6,18 +6,18 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
+use super::frame_selection::{parse_frames, FrameSelection};
 use super::{
     deform_to_asset, emit, ensure_parent, load_rig, marker_names, markers_to_rig, parse_units,
     print_json, progress, read_file, CliError,
 };
 use facebake::io::capture::read_capture_with_units;
-use facebake::io::glb::write_glb_with_morphs;
+use facebake::io::gltf_anim::write_animated_glb;
+use facebake::io::gltf_check::BufferAccess;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::npy::write_npy_f32;
 use facebake::model::{Capture, FaceMesh, Units};
-
-/// Frames put in the `.glb` when `--frames` is not given: this many, evenly spaced.
-pub const DEFAULT_GLB_FRAMES: usize = 10;
+use facebake::morph_basis::{BasisOptions, DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS};
 
 /// Arguments of `facebake play`.
 #[derive(Debug, Args)]
@@ -43,18 +43,32 @@ pub struct PlayArgs {
     /// order, mesh units.
     #[arg(short, long, value_name = "NPY")]
     pub output: PathBuf,
-    /// Also write a .glb of the mesh with the chosen frames as morph targets (needs --mesh).
+    /// Also write an animated .glb (needs --mesh): the mesh's file with everything in it kept
+    /// (other meshes, materials, textures) and the played frames as a few morph targets (a PCA
+    /// basis) animated at the capture's rate, LINEAR between frames.
     #[arg(long, value_name = "GLB", requires = "mesh")]
     pub glb: Option<PathBuf>,
+    /// The bound on the .glb's reconstruction error: the smallest basis whose 99th-percentile
+    /// vertex error is within it, in millimetres.
+    #[arg(long, value_name = "MM", default_value_t = DEFAULT_MAX_ERROR_MM, requires = "glb")]
+    pub glb_max_error_mm: f64,
+    /// The most morph targets in the .glb (the offset included, so at least 2), bound met or
+    /// not.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_TARGETS,
+          value_parser = clap::builder::TypedValueParser::map(
+              clap::value_parser!(u32).range(2..), |n| n as usize), requires = "glb")]
+    pub glb_max_targets: usize,
     /// The mesh the rig was baked from, for --glb.
     #[arg(long, value_name = "MESH")]
     pub mesh: Option<PathBuf>,
     /// Which mesh of the file (default: the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
-    /// Frames (0-based, comma-separated) to put in the .glb (default: 10 evenly spaced).
-    #[arg(long, value_name = "F,F,...", value_delimiter = ',', requires = "glb")]
-    pub frames: Option<Vec<usize>>,
+    /// Frames (0-based) to put in the .glb, each at its time in the take (default: all):
+    /// frames and ranges, comma-separated: `0..100` (end excluded), `0..1590:10` (every tenth),
+    /// `100..` (to the end), `0,388,1122`.
+    #[arg(long, value_name = "RANGES", value_parser = parse_frames, requires = "glb")]
+    pub frames: Option<FrameSelection>,
     /// Rig markers the capture may lack, comma-separated (rebuilt or held every frame). Any
     /// other rig marker missing from the capture is an error, except the rig's virtual markers
     /// and anchors.
@@ -201,11 +215,118 @@ pub struct PlaySummary {
     /// The `.npy` written.
     pub output: PathBuf,
     /// The `.glb` written, if any.
-    pub glb: Option<PathBuf>,
+    pub glb: Option<GlbSummary>,
     /// Frames in the `.glb`.
     pub glb_frames: Vec<usize>,
     /// What the capture stages did, for a rig that has them.
     pub stages: Option<StagesSummary>,
+}
+
+/// What an animated `.glb` holds and how well it reproduces the frames.
+#[derive(Debug, Serialize)]
+pub struct GlbSummary {
+    /// The file.
+    pub path: PathBuf,
+    /// Frames (animation keys).
+    pub frames: usize,
+    /// Their rate: key `i` is at frame number / rate seconds.
+    pub rate_hz: f64,
+    /// Morph targets: the offset and the PCA components.
+    pub targets: usize,
+    /// 99th-percentile vertex error of the reconstruction against the played frames, mm.
+    pub p99_error_mm: f64,
+    /// Largest vertex error, mm.
+    pub max_error_mm: f64,
+    /// The bound on the 99th percentile, mm.
+    pub bound_mm: f64,
+    /// Whether the 99th percentile is within it (else the target cap was reached).
+    pub bound_met: bool,
+    /// 99th-percentile angle between reconstructed and exact normals, degrees.
+    pub normal_p99_degrees: Option<f64>,
+    /// Largest such angle, degrees.
+    pub normal_max_degrees: Option<f64>,
+    /// The file's size, bytes.
+    pub bytes: usize,
+    /// Its size with one morph target per frame instead, bytes.
+    pub one_target_per_frame_bytes: usize,
+}
+
+impl GlbSummary {
+    /// One line for the text output.
+    pub fn text(&self) -> String {
+        let normals = match (self.normal_p99_degrees, self.normal_max_degrees) {
+            (Some(p99), Some(max)) => format!("; normals p99 {p99:.2}°, max {max:.1}°"),
+            _ => String::new(),
+        };
+        format!(
+            "{}: {} frames at {} Hz as {} morph targets (an offset and {} PCA components; p99 \
+             error {:.3} mm, max {:.3} mm, bound {} mm{}{normals}); {} against {} with one \
+             target per frame",
+            self.path.display(),
+            self.frames,
+            self.rate_hz,
+            self.targets,
+            self.targets.saturating_sub(1),
+            self.p99_error_mm,
+            self.max_error_mm,
+            self.bound_mm,
+            if self.bound_met {
+                ""
+            } else {
+                " NOT MET: more targets needed"
+            },
+            super::bake::bytes_text(self.bytes),
+            super::bake::bytes_text(self.one_target_per_frame_bytes),
+        )
+    }
+}
+
+/// Writes the animated `.glb` of `frames` (played frames `numbers` of a take at `rate_hz`, mesh
+/// units `units`) for `mesh` at `path`, with at most `max_targets` targets and a p99 bound of
+/// `max_error_mm`.
+pub fn write_take_glb(
+    path: &Path,
+    mesh: &FaceMesh,
+    (frames, numbers): (&[Vec<[f64; 3]>], &[usize]),
+    rate_hz: f64,
+    units: Units,
+    (max_error_mm, max_targets): (f64, usize),
+) -> Result<GlbSummary, CliError> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(CliError::input(
+            path,
+            format!("the capture's rate {rate_hz} Hz gives no frame times"),
+        ));
+    }
+    let mm_per_unit = units.to_metres() * 1000.0;
+    let times: Vec<f64> = numbers.iter().map(|&f| f as f64 / rate_hz).collect();
+    let options = BasisOptions {
+        max_error: max_error_mm / mm_per_unit,
+        max_targets,
+    };
+    ensure_parent(path)?;
+    let written = write_animated_glb(
+        path,
+        mesh,
+        frames,
+        &times,
+        &options,
+        BufferAccess::AssetFolder,
+    )?;
+    Ok(GlbSummary {
+        path: path.to_path_buf(),
+        frames: written.frames,
+        rate_hz,
+        targets: written.targets,
+        p99_error_mm: written.p99_error * mm_per_unit,
+        max_error_mm: written.max_error * mm_per_unit,
+        bound_mm: max_error_mm,
+        bound_met: written.bound_met,
+        normal_p99_degrees: written.normal_degrees.map(|d| d.0),
+        normal_max_degrees: written.normal_degrees.map(|d| d.1),
+        bytes: written.bytes,
+        one_target_per_frame_bytes: written.one_target_per_frame_bytes,
+    })
 }
 
 /// What the runtime's capture stages did over a whole capture.
@@ -439,20 +560,21 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
                 CliError::input(glb_path, "writing a .glb needs the rig's mesh (--mesh)")
             })?;
             let mesh = load_matching_mesh(mesh_path, args.mesh_name.as_deref(), n)?;
-            let chosen = match &args.frames {
-                Some(list) => list.clone(),
-                None => evenly_spaced(frame_count, DEFAULT_GLB_FRAMES),
-            };
-            if let Some(&bad) = chosen.iter().find(|&&f| f >= frame_count) {
+            if !(args.glb_max_error_mm.is_finite() && args.glb_max_error_mm >= 0.0) {
                 return Err(CliError::input(
-                    &args.markers,
+                    glb_path,
                     format!(
-                        "--frames asks for frame {bad}; the capture has {} (0 to {})",
-                        frame_count,
-                        frame_count.saturating_sub(1)
+                        "--glb-max-error-mm {} is not a distance ≥ 0",
+                        args.glb_max_error_mm
                     ),
                 ));
             }
+            let chosen = args
+                .frames
+                .clone()
+                .unwrap_or_else(FrameSelection::all)
+                .resolve(frame_count)
+                .map_err(|e| CliError::input(&args.markers, e))?;
             Some((glb_path.clone(), mesh, chosen))
         }
         None => None,
@@ -493,19 +615,25 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     write_npy_f32(&args.output, &[frame_count, n, 3], &data)
         .map_err(|e| CliError::io(&args.output, e))?;
     let mut glb_frames = Vec::new();
+    let mut glb_summary = None;
     if let Some((path, mesh, chosen)) = &glb {
-        let morphs: Vec<(String, Vec<[f32; 3]>)> = chosen
+        let frames: Vec<Vec<[f64; 3]>> = chosen
             .iter()
             .map(|&f| {
-                let frame = &data[f * n * 3..(f + 1) * n * 3];
-                (
-                    format!("frame {f}"),
-                    frame.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-                )
+                data[f * n * 3..(f + 1) * n * 3]
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]].map(f64::from))
+                    .collect()
             })
             .collect();
-        ensure_parent(path)?;
-        write_glb_with_morphs(path, mesh, &morphs)?;
+        glb_summary = Some(write_take_glb(
+            path,
+            mesh,
+            (&frames, chosen),
+            capture.rate_hz,
+            args.units,
+            (args.glb_max_error_mm, args.glb_max_targets),
+        )?);
         glb_frames = chosen.clone();
     }
     let summary = PlaySummary {
@@ -518,7 +646,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         capture_units: capture.units.to_string(),
         mesh_units: args.units.to_string(),
         output: args.output.clone(),
-        glb: glb.as_ref().map(|g| g.0.clone()),
+        glb: glb_summary,
         glb_frames,
         stages,
     };
@@ -564,13 +692,8 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
                 st.head_residual_max_mm
             );
         }
-        if let Some(path) = &summary.glb {
-            outln!(
-                out,
-                "wrote {} (frames {:?} as morph targets)",
-                path.display(),
-                summary.glb_frames
-            );
+        if let Some(glb) = &summary.glb {
+            outln!(out, "wrote {}", glb.text());
         }
         emit(&out);
     }

@@ -41,9 +41,11 @@ pub(crate) struct RenderArgs {
     /// region of a mesh without morph targets.
     #[arg(long, value_name = "RIG")]
     pub rig: Option<PathBuf>,
-    /// Frames (0-based, comma-separated) to draw, one row each (default: 6 evenly spaced).
-    #[arg(long, value_name = "F,F,...", value_delimiter = ',')]
-    pub frames: Option<Vec<usize>>,
+    /// Frames (0-based) to draw, one row each, in increasing order (default: 6 evenly
+    /// spaced): frames and ranges, comma-separated, as `play --frames` takes them (`0,388`,
+    /// `0..1590:300`).
+    #[arg(long, value_name = "RANGES", value_parser = super::frame_selection::parse_frames)]
+    pub frames: Option<super::frame_selection::FrameSelection>,
     /// Where to write the contact sheet (PNG).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
@@ -271,19 +273,12 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
         _ => None,
     };
     let (markers, head) = rig.as_ref().map(rig_markers).unwrap_or_default();
-    let chosen = args
-        .frames
-        .clone()
-        .unwrap_or_else(|| evenly_spaced(frames.len(), DEFAULT_ROWS));
-    if let Some(&bad) = chosen.iter().find(|&&f| f >= frames.len()) {
-        return Err(CliError::input(
-            &args.frames_npy,
-            format!(
-                "frame {bad} asked for, but the file has {} frames",
-                frames.len()
-            ),
-        ));
-    }
+    let chosen = match &args.frames {
+        Some(selection) => selection
+            .resolve(frames.len())
+            .map_err(|e| CliError::input(&args.frames_npy, e))?,
+        None => evenly_spaced(frames.len(), DEFAULT_ROWS),
+    };
     let rows: Vec<(String, usize)> = chosen.iter().map(|&f| (format!("FRAME {f}"), f)).collect();
     let title = format!(
         "{} ON {}",
