@@ -18,8 +18,7 @@ use super::{
 };
 use facebake::deformer::{SparseF64, TOLERANCE_FRACTION};
 use facebake::demo::{
-    CAPTURE_RATE_HZ, JAWMOCAP_LAYOUT, MARKERS, MESH_FILE, MESH_NAME, SHEET_FRAMES,
-    STATIC_MARKERS,
+    CAPTURE_RATE_HZ, JAWMOCAP_LAYOUT, MARKERS, MESH_FILE, MESH_NAME, SHEET_FRAMES, STATIC_MARKERS,
 };
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::io::capture::write_csv;
