@@ -911,8 +911,8 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
     assert_eq!(j["report"]["deformer"], "planar");
     assert_eq!(
         j["report"]["planar"]["triangles"],
-        serde_json::json!([[0, 1, 3], [0, 3, 6], [28, 30, 12], [29, 34, 36]]),
-        "the layout's triangles, by marker index"
+        serde_json::json!([[0, 1, 3], [0, 3, 6], [28, 30, 12], [29, 34, 36], [0, 1, 2]]),
+        "the layout's triangles by marker index, then the skull's bone (the forehead markers)"
     );
     let blob = std::fs::read(dir.join("planar.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);

@@ -207,11 +207,13 @@ pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig)
     }
 }
 
-/// The planar-bones configuration the tests use at `k` (default bone radius).
+/// The planar-bones configuration the tests use at `k` (default bone radius), with static
+/// anchoring as `bake --deformer planar` bakes it.
 pub fn planar_config(k: usize) -> BakeOptions {
     BakeOptions {
         deformer: DeformerKind::Planar,
         k,
+        anchoring: Some(facebake::ANCHORING_MARGIN),
         ..BakeOptions::default()
     }
 }

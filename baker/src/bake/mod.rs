@@ -352,6 +352,65 @@ fn check(scene: &Scene<'_>, options: &BakeOptions) -> Result<(), BakeError> {
     Ok(())
 }
 
+/// Planar bones' static anchoring: the skull markers found from the mesh's mouth and eyes
+/// (as the linear deformer's anchoring finds them), the three of them spanning the largest
+/// triangle as the skull's bone, and every vertex's anchoring strength beyond the markers'
+/// hull above the mouth. `None` on a mesh whose openings are not a mouth and two eyes, or with
+/// fewer than three skull markers.
+fn planar_anchor(
+    mesh: &crate::model::FaceMesh,
+    rest: &[[f64; 3]],
+    factor: f64,
+) -> Option<([usize; 3], Vec<f64>)> {
+    let openings = crate::placement::face_openings(mesh).ok()?;
+    let rims: Vec<Vec<[f64; 3]>> = openings
+        .iter()
+        .map(|l| {
+            l.iter()
+                .map(|&v| mesh.welded_positions[v as usize])
+                .collect()
+        })
+        .collect();
+    let spacing = crate::metrics::mean_spacing(rest);
+    let skull = crate::surface::anchoring::skull_markers(rest, &rims, spacing);
+    let area = |t: &[usize; 3]| {
+        let [a, b, c] = t.map(|m| rest[m]);
+        let (u, v) = (
+            [0, 1, 2].map(|k| b[k] - a[k]),
+            [0, 1, 2].map(|k| c[k] - a[k]),
+        );
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+    };
+    let mut best: Option<([usize; 3], f64)> = None;
+    for (i, &a) in skull.iter().enumerate() {
+        for (j, &b) in skull.iter().enumerate().skip(i + 1) {
+            for &c in &skull[j + 1..] {
+                let t = [a, b, c];
+                let s = area(&t);
+                if best.is_none_or(|(_, x)| s > x) {
+                    best = Some((t, s));
+                }
+            }
+        }
+    }
+    let (triangle, _) = best.filter(|(_, s)| *s > 0.0)?;
+    let mouth = rims[0].iter().map(|p| p[1]).sum::<f64>() / rims[0].len().max(1) as f64;
+    let strength = crate::surface::anchoring::static_anchoring(
+        &mesh.positions,
+        rest,
+        &skull,
+        Some(mouth),
+        factor * spacing,
+    )
+    .strength;
+    Some((triangle, strength))
+}
+
 /// The deformer by the options' strategy.
 fn bake_deformer(
     scene: &Scene<'_>,
@@ -369,6 +428,9 @@ fn bake_deformer(
         } else {
             None
         };
+        let anchor = options
+            .anchoring
+            .and_then(|factor| planar_anchor(mesh, rest, factor));
         let (output, summary, reference) = deformer::planar::bake(
             &mesh.positions,
             &mesh.triangles,
@@ -378,6 +440,7 @@ fn bake_deformer(
                 k: options.k,
                 radius_factor: options.planar_radius,
                 masks: allowance.as_ref(),
+                anchor: anchor.as_ref().map(|(t, s)| (*t, s.as_slice())),
             },
             space,
         )

@@ -294,6 +294,10 @@ pub struct PlanarOptions<'a> {
     pub radius_factor: f64,
     /// Discontinuity masks, per vertex (see [`MarkerAllowance`]).
     pub masks: Option<&'a MarkerAllowance>,
+    /// Static anchoring: a control triangle of skull markers, and per vertex the share of its
+    /// weight that rides it ([`crate::surface::anchoring`]), so that the skin beyond the
+    /// markers (cranium, back of the head) follows the skull instead of the nearest face bone.
+    pub anchor: Option<([usize; 3], &'a [f64])>,
 }
 
 /// Bake planar bones: the control surface (`given` triangles, or the automatic one from the
@@ -311,21 +315,60 @@ pub fn bake(
         k,
         radius_factor,
         masks,
+        anchor,
     } = *options;
-    let triangles = match given {
+    let mut triangles = match given {
         Some(t) => t.to_vec(),
         None => triangulate::control_surface(vertices, faces, markers)?,
     };
+    // The skull's bone, last, so that every other bone keeps its index.
+    let skull = anchor.map(|(t, strength)| {
+        triangles.push(t);
+        (triangles.len() - 1, strength)
+    });
     let rest_frames = frames(markers, &triangles)?;
     let radii = radii(markers, &triangles, radius_factor);
-    let all = influences(
-        vertices,
-        &triangles,
-        &rest_frames,
-        &radii,
-        usize::MAX,
-        masks,
-    );
+    let mut all = match skull {
+        // The face's bones only: the skull's is blended in below.
+        Some((t, _)) => influences(
+            vertices,
+            &triangles[..t],
+            &rest_frames[..t],
+            &radii[..t],
+            usize::MAX,
+            masks,
+        ),
+        None => influences(
+            vertices,
+            &triangles,
+            &rest_frames,
+            &radii,
+            usize::MAX,
+            masks,
+        ),
+    };
+    if let Some((t, strength)) = skull {
+        for ((row, s), &strength) in all.iter_mut().zip(vertices).zip(strength) {
+            if strength <= 0.0 {
+                continue;
+            }
+            // Room for the skull's bone within K: the face's strongest K − 1, renormalised to
+            // 1 − strength.
+            row.truncate(k.saturating_sub(1).max(1));
+            let total: f64 = row.iter().map(|i| i.weight).sum();
+            for i in row.iter_mut() {
+                i.weight *= (1.0 - strength) / total.max(f64::MIN_POSITIVE);
+            }
+            row.retain(|i| i.weight > 0.0);
+            let region = rest_frames[t].classify(s);
+            row.push(Influence {
+                triangle: t,
+                region,
+                weight: strength,
+            });
+            row.sort_by(|a, b| b.weight.total_cmp(&a.weight));
+        }
+    }
     let rig_markers: Vec<V3> = markers.iter().map(&to_rig).collect();
     let rig_frames = frames(&rig_markers, &triangles)?;
     let (mut rows, mut records, mut dropped) = (vec![], vec![], vec![]);

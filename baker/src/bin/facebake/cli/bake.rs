@@ -223,7 +223,14 @@ impl BakeArgs {
                 head_smoothing: self.head_smoothing,
                 ..StagesConfig::default()
             },
-            anchoring: if self.no_anchoring { None } else { d.anchoring },
+            // Planar bones bake Euclidean distances, whose default has no anchoring: they anchor
+            // the skin beyond the markers to a bone of skull markers.
+            anchoring: if self.no_anchoring {
+                None
+            } else {
+                d.anchoring.or((self.deformer == Some(DeformerKind::Planar))
+                    .then_some(facebake::ANCHORING_MARGIN))
+            },
             ..d
         }
     }
