@@ -14,6 +14,7 @@
 
 use facebake_runtime::fixed::NORMAL_FRAC_BITS;
 
+use crate::mesh::{cross, dot, norm, sub};
 use crate::model::FaceMesh;
 
 /// The normals section could not be built.
@@ -59,7 +60,7 @@ pub fn vertex_normals(mesh: &FaceMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> 
             continue;
         }
         let [a, b, c] = t.map(at);
-        let n = cross(sub(b, a), sub(c, a));
+        let n = cross(&sub(&b, &a), &sub(&c, &a));
         for &w in t {
             for k in 0..3 {
                 sums[w as usize][k] += n[k];
@@ -160,33 +161,15 @@ pub fn bake(mesh: &FaceMesh) -> Result<NormalsBytes, NormalsError> {
 
 /// Angle between two vectors, in degrees (0 when either is zero).
 pub fn angle_degrees(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let (la, lb) = (dot(a, a).sqrt(), dot(b, b).sqrt());
-    if la == 0.0 || lb == 0.0 {
+    if norm(&a) == 0.0 || norm(&b) == 0.0 {
         return 0.0;
     }
-    let c = cross(a, b);
-    dot(c, c).sqrt().atan2(dot(a, b)).to_degrees()
+    norm(&cross(&a, &b)).atan2(dot(&a, &b)).to_degrees()
 }
 
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
-    let len = dot(v, v).sqrt();
+    let len = norm(&v);
     (len > 0.0 && len.is_finite()).then(|| v.map(|c| c / len))
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(u: [f64; 3], v: [f64; 3]) -> [f64; 3] {
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
 }
 
 #[cfg(test)]

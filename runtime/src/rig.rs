@@ -233,12 +233,7 @@ impl<'a> Rig<'a> {
         first: usize,
         out: &mut [[i32; 3]],
     ) -> Result<(), FrameError> {
-        if markers.len() != self.marker_count() {
-            return Err(FrameError::MarkerCount {
-                expected: self.marker_count(),
-                found: markers.len(),
-            });
-        }
+        self.check_marker_count(markers.len())?;
         let vertices = self.vertex_count();
         let len = out.len();
         if first.checked_add(len).is_none_or(|end| end > vertices) {
@@ -264,12 +259,7 @@ impl<'a> Rig<'a> {
         markers: &[[i32; 3]],
         out: &mut [[i32; 3]],
     ) -> Result<DegenerateTriangles, FrameError> {
-        if markers.len() != self.marker_count() {
-            return Err(FrameError::MarkerCount {
-                expected: self.marker_count(),
-                found: markers.len(),
-            });
-        }
+        self.check_marker_count(markers.len())?;
         if out.len() != self.vertex_count() {
             return Err(FrameError::OutputLength {
                 expected: self.vertex_count(),
@@ -326,12 +316,18 @@ impl<'a> Rig<'a> {
         markers: &mut [[i32; 3]],
     ) -> Result<FrameReport, FrameError> {
         let stages = self.data.stages.as_ref().ok_or(FrameError::NoStages)?;
-        let m = self.marker_count();
-        for found in [actor.len(), markers.len()] {
-            if found != m {
-                return Err(FrameError::MarkerCount { expected: m, found });
-            }
-        }
+        self.check_marker_count(actor.len())?;
+        self.check_marker_count(markers.len())?;
         Ok(stages.solve(state, actor, markers))
+    }
+
+    /// `FrameError::MarkerCount` unless `found` is the rig's marker count.
+    fn check_marker_count(&self, found: usize) -> Result<(), FrameError> {
+        let expected = self.marker_count();
+        if found == expected {
+            Ok(())
+        } else {
+            Err(FrameError::MarkerCount { expected, found })
+        }
     }
 }

@@ -374,17 +374,9 @@ fn planar_anchor(
     let spacing = crate::metrics::mean_spacing(rest);
     let skull = crate::surface::anchoring::skull_markers(rest, &rims, spacing);
     let area = |t: &[usize; 3]| {
+        use crate::mesh::{cross, norm, sub};
         let [a, b, c] = t.map(|m| rest[m]);
-        let (u, v) = (
-            [0, 1, 2].map(|k| b[k] - a[k]),
-            [0, 1, 2].map(|k| c[k] - a[k]),
-        );
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+        norm(&cross(&sub(&b, &a), &sub(&c, &a)))
     };
     let mut best: Option<([usize; 3], f64)> = None;
     for (i, &a) in skull.iter().enumerate() {

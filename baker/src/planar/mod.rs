@@ -328,25 +328,16 @@ pub fn bake(
     });
     let rest_frames = frames(markers, &triangles)?;
     let radii = radii(markers, &triangles, radius_factor);
-    let mut all = match skull {
-        // The face's bones only: the skull's is blended in below.
-        Some((t, _)) => influences(
-            vertices,
-            &triangles[..t],
-            &rest_frames[..t],
-            &radii[..t],
-            usize::MAX,
-            masks,
-        ),
-        None => influences(
-            vertices,
-            &triangles,
-            &rest_frames,
-            &radii,
-            usize::MAX,
-            masks,
-        ),
-    };
+    // The face's bones only: the skull's is blended in below.
+    let face = skull.map_or(triangles.len(), |(t, _)| t);
+    let mut all = influences(
+        vertices,
+        &triangles[..face],
+        &rest_frames[..face],
+        &radii[..face],
+        usize::MAX,
+        masks,
+    );
     if let Some((t, strength)) = skull {
         for ((row, s), &strength) in all.iter_mut().zip(vertices).zip(strength) {
             if strength <= 0.0 {

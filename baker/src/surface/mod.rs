@@ -630,21 +630,19 @@ fn follow_nearest_reachable(
         // A piece wider than a marker spacing is a sheet (the mouth's lining): each vertex follows
         // the skin and the jaw nearest itself. A smaller one (a tooth) moves as one.
         let sheet = radius > spacing;
-        let piece_skin = nearest(&centre).map(|s| dense[s].clone());
-        let piece_jaw = jaw.and_then(|j| j.weights(&centre, n));
+        // What a point rides: the skin nearest it and, below the mouth, the jaw's markers.
+        let rides = |dense: &[Vec<f64>], p: &[f64; 3]| {
+            let skin = nearest(p).map(|s| dense[s].clone());
+            (skin, jaw.and_then(|j| j.weights(p, n)))
+        };
+        let whole = (!sheet).then(|| rides(&dense, &centre));
         for &v in piece {
             let at = positions[v as usize];
-            let skin = if sheet {
-                nearest(&at).map(|s| dense[s].clone())
-            } else {
-                piece_skin.clone()
+            let (skin, on_jaw) = match &whole {
+                Some(w) => w.clone(),
+                None => rides(&dense, &at),
             };
             let Some(skin) = skin else { continue };
-            let on_jaw = if sheet {
-                jaw.and_then(|j| j.weights(&at, n))
-            } else {
-                piece_jaw.clone()
-            };
             dense[v as usize] = match (jaw, on_jaw) {
                 (Some(j), Some(w)) => {
                     let t = anchoring::smoothstep((j.mouth - at[1]) / j.band + 0.5);
