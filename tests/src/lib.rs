@@ -196,6 +196,9 @@ pub fn jawmocap_rig_with(options: &BakeOptions, stages: &facebake::StagesConfig)
     };
     let mut scene = Scene::placed(&mesh, &placed);
     scene.capture = Some(&capture);
+    if options.masks {
+        scene.groups = layout.groups.clone();
+    }
     let baked = bake(&scene, &options).expect("FaceCap bakes with the stages");
     let frames = frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
     JawMoCapRig {
@@ -215,6 +218,15 @@ pub fn planar_config(k: usize) -> BakeOptions {
         k,
         anchoring: Some(facebake::ANCHORING_MARGIN),
         ..BakeOptions::default()
+    }
+}
+
+/// What `facebake bake --deformer planar -k K` bakes: planar bones anchored to a bone of skull
+/// markers and masked (the layout's groups, else groups found from the mouth and eye openings).
+pub fn planar_product(k: usize) -> BakeOptions {
+    BakeOptions {
+        masks: true,
+        ..planar_config(k)
     }
 }
 

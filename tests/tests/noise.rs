@@ -14,7 +14,7 @@ use facebake::{Scene, StagesConfig};
 use facebake_runtime::format::header::header_for;
 use facebake_runtime::format::RigData;
 use facebake_runtime::Rig;
-use facebake_tests::{jawmocap_rig_with, planar_config, play_take, product_default, JawMoCapRig};
+use facebake_tests::{jawmocap_rig_with, planar_product, play_take, product_default, JawMoCapRig};
 
 /// Jitter amplitude: ±0.5 mm on every coordinate (JawMoCap's stages work in metres).
 const JITTER: f64 = 0.0005;
@@ -160,14 +160,14 @@ fn every_deformer_stays_within_the_jitter_bar() {
             ..product_default()
         },
     );
-    check("planar", &planar_config(8));
+    check("planar", &planar_product(8));
 }
 
 /// The smoothing's effect: a third of the unsmoothed 99th percentile or less (measured: linear
 /// 1.25 of 4.46 mm, planar 1.38 of 4.16 mm).
 #[test]
 fn smoothing_quarters_the_jitter() {
-    for (name, bake) in [("linear", product_default()), ("planar", planar_config(8))] {
+    for (name, bake) in [("linear", product_default()), ("planar", planar_product(8))] {
         let m = measure_and_print(name, &bake);
         assert!(
             m.smoothed.p99 <= 0.34 * m.unsmoothed.p99,

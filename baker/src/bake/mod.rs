@@ -78,6 +78,21 @@ impl<'a> Scene<'a> {
         self.markers.iter().map(|m| m.rest).collect()
     }
 
+    /// This scene with the mask groups found from the mesh's mouth and eye openings
+    /// ([`crate::surface::masks::groups_from_openings`]), as a bake with masks and no groups
+    /// uses.
+    pub fn with_groups_from_openings(&self) -> Result<Self, SurfaceError> {
+        let groups = crate::surface::masks::groups_from_openings(self.mesh, &self.marker_rest())?;
+        Ok(Self {
+            mesh: self.mesh,
+            markers: self.markers.clone(),
+            groups,
+            sides: self.sides.clone(),
+            control_triangles: self.control_triangles.clone(),
+            capture: self.capture,
+        })
+    }
+
     fn surface_input(&self) -> SurfaceInput<'_> {
         SurfaceInput {
             mesh: self.mesh,
@@ -253,7 +268,14 @@ struct DeformerBake {
 /// Bake `scene` with `options` into a sealed rig: deformer, and capture stages when the scene
 /// has a capture.
 pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError> {
-    check(scene, options)?;
+    let auto;
+    let scene = if options.masks && scene.groups.is_empty() {
+        auto = scene.with_groups_from_openings()?;
+        &auto
+    } else {
+        scene
+    };
+    check(options)?;
     let names = scene.marker_names();
     let rest = scene.marker_rest();
     let space = crate::space::space_for(&scene.mesh.positions);
@@ -317,14 +339,9 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
 }
 
 /// The options' refusals, each in one place.
-fn check(scene: &Scene<'_>, options: &BakeOptions) -> Result<(), BakeError> {
+fn check(options: &BakeOptions) -> Result<(), BakeError> {
     if !(1..=usize::from(facebake_runtime::fixed::MAX_INFLUENCES)).contains(&options.k) {
         return Err(SparsifyError::BadK(options.k).into());
-    }
-    if options.masks && scene.groups.is_empty() {
-        return Err(BakeError::Input(
-            "masks need a [groups] table naming the upper and lower markers of each opening".into(),
-        ));
     }
     if options.deformer == DeformerKind::Rbf {
         if options.masks {

@@ -39,6 +39,11 @@ pub enum MaskError {
     /// Automatic sides need an opening near the mask's markers.
     #[error("mask \"{0}\": the mesh has no opening (boundary loop) to separate its sides; give vertex sets")]
     NoOpening(String),
+    /// Groups from the openings need a mouth and two eyes.
+    #[error(
+        "masks without a layout [groups] table are found from the mouth and eye openings: {0}"
+    )]
+    NoFaceOpenings(String),
     /// Vertex sets for a different number of masks.
     #[error("{sets} vertex-set pairs for {masks} masks")]
     SetCount {
@@ -107,6 +112,99 @@ pub fn assign_openings(
         }
     }
     out
+}
+
+/// A marker joins an opening's automatic group when it is within this many opening widths of
+/// the opening's rim.
+pub const AUTO_GROUP_REACH: f64 = 0.75;
+
+/// A marker joins an opening's automatic group only when it lies over the opening's span less
+/// this share of its width at each corner (markers at the corners move both sides).
+pub const AUTO_GROUP_CORNER: f64 = 0.1;
+
+/// Mask groups found from the mesh's own openings, for a layout without a `[groups]` table: a
+/// `mouth` mask over the lip opening and an `eyes` mask over the two eye openings (y up, as
+/// [`crate::placement::face_openings`] finds them). A marker belongs to an opening's group when
+/// it lies over the opening's span (clear of its corners by [`AUTO_GROUP_CORNER`] of its width)
+/// within [`AUTO_GROUP_REACH`] widths of its rim; it is on the upper side when it is above the
+/// rim's middle at its x. So lip markers, and the chin's and nose's near the mouth, split into
+/// upper and lower as a layout's groups would; brow and cheek markers join the eyes' groups.
+pub fn groups_from_openings(
+    mesh: &crate::model::FaceMesh,
+    markers: &[[f64; 3]],
+) -> Result<Vec<MarkerGroups>, MaskError> {
+    let [lips, left, right] = crate::placement::face_openings(mesh)
+        .map_err(|e| MaskError::NoFaceOpenings(e.to_string()))?;
+    let rim = |l: &[u32]| -> Vec<[f64; 3]> {
+        l.iter()
+            .map(|&v| mesh.welded_positions[v as usize])
+            .collect()
+    };
+    let mouth = rim(&lips);
+    let eyes = [rim(&left), rim(&right)];
+    let mut groups = vec![
+        MarkerGroups {
+            name: "mouth".into(),
+            upper: Vec::new(),
+            lower: Vec::new(),
+        },
+        MarkerGroups {
+            name: "eyes".into(),
+            upper: Vec::new(),
+            lower: Vec::new(),
+        },
+    ];
+    for (m, p) in markers.iter().enumerate() {
+        let openings = std::iter::once((0, &mouth)).chain(eyes.iter().map(|e| (1, e)));
+        for (g, rim) in openings {
+            if let Some(side) = side_of_opening(rim, p) {
+                let group = &mut groups[g];
+                match side {
+                    Side::Upper => group.upper.push(m),
+                    Side::Lower => group.lower.push(m),
+                }
+            }
+        }
+    }
+    Ok(groups)
+}
+
+/// Which side of the opening with rim `rim` the point `p` is on, if it is in the opening's
+/// group (see [`groups_from_openings`]).
+fn side_of_opening(rim: &[[f64; 3]], p: &[f64; 3]) -> Option<Side> {
+    let (lo, hi) = rim
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+            (lo.min(q[0]), hi.max(q[0]))
+        });
+    let width = hi - lo;
+    let corner = AUTO_GROUP_CORNER * width;
+    if !(width > 0.0 && p[0] > lo + corner && p[0] < hi - corner) {
+        return None;
+    }
+    let near = rim
+        .iter()
+        .map(|q| crate::mesh::distance(p, q))
+        .fold(f64::INFINITY, f64::min);
+    if near > AUTO_GROUP_REACH * width {
+        return None;
+    }
+    // The rim's middle at p's x: the mean height of its vertices within a band around x.
+    let band = 0.15 * width;
+    let (sum, count) = rim
+        .iter()
+        .filter(|q| (q[0] - p[0]).abs() <= band)
+        .fold((0.0, 0usize), |(s, c), q| (s + q[1], c + 1));
+    let middle = if count > 0 {
+        sum / count as f64
+    } else {
+        rim.iter().map(|q| q[1]).sum::<f64>() / rim.len() as f64
+    };
+    Some(if p[1] > middle {
+        Side::Upper
+    } else {
+        Side::Lower
+    })
 }
 
 fn gaussian(d: f64, width: f64) -> f64 {

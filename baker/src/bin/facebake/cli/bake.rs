@@ -56,11 +56,16 @@ pub struct BakeArgs {
     /// (cranium, back of the head, ears) follows the skull markers instead of the face.
     #[arg(long)]
     pub no_anchoring: bool,
-    /// Apply the layout's `[groups]` masks (upper/lower lip, upper/lower eyelid): markers of one
-    /// side of an opening may not move the other side. Masks need the linear or planar deformer
-    /// (linear is the default with --masks).
+    /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
+    /// not move the other side. The groups are the layout's `[groups]`, else found from the
+    /// mouth and eye openings (markers over an opening's span, above or below its rim). Masks
+    /// need the linear or planar deformer (linear is the default with --masks); planar bones
+    /// are masked by default.
     #[arg(long)]
     pub masks: bool,
+    /// Planar bones without masks (a vertex then may ride a bone across the lips or eyelids).
+    #[arg(long, conflicts_with = "masks")]
+    pub no_masks: bool,
     /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
     /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
     #[arg(long, value_name = "FILE", requires = "masks")]
@@ -199,8 +204,13 @@ impl BakeArgs {
         }
     }
 
+    /// Whether to mask: asked for, or planar bones unless `--no-masks`.
+    fn masks(&self) -> bool {
+        self.masks || (self.deformer == Some(DeformerKind::Planar) && !self.no_masks)
+    }
+
     pub fn options(&self) -> BakeOptions {
-        let d = BakeOptions::for_method(self.method(), self.masks);
+        let d = BakeOptions::for_method(self.method(), self.masks());
         BakeOptions {
             deformer: self.deformer.unwrap_or(d.deformer),
             radial: self.radial.map_or(d.radial, Into::into),
@@ -259,8 +269,23 @@ pub struct BakeSummary {
     pub weight_format: String,
     /// Bytes per stored influence.
     pub bytes_per_influence: f64,
+    /// The masks' marker groups, when masked.
+    pub mask_groups: Vec<MaskGroupSummary>,
     /// The bake's own report (the capture stages' included).
     pub report: BakeReport,
+}
+
+/// One mask's marker groups, by name.
+#[derive(Debug, Serialize)]
+pub struct MaskGroupSummary {
+    /// The mask.
+    pub name: String,
+    /// Where the groups come from: the layout's `[groups]` or the mesh's openings.
+    pub source: &'static str,
+    /// Markers of the upper side.
+    pub upper: Vec<String>,
+    /// Markers of the lower side.
+    pub lower: Vec<String>,
 }
 
 /// The masks' vertex sides: from `--mask-sides`, `--mask-image` or `--mask-attribute`, else
@@ -366,9 +391,29 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     if options.deformer == DeformerKind::Planar {
         scene.control_triangles = layout.triangles.clone();
     }
+    let mut mask_groups = Vec::new();
     if options.masks {
         scene.groups = layout.groups.clone();
         scene.sides = side_rule(args, &mesh, &scene.groups)?;
+        let source = if scene.groups.is_empty() {
+            scene = scene
+                .with_groups_from_openings()
+                .map_err(|e| CliError::input(&args.mesh, e.to_string()))?;
+            "found from the openings"
+        } else {
+            "the layout's"
+        };
+        let names = |list: &[usize]| list.iter().map(|&m| placed[m].name.clone()).collect();
+        mask_groups = scene
+            .groups
+            .iter()
+            .map(|g| MaskGroupSummary {
+                name: g.name.clone(),
+                source,
+                upper: names(&g.upper),
+                lower: names(&g.lower),
+            })
+            .collect();
     }
     let capture = match &args.capture {
         Some(path) => Some(read_capture_with_units(path, args.capture_units)?),
@@ -393,6 +438,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         weight_format: weight_format(report.weight_frac_bits),
         bytes_per_influence: report.sizes.influence_bytes as f64
             / report.sizes.influences.max(1) as f64,
+        mask_groups,
         report,
     };
     if args.json {
@@ -490,6 +536,16 @@ fn print_text(s: &BakeSummary) {
                 a.still_vertices
             );
         }
+    }
+    for g in &s.mask_groups {
+        outln!(
+            out,
+            "  mask groups   {} ({}): upper {}; lower {}",
+            g.name,
+            g.source,
+            g.upper.join(", "),
+            g.lower.join(", ")
+        );
     }
     outln!(
         out,
