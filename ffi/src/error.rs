@@ -166,6 +166,8 @@ impl From<FrameError> for FbError {
             FrameError::NoStages => Self::NoStages,
             FrameError::OutputLength { .. } => Self::BufferTooSmall,
             FrameError::PositionCount { .. } | FrameError::VertexRange { .. } => Self::VertexCount,
+            // The C ABI has no frame tables (fb_deform_range redoes the marker work).
+            FrameError::TableMismatch => Self::Internal,
         }
     }
 }

@@ -80,7 +80,7 @@ mod sqrt;
 pub mod take;
 
 pub use cost::{Cost, NormalsCost};
-pub use deformer::DegenerateTriangles;
+pub use deformer::{DegenerateTriangles, FrameTable};
 pub use error::{LoadError, Section, StagesLoadError, StagesSection};
 /// The most markers a rig can have (the loader rejects more): a bound for callers that keep
 /// per-marker buffers of a fixed size, such as the C ABI's marker sets.

@@ -3,7 +3,7 @@
 use crate::cost::Cost;
 #[cfg(feature = "format")]
 use crate::deformer::Deformer;
-use crate::deformer::DegenerateTriangles;
+use crate::deformer::{DegenerateTriangles, FrameTable};
 use crate::error::LoadError;
 use crate::format::header;
 use crate::format::{self, RigData};
@@ -21,6 +21,10 @@ use crate::stages::Stages;
 #[derive(Clone, Copy, Debug)]
 pub struct Rig<'a> {
     data: RigData<'a>,
+    /// The influences every vertex has, when every vertex has the same number (what bakes
+    /// write): a chunk then finds its first influence by a multiplication instead of summing
+    /// the counts before it. Found once at load.
+    uniform_influences: Option<u8>,
 }
 
 /// Why a frame could not be deformed. Nothing was written to the output when this is returned.
@@ -58,6 +62,8 @@ pub enum FrameError {
         /// Vertices the rig has.
         vertices: usize,
     },
+    /// [`Rig::deform_chunk`]: the [`FrameTable`] was filled by another rig, or by none.
+    TableMismatch,
 }
 
 impl core::error::Error for FrameError {}
@@ -93,6 +99,9 @@ impl core::fmt::Display for FrameError {
                 "vertices {first}..{} asked for, the rig has {vertices}",
                 first.saturating_add(*len)
             ),
+            Self::TableMismatch => f.write_str(
+                "the frame table was not prepared by this rig (call Rig::prepare first)",
+            ),
         }
     }
 }
@@ -102,8 +111,10 @@ impl<'a> Rig<'a> {
     /// and never reads out of bounds, whatever the bytes; the work is linear in their length.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, LoadError> {
         let payload = header::open(bytes)?;
+        let data = format::decode(payload)?;
         Ok(Self {
-            data: format::decode(payload)?,
+            uniform_influences: data.deformer.uniform_influences(),
+            data,
         })
     }
 
@@ -220,22 +231,58 @@ impl<'a> Rig<'a> {
         self.deform_report(markers, out).map(|_| ())
     }
 
-    /// [`Self::deform`] for the vertices `first .. first + out.len()` only, into `out`: the
-    /// same integers [`Self::deform`] writes there. A job system can split one face over
-    /// workers, each deforming its own chunk of `out` from the same `markers` (a `Rig` is
-    /// `Sync`: share it read-only). Each call redoes the per-frame marker work (a table of
-    /// marker displacements; the RBF deformer's coefficients, planar bones' triangle frames), a
-    /// few thousand instructions against the chunk's vertices × K, and finds its first
-    /// influence by summing the counts before it (one byte a vertex).
-    pub fn deform_range(
+    /// The per-frame marker work of [`Self::deform`] for `markers` (as [`Self::deform`] takes
+    /// them), done once into `table` for the [`Self::deform_chunk`] calls of this frame, which
+    /// share it read-only (a job system fills it on one thread, then spreads the chunks over
+    /// workers). Returns the planar control triangles that were degenerate in this frame (see
+    /// [`Self::deform_report`]).
+    pub fn prepare(
         &self,
         markers: &[[i32; 3]],
+        table: &mut FrameTable,
+    ) -> Result<DegenerateTriangles, FrameError> {
+        self.check_marker_count(markers.len())?;
+        let degenerate = self
+            .data
+            .deformer
+            .prepare(&self.data.shared(), markers, &mut table.table);
+        table.owner = self.table_owner();
+        Ok(degenerate)
+    }
+
+    /// The vertices `first .. first + out.len()` of the frame `table` holds (filled by
+    /// [`Self::prepare`] on this rig), into `out`: the same integers [`Self::deform`] writes
+    /// there. Splitting a frame into many chunks costs little more than one [`Self::deform`]:
+    /// each chunk only finds its first influence by summing the counts before it (one byte a
+    /// vertex; on a rig whose vertices all have the same number of influences, what bakes
+    /// write, by one multiplication).
+    pub fn deform_chunk(
+        &self,
+        table: &FrameTable,
         first: usize,
         out: &mut [[i32; 3]],
     ) -> Result<(), FrameError> {
-        self.check_marker_count(markers.len())?;
+        if table.owner != self.table_owner() {
+            return Err(FrameError::TableMismatch);
+        }
+        self.check_range(first, out.len())?;
+        let shared = self.data.shared().vertex_range(first, out.len());
+        self.data
+            .deformer
+            .vertex_range(first, out.len(), self.uniform_influences)
+            .deform_prepared(&shared, &table.table, out);
+        Ok(())
+    }
+
+    /// Who a [`FrameTable`] filled by this rig says filled it: the address of the rig's marker
+    /// rest section, never 0.
+    fn table_owner(&self) -> usize {
+        (self.data.shared().marker_rest.as_ptr() as usize).max(1)
+    }
+
+    /// `first .. first + len` is a range of this rig's vertices.
+    fn check_range(&self, first: usize, len: usize) -> Result<(), FrameError> {
         let vertices = self.vertex_count();
-        let len = out.len();
         if first.checked_add(len).is_none_or(|end| end > vertices) {
             return Err(FrameError::VertexRange {
                 first,
@@ -243,10 +290,28 @@ impl<'a> Rig<'a> {
                 vertices,
             });
         }
+        Ok(())
+    }
+
+    /// [`Self::deform`] for the vertices `first .. first + out.len()` only, into `out`: the
+    /// same integers [`Self::deform`] writes there. A job system can split one face over
+    /// workers, each deforming its own chunk of `out` from the same `markers` (a `Rig` is
+    /// `Sync`: share it read-only). Each call redoes the per-frame marker work (a table of
+    /// marker displacements; the RBF deformer's coefficients, planar bones' triangle frames):
+    /// for many chunks, [`Self::prepare`] it once and call [`Self::deform_chunk`].
+    pub fn deform_range(
+        &self,
+        markers: &[[i32; 3]],
+        first: usize,
+        out: &mut [[i32; 3]],
+    ) -> Result<(), FrameError> {
+        self.check_marker_count(markers.len())?;
+        let len = out.len();
+        self.check_range(first, len)?;
         let shared = self.data.shared().vertex_range(first, len);
         self.data
             .deformer
-            .vertex_range(first, len)
+            .vertex_range(first, len, self.uniform_influences)
             .deform(&shared, markers, out);
         Ok(())
     }

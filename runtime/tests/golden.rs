@@ -121,9 +121,21 @@ fn check(name: &str, blob: &[u8]) {
     let frames = frames(rig.marker_count());
     assert_eq!(frames.len(), EXPECTED_FRAMES);
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut chunked = vec![[0i32; 3]; rig.vertex_count()];
+    let mut table = Box::new(facebake_runtime::FrameTable::new());
     let mut hashes = Hashes::new(name, rig);
     for (f, markers) in frames.iter().enumerate() {
         rig.deform(markers, &mut out).unwrap();
+        // The same frame prepared once and deformed in uneven chunks: the same integers.
+        rig.prepare(markers, &mut table).unwrap();
+        let cut = (f * 389) % chunked.len();
+        let (a, b) = chunked.split_at_mut(cut);
+        rig.deform_chunk(&table, 0, a).unwrap();
+        rig.deform_chunk(&table, cut, b).unwrap();
+        assert_eq!(
+            out, chunked,
+            "{name} frame {f}: chunks from a prepared table"
+        );
         let mut h = Fnv1a64::new();
         h.write_positions(&out);
         hashes.positions.write_positions(&out);

@@ -23,7 +23,7 @@ use std::time::Duration;
 
 use facebake::model::{place_markers, FaceMesh};
 use facebake::{bake, BakeOptions, Scene};
-use facebake_runtime::Rig;
+use facebake_runtime::{FrameTable, Rig};
 use facebake_tests::{fixture, interleaved, median, median_ratio, product_default};
 
 const ROUNDS: usize = 7;
@@ -265,14 +265,48 @@ fn main() {
         copy_bw / 1e9,
         100.0 * rig_bw / copy_bw
     );
-    // Two threads over the 40k face with deform_range: a worker that lives across frames and
-    // spins between them (as a job system's workers do while a frame is in flight; a sleeping
-    // worker's wake-up costs more than a 40k frame's half on this virtual machine) deforms the
-    // second half. `posted` counts the frames handed out, `finished` the frames done.
+    // Many small chunks on one thread, as a job system with fine-grained jobs would run them:
+    // with Rig::deform_range each chunk redoes the per-frame marker work; with Rig::prepare
+    // once and Rig::deform_chunk per chunk it is shared.
+    let chunk = 1024;
     let rig = Rig::from_bytes(&blob).expect("loads");
     let (q, _) = frame(&rig);
     let mut out = vec![[0i32; 3]; n];
+    let mut chunked = vec![[0i32; 3]; n];
+    let mut prepared = vec![[0i32; 3]; n];
+    let mut table = Box::new(FrameTable::new());
+    let chunk_times = interleaved(
+        &mut [
+            &mut || rig.deform(black_box(&q), black_box(&mut out)).unwrap(),
+            &mut || {
+                for (i, c) in chunked.chunks_mut(chunk).enumerate() {
+                    rig.deform_range(black_box(&q), i * chunk, c).unwrap();
+                }
+            },
+            &mut || {
+                rig.prepare(black_box(&q), &mut table).unwrap();
+                for (i, c) in prepared.chunks_mut(chunk).enumerate() {
+                    rig.deform_chunk(&table, i * chunk, c).unwrap();
+                }
+            },
+        ],
+        ROUNDS,
+        SLICE,
+    );
+    println!(
+        "  chunks: the {n}-vertex K = 8 face in {} chunks of {chunk} vertices on one thread takes {:.3}x one Rig::deform with Rig::deform_range, {:.3}x with Rig::prepare + Rig::deform_chunk",
+        n.div_ceil(chunk),
+        median_ratio(&chunk_times[1], &chunk_times[0]),
+        median_ratio(&chunk_times[2], &chunk_times[0])
+    );
+    assert_eq!(out, prepared, "the prepared chunks equal one frame");
+    // Two threads over the 40k face: the frame's marker work prepared once (Rig::prepare), then
+    // a worker that lives across frames and spins between them (as a job system's workers do
+    // while a frame is in flight; a sleeping worker's wake-up costs more than a 40k frame's half
+    // on this virtual machine) deforms the second half with Rig::deform_chunk while this thread
+    // deforms the first. `posted` counts the frames handed out, `finished` the frames done.
     let half = n / 2;
+    let shared = std::sync::RwLock::new(table);
     let (first, second) = (
         std::sync::Mutex::new(vec![[0i32; 3]; half]),
         std::sync::Mutex::new(vec![[0i32; 3]; n - half]),
@@ -289,7 +323,7 @@ fn main() {
                     continue;
                 }
                 seen = now;
-                rig.deform_range(&q, half, &mut second.lock().unwrap())
+                rig.deform_chunk(&shared.read().unwrap(), half, &mut second.lock().unwrap())
                     .unwrap();
                 finished.store(seen, Ordering::Release);
             }
@@ -298,8 +332,11 @@ fn main() {
             &mut [
                 &mut || rig.deform(black_box(&q), black_box(&mut out)).unwrap(),
                 &mut || {
+                    rig.prepare(black_box(&q), &mut shared.write().unwrap())
+                        .unwrap();
                     let frame = posted.fetch_add(1, Ordering::AcqRel) + 1;
-                    rig.deform_range(&q, 0, &mut first.lock().unwrap()).unwrap();
+                    rig.deform_chunk(&shared.read().unwrap(), 0, &mut first.lock().unwrap())
+                        .unwrap();
                     while finished.load(Ordering::Acquire) != frame {
                         std::hint::spin_loop();
                     }
@@ -311,10 +348,11 @@ fn main() {
         stop.store(true, Ordering::Release);
         times
     });
+    assert_eq!(out, chunked, "the chunks equal one frame");
     let out2: Vec<[i32; 3]> = [first.into_inner().unwrap(), second.into_inner().unwrap()].concat();
     assert_eq!(out, out2, "two halves equal one frame");
     println!(
-        "  threads: the {n}-vertex K = 8 face on 2 threads (Rig::deform_range; a spinning worker) runs {:.2}x as fast as on one (meaningful only with 2 idle cores; load average now {})",
+        "  threads: the {n}-vertex K = 8 face on 2 threads (Rig::prepare, then Rig::deform_chunk on each; a spinning worker) runs {:.2}x as fast as on one (meaningful only with 2 idle cores; load average now {})",
         median_ratio(&times[0], &times[1]),
         std::fs::read_to_string("/proc/loadavg")
             .ok()

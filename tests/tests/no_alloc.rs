@@ -1,5 +1,6 @@
 //! The runtime never allocates: loading a rig, asking its cost and marker names, and deforming
-//! many frames of both golden rigs (and computing their normals) make no heap allocation.
+//! many frames of both golden rigs (computing their normals, and again in chunks from one prepared
+//! `FrameTable`) make no heap allocation.
 //!
 //! A counting global allocator wraps the system one and counts allocations made by this thread
 //! while a thread-local flag is set, so the test harness's other threads do not disturb it.
@@ -87,6 +88,7 @@ fn loading_and_deforming_never_allocate() {
     let frames: Vec<[i32; 3]> = words.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
     let mut out = vec![[0i32; 3]; 4096];
     let mut normals = vec![[0i16; 3]; 4096];
+    let mut table = Box::new(facebake_runtime::FrameTable::new());
     let mut played = 0usize;
     for blob in BLOBS {
         let (n, ()) = allocations_in(|| {
@@ -101,6 +103,11 @@ fn loading_and_deforming_never_allocate() {
             for markers in frames.chunks_exact(m).cycle().take(3 * frames.len() / m) {
                 rig.deform_report(markers, out).unwrap();
                 rig.normals(out, normals).unwrap();
+                // The same frame in two chunks from one prepared table.
+                rig.prepare(markers, &mut table).unwrap();
+                let (a, b) = out.split_at_mut(v / 2);
+                rig.deform_chunk(&table, 0, a).unwrap();
+                rig.deform_chunk(&table, v / 2, b).unwrap();
                 played += 1;
             }
         });

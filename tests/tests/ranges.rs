@@ -1,8 +1,9 @@
-//! `Rig::deform_range`: a face split into chunks, each deformed on its own (as a job system's
-//! workers would), gives the same integers as one `Rig::deform`, for every deformer; a range
-//! past the last vertex is an error.
+//! `Rig::deform_range`, and `Rig::prepare` + `Rig::deform_chunk`: a face split into chunks, each
+//! deformed on its own (as a job system's workers would), gives the same integers as one
+//! `Rig::deform`, for every deformer; a range past the last vertex, and a frame table another
+//! rig (or none) filled, is an error.
 
-use facebake_runtime::{FrameError, Rig};
+use facebake_runtime::{FrameError, FrameTable, Rig};
 use facebake_tests::fixture;
 
 /// The golden rigs of every deformer and the golden marker frames (40 markers).
@@ -48,8 +49,51 @@ fn chunks_equal_the_whole_frame_for_every_deformer() {
                     .unwrap();
             }
             assert_eq!(whole, split, "{name}, frame {f}");
+            // The same chunks from one prepared table; the degenerate triangles as reported.
+            let mut table = FrameTable::new();
+            let degenerate = rig.prepare(markers, &mut table).unwrap();
+            assert_eq!(degenerate, rig.deform_report(markers, &mut whole).unwrap());
+            split.fill([0; 3]);
+            for w in cuts.windows(2) {
+                rig.deform_chunk(&table, w[0], &mut split[w[0]..w[1]])
+                    .unwrap();
+            }
+            assert_eq!(whole, split, "{name}, frame {f}, prepared");
         }
     }
+}
+
+#[test]
+fn a_chunk_needs_a_table_this_rig_prepared() {
+    let all = rigs();
+    let (a, b) = (
+        Rig::from_bytes(&all[0].1).unwrap(),
+        Rig::from_bytes(&all[1].1).unwrap(),
+    );
+    let mut out = vec![[0i32; 3]; 10];
+    let mut table = FrameTable::new();
+    assert_eq!(
+        a.deform_chunk(&table, 0, &mut out),
+        Err(FrameError::TableMismatch)
+    );
+    b.prepare(&vec![[0; 3]; b.marker_count()], &mut table)
+        .unwrap();
+    assert_eq!(
+        a.deform_chunk(&table, 0, &mut out),
+        Err(FrameError::TableMismatch)
+    );
+    assert!(matches!(
+        a.prepare(&vec![[0; 3]; a.marker_count() + 1], &mut table),
+        Err(FrameError::MarkerCount { .. })
+    ));
+    a.prepare(&vec![[0; 3]; a.marker_count()], &mut table)
+        .unwrap();
+    assert!(a.deform_chunk(&table, 0, &mut out).is_ok());
+    let n = a.vertex_count();
+    assert!(matches!(
+        a.deform_chunk(&table, n - 5, &mut out),
+        Err(FrameError::VertexRange { .. })
+    ));
 }
 
 #[test]

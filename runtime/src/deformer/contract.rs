@@ -6,6 +6,7 @@
 //! with no cycle between the files.
 
 use crate::cost::Cost;
+use crate::deformer::Table;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
 use crate::error::{expect_len, LoadError, Section};
 use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
@@ -59,6 +60,20 @@ pub(crate) trait DeformerSection {
         markers: &[[i32; 3]],
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles;
+
+    /// The per-frame marker work of [`Self::deform`] for `markers` (one per rig marker, the
+    /// caller checked) into `table`, as this deformer's variant.
+    fn prepare(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        table: &mut Table,
+    ) -> DegenerateTriangles;
+
+    /// The vertices of `rig` into `out` (one entry per vertex of `rig`, the caller checked) from
+    /// a `table` that [`Self::prepare`] filled: the integers [`Self::deform`] writes. A table of
+    /// another variant writes nothing (the caller checked it is this deformer's).
+    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]);
 }
 
 /// Validation steps more than one deformer shares.
@@ -98,22 +113,45 @@ pub(crate) mod check {
 }
 
 /// The counts and records of vertices `first .. first + len` of a section that stores, vertex
-/// after vertex, `counts[v]` records of `record_bytes` each (validated at load, so the slices
-/// are in range; the fallback, empty, is never taken).
+/// after vertex, a count (`u8`) and that many `record_bytes`-long records (validated at load; an
+/// out-of-range request gives empty slices). `uniform` is the count every vertex has, when they
+/// all have the same ([`uniform`]): the records before `first` are then `first` times it;
+/// otherwise the counts before `first` are summed.
 pub(crate) fn counted_range<'a>(
     counts: &'a [u8],
     records: &'a [u8],
     record_bytes: usize,
     first: usize,
     len: usize,
+    uniform: Option<u8>,
 ) -> (&'a [u8], &'a [u8]) {
-    let before: usize = counts.iter().take(first).map(|&c| usize::from(c)).sum();
     let mine = counts.get(first..first + len).unwrap_or(&[]);
-    let count: usize = mine.iter().map(|&c| usize::from(c)).sum();
+    let (before, count) = match uniform {
+        Some(k) => (first * usize::from(k), mine.len() * usize::from(k)),
+        None => (
+            count_sum(counts.get(..first).unwrap_or(counts)),
+            count_sum(mine),
+        ),
+    };
     let records = records
         .get(before * record_bytes..(before + count) * record_bytes)
         .unwrap_or(&[]);
     (mine, records)
+}
+
+/// The count every vertex has, if `counts` are all equal (and not empty).
+pub(crate) fn uniform(counts: &[u8]) -> Option<u8> {
+    let first = *counts.first()?;
+    counts.iter().all(|&c| c == first).then_some(first)
+}
+
+/// The sum of `counts`, in blocks whose `u32` sums cannot overflow (255 · 2¹⁶ < 2³²), so the
+/// compiler vectorises it: a chunk far into a big face sums the counts before it this way.
+fn count_sum(counts: &[u8]) -> usize {
+    counts
+        .chunks(1 << 16)
+        .map(|block| block.iter().map(|&c| u32::from(c)).sum::<u32>() as usize)
+        .sum()
 }
 
 /// Which control triangles of a planar rig were degenerate in a frame (collinear or coincident

@@ -42,6 +42,7 @@ use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{
     check, counted_range, DeformerSection, DegenerateTriangles, Shared,
 };
+use crate::deformer::Table;
 use crate::fixed::{
     linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
     LINEAR_WEIGHT_ABS_SUM_MAX,
@@ -70,13 +71,14 @@ pub struct LinearDeformer<'a> {
 
 impl<'a> LinearDeformer<'a> {
     /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]).
-    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+    pub(crate) fn vertex_range(&self, first: usize, len: usize, uniform: Option<u8>) -> Self {
         let (counts, influences) = counted_range(
             self.influence_counts.0,
             self.influences.0,
             INFLUENCE_BYTES,
             first,
             len,
+            uniform,
         );
         Self {
             influence_counts: Bytes(counts),
@@ -161,6 +163,32 @@ impl DeformerSection for LinearDeformer<'_> {
         );
         DegenerateTriangles::default()
     }
+
+    fn prepare(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        table: &mut Table,
+    ) -> DegenerateTriangles {
+        let d = displacements(markers, rig.marker_rest, self.weight_frac_bits);
+        *table = Table::Linear(prepared(&d, self.weight_frac_bits));
+        DegenerateTriangles::default()
+    }
+
+    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
+        if let Table::Linear(p) = table {
+            deform_prepared(
+                p,
+                Sections {
+                    rest: rig.vertex_rest,
+                    counts: self.influence_counts.0,
+                    influences: self.influences.0,
+                    weight_frac_bits: self.weight_frac_bits,
+                },
+                out,
+            );
+        }
+    }
 }
 
 /// Per marker index, its clamped displacement `[x, y, z, 0]` (Q8.24). Four lanes rather than
@@ -225,10 +253,43 @@ fn deform(
         influences,
         weight_frac_bits,
     };
+    deform_with(&d, rig, out);
+}
+
+/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the clamped displacement
+/// table, on x86-64 as the SSE2 path's table of 16-bit halves.
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+pub(crate) type Prepared = sse2::Frame;
+/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the clamped displacement
+/// table, on x86-64 as the SSE2 path's table of 16-bit halves.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+pub(crate) type Prepared = Displacements;
+
+/// This frame's [`Prepared`] data from the clamped displacement table `d`.
+fn prepared(d: &Displacements, weight_frac_bits: u8) -> Prepared {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    sse2::deform_checked(&d, rig, out);
+    return sse2::frame_checked(d, weight_frac_bits);
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    portable::deform(&d, rig, out);
+    {
+        let _ = weight_frac_bits;
+        *d
+    }
+}
+
+/// Every vertex of `rig` from this frame's [`Prepared`] data.
+fn deform_prepared(p: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    sse2::deform_frame_checked(p, rig, out);
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    portable::deform(p, rig, out);
+}
+
+/// Write deformed positions for every vertex of `rig` from the clamped displacement table `d`.
+fn deform_with(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    sse2::deform_checked(d, rig, out);
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    portable::deform(d, rig, out);
 }
 
 /// A linear rig's per-vertex sections, validated at load.
@@ -354,6 +415,20 @@ pub(crate) mod sse2 {
 
     use super::*;
 
+    /// [`Frame::new`], callable from code compiled without the `sse2` attribute.
+    #[allow(unsafe_code)]
+    pub(crate) fn frame_checked(d: &Displacements, weight_frac_bits: u8) -> Frame {
+        // SAFETY: as in `deform_checked`.
+        unsafe { Frame::new(d, weight_frac_bits) }
+    }
+
+    /// [`deform_frame`], callable from code compiled without the `sse2` attribute.
+    #[allow(unsafe_code)]
+    pub(crate) fn deform_frame_checked(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        // SAFETY: as in `deform_checked`.
+        unsafe { deform_frame(frame, rig, out) }
+    }
+
     /// [`deform`], callable from code compiled without the `sse2` attribute.
     #[allow(unsafe_code)]
     pub(crate) fn deform_checked(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
@@ -399,7 +474,8 @@ pub(crate) mod sse2 {
     }
 
     /// What every vertex of a frame reads: the displacement table and the rounding constants.
-    struct Frame {
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct Frame {
         /// One [`entry`] per marker index.
         table: [__m128i; MAX_MARKERS],
         /// 2^(F−1) in every 32-bit lane.
@@ -492,7 +568,12 @@ pub(crate) mod sse2 {
     /// See [`super::deform`]; `d` is the clamped displacement table.
     #[target_feature(enable = "sse2")]
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        let frame = Frame::new(d, rig.weight_frac_bits);
+        deform_frame(&Frame::new(d, rig.weight_frac_bits), rig, out);
+    }
+
+    /// Every vertex of `rig` from this frame's `frame`.
+    #[target_feature(enable = "sse2")]
+    fn deform_frame(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         rig.for_each_vertex(out, |words, r, o| frame.vertex(words, r, o));
     }
 }

@@ -72,11 +72,21 @@ impl<'a> Deformer<'a> {
 
     /// The section seen as its vertices `first .. first + len` only (in range: the caller
     /// checked): the per-vertex sections sliced, everything else shared.
-    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+    pub(crate) fn vertex_range(&self, first: usize, len: usize, uniform: Option<u8>) -> Self {
         match self {
-            Self::Linear(d) => Self::Linear(d.vertex_range(first, len)),
+            Self::Linear(d) => Self::Linear(d.vertex_range(first, len, uniform)),
             Self::Rbf(d) => Self::Rbf(d.vertex_range(first, len)),
-            Self::Planar(d) => Self::Planar(d.vertex_range(first, len)),
+            Self::Planar(d) => Self::Planar(d.vertex_range(first, len, uniform)),
+        }
+    }
+
+    /// The number of influences every vertex has, if they all have the same (see
+    /// [`contract::counted_range`]); the RBF deformer's are always K and need no count.
+    pub(crate) fn uniform_influences(&self) -> Option<u8> {
+        match self {
+            Self::Linear(d) => contract::uniform(d.influence_counts.0),
+            Self::Rbf(_) => None,
+            Self::Planar(d) => contract::uniform(d.influence_counts.0),
         }
     }
 
@@ -88,5 +98,71 @@ impl<'a> Deformer<'a> {
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles {
         self.section().deform(rig, markers, out)
+    }
+
+    pub(crate) fn prepare(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        table: &mut Table,
+    ) -> DegenerateTriangles {
+        self.section().prepare(rig, markers, table)
+    }
+
+    pub(crate) fn deform_prepared(
+        &self,
+        rig: &Shared<'_>,
+        table: &Table,
+        out: &mut [[i32; 3]],
+    ) {
+        self.section().deform_prepared(rig, table, out)
+    }
+}
+
+/// The per-frame marker work of one frame of a rig, done once by [`crate::Rig::prepare`] and
+/// shared by every [`crate::Rig::deform_chunk`] of that frame, so that a job system can split a
+/// face into many chunks without redoing it per chunk: the linear deformer's clamped marker
+/// displacements, the RBF deformer's coefficients, planar bones' triangle frames and markers.
+///
+/// It is plain data of a fixed size (the largest variant: planar bones' frames for 256 control
+/// triangles and the positions of 256 markers, about 25 KB), made once with [`FrameTable::new`]
+/// and refilled every frame; nothing allocates. It remembers which rig filled it, and
+/// [`crate::Rig::deform_chunk`] refuses a table that another rig filled, or none.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTable {
+    /// The rig that filled it: the address of its marker rest section (0: not filled).
+    pub(crate) owner: usize,
+    /// The deformer's per-frame data.
+    pub(crate) table: Table,
+}
+
+/// A deformer's per-frame data, one variant per deformer.
+// A fixed-size scratch the caller owns: the runtime has no heap to box the big variant into.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Table {
+    /// Not filled.
+    Empty,
+    /// The linear deformer's clamped marker displacements.
+    Linear(linear::Prepared),
+    /// The RBF deformer's coefficients.
+    Rbf([[i32; 3]; rbf::MAX_ROWS]),
+    /// Planar bones' frames and markers.
+    Planar(planar::Frames),
+}
+
+impl FrameTable {
+    /// An empty table, to fill with [`crate::Rig::prepare`].
+    pub const fn new() -> Self {
+        Self {
+            owner: 0,
+            table: Table::Empty,
+        }
+    }
+}
+
+impl Default for FrameTable {
+    fn default() -> Self {
+        Self::new()
     }
 }

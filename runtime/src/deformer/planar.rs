@@ -44,10 +44,11 @@ use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{
     check, counted_range, DeformerSection, DegenerateTriangles, Shared,
 };
+use crate::deformer::Table;
 use crate::fixed::round_shift_bounded;
 use crate::error::{expect_len, LoadError, Section};
 use crate::records::{
-    read_position, Bytes, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, POSITION_BYTES,
+    read_position, Bytes, MAX_MARKERS, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, POSITION_BYTES,
     TRIANGLE_BYTES,
 };
 use crate::sqrt::{normalize3, UNIT_FRAC_BITS};
@@ -270,6 +271,51 @@ fn place(frame: &Frame, region: u8, coords: [i32; 4], origin: [i32; 3]) -> [i32;
     [0, 1, 2].map(|c| origin[c].saturating_add(round_shift_bounded(acc[c], frac)))
 }
 
+/// The per-frame work of planar bones, shared by every vertex: each control triangle's frame
+/// (its rest frame placed at the current markers when degenerate) and the current markers.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frames {
+    /// Per control triangle, its frame in this frame.
+    frames: [Frame; MAX_TRIANGLES],
+    /// The current markers, in rig order (later entries zero).
+    markers: [[i32; 3]; MAX_MARKERS],
+    /// The triangles that were degenerate.
+    degenerate: DegenerateTriangles,
+}
+
+impl Frames {
+    /// The frames of `planar`'s triangles at `markers` (one position per rig marker, checked by
+    /// the caller); `marker_rest` and `planar` were validated at load.
+    fn new(planar: &PlanarDeformer<'_>, marker_rest: &[u8], markers: &[[i32; 3]]) -> Self {
+        let mut this = Self {
+            frames: [Frame::default(); MAX_TRIANGLES],
+            markers: [[0; 3]; MAX_MARKERS],
+            degenerate: DegenerateTriangles::default(),
+        };
+        for (m, p) in this.markers.iter_mut().zip(markers) {
+            *m = *p;
+        }
+        let current = |m: usize| markers.get(m).copied().unwrap_or([0; 3]);
+        let rest = |m: usize| rest_marker(marker_rest, m);
+        for (t, (frame, tri)) in this
+            .frames
+            .iter_mut()
+            .zip(planar.triangles.0.chunks_exact(TRIANGLE_BYTES))
+            .enumerate()
+        {
+            *frame = match build_frame(&corners(current, tri)) {
+                Some(f) => f,
+                None => {
+                    this.degenerate.mark(t);
+                    // The loader checked every rest triangle: the default is never taken.
+                    build_frame(&corners(rest, tri)).unwrap_or_default()
+                }
+            };
+        }
+        this
+    }
+}
+
 /// Deform one frame. `markers` has one position per rig marker (checked by the caller),
 /// `marker_rest` and `planar` were validated at load, `out` has one entry per vertex.
 #[inline(never)]
@@ -279,24 +325,14 @@ fn deform(
     markers: &[[i32; 3]],
     out: &mut [[i32; 3]],
 ) -> DegenerateTriangles {
-    let mut degenerate = DegenerateTriangles::default();
-    let mut frames = [Frame::default(); MAX_TRIANGLES];
-    let current = |m: usize| markers.get(m).copied().unwrap_or([0; 3]);
-    let rest = |m: usize| rest_marker(marker_rest, m);
-    for (t, (frame, tri)) in frames
-        .iter_mut()
-        .zip(planar.triangles.0.chunks_exact(TRIANGLE_BYTES))
-        .enumerate()
-    {
-        *frame = match build_frame(&corners(current, tri)) {
-            Some(f) => f,
-            None => {
-                degenerate.mark(t);
-                // The loader checked every rest triangle: the default is never taken.
-                build_frame(&corners(rest, tri)).unwrap_or_default()
-            }
-        };
-    }
+    let frames = Frames::new(planar, marker_rest, markers);
+    place_vertices(planar, &frames, out);
+    frames.degenerate
+}
+
+/// Every vertex of `planar` (`out`: one entry each) from this frame's `frames`.
+fn place_vertices(planar: &PlanarDeformer<'_>, frames: &Frames, out: &mut [[i32; 3]]) {
+    let current = |m: usize| frames.markers.get(m).copied().unwrap_or([0; 3]);
     let frac = u32::from(PLANAR_WEIGHT_FRAC_BITS);
     let mut records = planar.influences.0;
     for (o, &count) in out.iter_mut().zip(planar.influence_counts.0) {
@@ -308,7 +344,7 @@ fn deform(
         for r in mine.chunks_exact(PLANAR_INFLUENCE_BYTES) {
             let inf = read_planar_influence(r);
             let t = usize::from(inf.triangle);
-            let frame = frames.get(t).unwrap_or(&NO_FRAME);
+            let frame = frames.frames.get(t).unwrap_or(&NO_FRAME);
             let tri = planar
                 .triangles
                 .0
@@ -328,7 +364,6 @@ fn deform(
         }
         *o = acc.map(|a| round_shift_bounded(a, frac));
     }
-    degenerate
 }
 
 /// The per-frame work of [`deform`] on a rig with `vertices` vertices and `markers` markers.
@@ -428,13 +463,14 @@ fn validate(
 
 impl<'a> PlanarDeformer<'a> {
     /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]).
-    pub(crate) fn vertex_range(&self, first: usize, len: usize) -> Self {
+    pub(crate) fn vertex_range(&self, first: usize, len: usize, uniform: Option<u8>) -> Self {
         let (counts, influences) = counted_range(
             self.influence_counts.0,
             self.influences.0,
             PLANAR_INFLUENCE_BYTES,
             first,
             len,
+            uniform,
         );
         Self {
             influence_counts: Bytes(counts),
@@ -464,6 +500,23 @@ impl DeformerSection for PlanarDeformer<'_> {
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles {
         deform(self, rig.marker_rest, markers, out)
+    }
+
+    fn prepare(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        table: &mut Table,
+    ) -> DegenerateTriangles {
+        let frames = Frames::new(self, rig.marker_rest, markers);
+        *table = Table::Planar(frames);
+        frames.degenerate
+    }
+
+    fn deform_prepared(&self, _rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
+        if let Table::Planar(frames) = table {
+            place_vertices(self, frames, out);
+        }
     }
 }
 

@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
+use crate::deformer::Table;
 use crate::fixed::{
     mul_acc, round_shift_bounded, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS, MIN_ROW_SHIFT,
     POS_FRAC_BITS,
@@ -59,7 +60,7 @@ const AFFINE_ROWS: usize = 4;
 const AFFINE_HALF: i64 = 1 << (POS_FRAC_BITS - 1);
 
 /// Coefficient rows the scratch table holds: one per marker plus the four affine rows.
-const MAX_ROWS: usize = MAX_MARKERS + AFFINE_ROWS;
+pub(crate) const MAX_ROWS: usize = MAX_MARKERS + AFFINE_ROWS;
 
 impl RbfDeformer<'_> {
     /// Coefficient rows: one per marker, plus the affine rows.
@@ -177,6 +178,25 @@ impl DeformerSection for RbfDeformer<'_> {
         coefficients(self, rig.markers, &displacements, &mut table);
         radial_terms(self, rig.markers, &table, rig.vertex_rest, out);
         DegenerateTriangles::default()
+    }
+
+    fn prepare(
+        &self,
+        rig: &Shared<'_>,
+        markers: &[[i32; 3]],
+        table: &mut Table,
+    ) -> DegenerateTriangles {
+        let displacements = displacements(markers, rig.marker_rest);
+        let mut coefficients_table = [[0i32; 3]; MAX_ROWS];
+        coefficients(self, rig.markers, &displacements, &mut coefficients_table);
+        *table = Table::Rbf(coefficients_table);
+        DegenerateTriangles::default()
+    }
+
+    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
+        if let Table::Rbf(t) = table {
+            radial_terms(self, rig.markers, t, rig.vertex_rest, out);
+        }
     }
 }
 
