@@ -19,9 +19,11 @@
  *
  * Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
  * `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
- * functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`).
+ * functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`). Version 4:
+ * splitting a frame over workers (`FbFrameTable`, `fb_prepare`, `fb_deform_chunk`,
+ * `FB_ERROR_TABLE_MISMATCH`).
  */
-#define FB_ABI_VERSION 3
+#define FB_ABI_VERSION 4
 
 /**
  * The most markers a rig can have.
@@ -148,6 +150,11 @@ enum FbError
    * `fb_take_next_frame` after the take's last frame: nothing was written.
    */
   FB_ERROR_END_OF_TAKE = 24,
+  /**
+   * `fb_deform_chunk`: the `FbFrameTable` was not filled by `fb_prepare` on this rig (never
+   * filled, or filled by another rig).
+   */
+  FB_ERROR_TABLE_MISMATCH = 25,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -194,6 +201,14 @@ typedef enum FbRigidStatus FbRigidStatus;
 typedef int32_t FbRigidStatus;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+
+/**
+ * One frame's marker work (the runtime's `FrameTable`), in storage the caller provides
+ * (`fb_frame_table_size()` bytes aligned to `fb_frame_table_align()`, about 25 KB). Opaque;
+ * nothing to free but the storage. Fill it with `fb_prepare` on one thread, then let any
+ * number of threads read it through `fb_deform_chunk` until the next `fb_prepare`.
+ */
+typedef struct FbFrameTable FbFrameTable;
 
 /**
  * What the capture stages carry from frame to frame for ONE character (last good marker
@@ -676,6 +691,51 @@ FbError fb_normals(const struct FbRig *rig,
                    size_t vertex_count,
                    int16_t *out,
                    size_t out_capacity);
+
+/**
+ * Bytes of storage an `FbFrameTable` needs.
+ */
+size_t fb_frame_table_size(void);
+
+/**
+ * Alignment the storage of an `FbFrameTable` needs.
+ */
+size_t fb_frame_table_align(void);
+
+/**
+ * Do one frame's marker work for `rig` into `table`'s storage (`table_len` bytes, at least
+ * `fb_frame_table_size()`, aligned to `fb_frame_table_align()`): `markers` as `fb_deform`
+ * takes them. Then `fb_deform_chunk` deforms any range of the vertices from it, on any thread.
+ * On error the table holds no frame (`fb_deform_chunk` refuses it).
+ *
+ * # Safety
+ * `rig` as `fb_rig_vertex_count`; `markers` as in `fb_deform`; `table` null or valid for
+ * writes of `table_len` bytes and used by no one else during the call.
+ */
+FbError fb_prepare(const struct FbRig *rig,
+                   const int32_t *markers,
+                   size_t marker_count,
+                   struct FbFrameTable *table,
+                   size_t table_len);
+
+/**
+ * Deform the vertices `first_vertex .. first_vertex + vertex_count` of the frame `table`
+ * holds (filled by `fb_prepare` on this `rig`) into `out` (room for exactly `vertex_count`
+ * positions, Q8.24): the same integers `fb_deform` writes there. Workers may call it at once
+ * on one table, each on its own chunk. A table another rig filled, or none, is
+ * `FB_ERROR_TABLE_MISMATCH`; a range past the last vertex `FB_ERROR_VERTEX_COUNT`; nothing is
+ * written on error.
+ *
+ * # Safety
+ * `rig` as `fb_rig_vertex_count`; `table` null or valid for reads of `fb_frame_table_size()`
+ * bytes and not written during the call; `out` null or valid for writes of `3 * vertex_count`
+ * values.
+ */
+FbError fb_deform_chunk(const struct FbRig *rig,
+                        const struct FbFrameTable *table,
+                        size_t first_vertex,
+                        int32_t *out,
+                        size_t vertex_count);
 
 /**
  * Bytes of storage an `FbTake` needs.

@@ -66,11 +66,14 @@ pub enum FbError {
     TakeNotLoaded = 23,
     /// `fb_take_next_frame` after the take's last frame: nothing was written.
     EndOfTake = 24,
+    /// `fb_deform_chunk`: the `FbFrameTable` was not filled by `fb_prepare` on this rig (never
+    /// filled, or filled by another rig).
+    TableMismatch = 25,
 }
 
 impl FbError {
     /// Every code, in value order.
-    pub(crate) const ALL: [FbError; 25] = [
+    pub(crate) const ALL: [FbError; 26] = [
         Self::None,
         Self::NullPointer,
         Self::Misaligned,
@@ -96,6 +99,7 @@ impl FbError {
         Self::InvalidTake,
         Self::TakeNotLoaded,
         Self::EndOfTake,
+        Self::TableMismatch,
     ];
 
     /// The static, NUL-terminated message of this code.
@@ -126,6 +130,7 @@ impl FbError {
             Self::InvalidTake => c"the packed take fails validation or its stream is corrupt",
             Self::TakeNotLoaded => c"the FbTake storage does not hold a loaded take",
             Self::EndOfTake => c"the take has no more frames",
+            Self::TableMismatch => c"the frame table was not filled by fb_prepare on this rig",
         }
     }
 }
@@ -166,8 +171,7 @@ impl From<FrameError> for FbError {
             FrameError::NoStages => Self::NoStages,
             FrameError::OutputLength { .. } => Self::BufferTooSmall,
             FrameError::PositionCount { .. } | FrameError::VertexRange { .. } => Self::VertexCount,
-            // The C ABI has no frame tables (fb_deform_range redoes the marker work).
-            FrameError::TableMismatch => Self::Internal,
+            FrameError::TableMismatch => Self::TableMismatch,
         }
     }
 }

@@ -52,6 +52,7 @@ pub mod error;
 mod memory;
 pub mod play;
 pub mod rig;
+pub mod table;
 pub mod take;
 
 pub use error::{fb_error_message, FbError};
@@ -66,6 +67,9 @@ pub use rig::{
     fb_rig_validate, fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost,
     FbNormalsCost, FbRig, FbSpace,
 };
+pub use table::{
+    fb_deform_chunk, fb_frame_table_align, fb_frame_table_size, fb_prepare, FbFrameTable,
+};
 pub use take::{
     fb_take_align, fb_take_frame_count, fb_take_load, fb_take_marker_count, fb_take_marker_name,
     fb_take_next_frame, fb_take_position, fb_take_rate, fb_take_seek, fb_take_size, fb_take_space,
@@ -77,8 +81,10 @@ pub use take::{
 ///
 /// Version 2: `FbCost` gained `normals` (`FbNormalsCost`), and `fb_normals` and
 /// `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
-/// functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`).
-pub const FB_ABI_VERSION: u32 = 3;
+/// functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`). Version 4:
+/// splitting a frame over workers (`FbFrameTable`, `fb_prepare`, `fb_deform_chunk`,
+/// `FB_ERROR_TABLE_MISMATCH`).
+pub const FB_ABI_VERSION: u32 = 4;
 
 /// The most markers a rig can have.
 pub const FB_MAX_MARKERS: usize = 256;

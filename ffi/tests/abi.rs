@@ -151,6 +151,61 @@ fn deform_range_halves_equal_the_whole_frame() {
     assert_eq!(split, before);
 }
 
+/// One frame prepared by `fb_prepare` and deformed in two chunks by `fb_deform_chunk` (as two
+/// workers would) equals one `fb_deform`; a table another rig filled, or none, and a range past
+/// the last vertex are errors that write nothing.
+#[test]
+fn prepared_chunks_equal_the_whole_frame() {
+    let mut loaded = Loaded::new(COEFFICIENTS);
+    let mut other = Loaded::new(CAPTURE);
+    let ffi = loaded.rig();
+    let (n, m) = unsafe { (fb_rig_vertex_count(ffi), fb_rig_marker_count(ffi)) };
+    let mut table = Storage::new(fb_frame_table_size(), fb_frame_table_align());
+    let len = table.len();
+    let (mut whole, mut split) = (vec![0i32; 3 * n], vec![7i32; 3 * n]);
+    let half = n / 3;
+    let status = unsafe { fb_deform_chunk(ffi, table.ptr(), 0, split.as_mut_ptr(), 1) };
+    assert_eq!(status, FbError::TableMismatch);
+    for markers in le_words(MARKERS).chunks_exact(3 * m) {
+        let p = markers.as_ptr();
+        assert_eq!(
+            unsafe { fb_deform(ffi, p, m, whole.as_mut_ptr(), n) },
+            FbError::None
+        );
+        assert_eq!(
+            unsafe { fb_prepare(ffi, p, m, table.ptr(), len) },
+            FbError::None
+        );
+        let (a, b) = split.split_at_mut(3 * half);
+        let t = table.ptr::<FbFrameTable>().cast_const();
+        assert_eq!(
+            unsafe { fb_deform_chunk(ffi, t, 0, a.as_mut_ptr(), half) },
+            FbError::None
+        );
+        assert_eq!(
+            unsafe { fb_deform_chunk(ffi, t, half, b.as_mut_ptr(), n - half) },
+            FbError::None
+        );
+        assert_eq!(whole, split);
+    }
+    let before = split.clone();
+    let t = table.ptr::<FbFrameTable>().cast_const();
+    assert_eq!(
+        unsafe { fb_deform_chunk(ffi, t, n - 1, split.as_mut_ptr(), 2) },
+        FbError::VertexCount
+    );
+    let o = other.rig();
+    assert_eq!(
+        unsafe { fb_deform_chunk(o, t, 0, split.as_mut_ptr(), 1) },
+        FbError::TableMismatch
+    );
+    assert_eq!(
+        unsafe { fb_prepare(ffi, le_words(MARKERS).as_ptr(), m, table.ptr(), 8) },
+        FbError::BufferTooSmall
+    );
+    assert_eq!(split, before);
+}
+
 #[test]
 fn every_golden_normals_frame_hashes_as_hashes_normals_txt() {
     let mut loaded = Loaded::new(COEFFICIENTS);
@@ -577,13 +632,13 @@ fn bad_blobs_and_storage_are_refused_and_leave_no_rig() {
 #[test]
 fn error_messages_are_static_distinct_and_total() {
     let message = |code: i32| unsafe { std::ffi::CStr::from_ptr(fb_error_message(code)) };
-    let known: Vec<_> = (0..=FbError::EndOfTake as i32).map(message).collect();
+    let known: Vec<_> = (0..=FbError::TableMismatch as i32).map(message).collect();
     for (i, m) in known.iter().enumerate() {
         assert!(!m.to_bytes().is_empty());
         assert!(!known[..i].contains(m), "code {i} repeats a message");
     }
     assert_eq!(message(0).to_str().unwrap(), "no error");
-    for unknown in [-1, FbError::EndOfTake as i32 + 1, i32::MIN, i32::MAX] {
+    for unknown in [-1, FbError::TableMismatch as i32 + 1, i32::MIN, i32::MAX] {
         assert_eq!(
             message(unknown).to_str().unwrap(),
             "unknown facebake error code"

@@ -5,7 +5,8 @@
  *
  *   play_golden fixtures/golden
  *
- * Deform rigs: every frame of facecap_markers.bin through fb_deform. Capture rig: every frame of
+ * Deform rigs: every frame of facecap_markers.bin through fb_deform (odd frames split as a job
+ * system would: fb_prepare once, then fb_deform_chunk on two halves). Capture rig: every frame of
  * jawmocap_actor.bin through fb_play (capture stages, then the deformer), hashing the
  * character's markers, the vertices and (head residual, rebuilt count, held count), as
  * tests/tests/golden.rs does; then the packed take jawmocap.fbt through fb_take_next_frame and
@@ -162,13 +163,24 @@ static void deform_take(const char *dir, const char *name, const char *file) {
     int32_t *markers = xmalloc(frame_bytes);
     int32_t *out = xmalloc(l.vertices * 3 * sizeof(int32_t));
     int16_t *normals = xmalloc(l.vertices * 3 * sizeof(int16_t));
+    FbFrameTable *table = aligned_storage(fb_frame_table_size(), fb_frame_table_align());
+    size_t half = l.vertices / 2;
     Fnv1a64 sequence = fnv_new();
     Fnv1a64 normals_sequence = fnv_new();
     for (size_t f = 0; (f + 1) * frame_bytes <= len; f++) {
         for (size_t i = 0; i < l.markers * 3; i++) {
             markers[i] = le_i32(take + f * frame_bytes + 4 * i);
         }
-        check(fb_deform(l.rig, markers, l.markers, out, l.vertices), "fb_deform");
+        if (f % 2 == 0) {
+            check(fb_deform(l.rig, markers, l.markers, out, l.vertices), "fb_deform");
+        } else {
+            /* The frame's marker work once, then each half as a worker would. */
+            check(fb_prepare(l.rig, markers, l.markers, table, fb_frame_table_size()),
+                  "fb_prepare");
+            check(fb_deform_chunk(l.rig, table, 0, out, half), "fb_deform_chunk");
+            check(fb_deform_chunk(l.rig, table, half, out + 3 * half, l.vertices - half),
+                  "fb_deform_chunk");
+        }
         Fnv1a64 h = fnv_new();
         fnv_i32s(&h, out, l.vertices * 3);
         fnv_i32s(&sequence, out, l.vertices * 3);
@@ -177,6 +189,7 @@ static void deform_take(const char *dir, const char *name, const char *file) {
     }
     printf("%s sequence %016" PRIx64 "\n", name, sequence.state);
     printf("normals %s sequence %016" PRIx64 "\n", name, normals_sequence.state);
+    free(table);
     free(normals);
     free(out);
     free(markers);
