@@ -197,21 +197,20 @@ pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
         0
     };
 
-/// Write the clamped displacement of every marker (Q8.24) times `2^(15−F)` into `table`, in
-/// marker order; later entries keep their values.
+/// The clamped displacement of every marker (Q8.24) times `2^(15−F)`, in marker order; later
+/// entries stay zero.
 ///
 /// `markers` are the current positions, `marker_rest` the rest section ([`POSITION_BYTES`] a
-/// marker). Filling the caller's table, rather than returning one, spares the Cortex-M4 build a
-/// 4 KiB copy a frame.
+/// marker).
 pub(crate) fn displacements(
-    table: &mut Displacements,
     markers: &[[i32; 3]],
     marker_rest: &[u8],
     weight_frac_bits: u8,
-) {
-    let limit = linear_displacement_limit(u32::from(weight_frac_bits));
+) -> Displacements {
+    let limit = i64::from(linear_displacement_limit(u32::from(weight_frac_bits)));
     // F ≤ 14 (validated), so the scale is a left shift by at least one bit.
     let scale = SUM_SHIFT - u32::from(weight_frac_bits);
+    let mut table = [[0i32; 4]; MAX_MARKERS];
     for ((d, m), r) in table
         .iter_mut()
         .zip(markers)
@@ -219,12 +218,15 @@ pub(crate) fn displacements(
     {
         let rest = read_position(r);
         for c in 0..3 {
-            // The clamp bounds the difference by ±2^(15+F) < 2^31, so saturating it first changes
-            // nothing; the scale then bounds it by ±2^30. (`max`/`min`: `clamp` would carry an
-            // assertion that its bounds are ordered, a panic path.)
-            d[c + 1] = m[c].saturating_sub(rest[c]).max(-limit).min(limit) << scale;
+            // In i64 the difference is exact; the clamp bounds it by ±2^(15+F) (so it fits an
+            // i32), the scale by ±2^30. `max`/`min` rather than `clamp`, which asserts that its
+            // bounds are ordered: a panic path, and with it the Cortex-M4 build copied the 4 KiB
+            // table once a frame.
+            let difference = i64::from(m[c]) - i64::from(rest[c]);
+            d[c + 1] = (difference.max(-limit).min(limit) as i32) << scale;
         }
     }
+    table
 }
 
 /// Write deformed positions for every vertex.
@@ -243,8 +245,7 @@ fn deform(
     weight_frac_bits: u8,
     out: &mut [[i32; 3]],
 ) {
-    let mut d = [[0; 4]; MAX_MARKERS];
-    displacements(&mut d, markers, marker_rest, weight_frac_bits);
+    let d = displacements(markers, marker_rest, weight_frac_bits);
     let rig = Sections {
         rest,
         counts,
@@ -731,8 +732,7 @@ mod tests {
             // Vertex counts of every remainder modulo 4 (the count scan reads four at a time).
             let c = case(&mut rng, frac, markers, 297 + trial % 4, k, uniform);
             let (m, mrest) = frame(&mut rng, &c);
-            let mut d = [[0; 4]; MAX_MARKERS];
-            displacements(&mut d, &m, &mrest, frac);
+            let d = displacements(&m, &mrest, frac);
             let want = reference(&c, &m, &mrest);
             let mut got = vec![[0; 3]; want.len()];
             let rig = Sections {
@@ -783,8 +783,7 @@ mod tests {
         for frac in [8u8, 14] {
             // The limit 2^(15+F), scaled by 2^(15−F): 2^30 whatever F.
             let scale = 1 << (15 - frac);
-            let mut d = [[0; 4]; MAX_MARKERS];
-            displacements(&mut d, &[[i32::MAX, i32::MIN, 77]], &rest, frac);
+            let d = displacements(&[[i32::MAX, i32::MIN, 77]], &rest, frac);
             assert_eq!(d[0], [0, 1 << 30, -(1 << 30), 77 * scale]);
             assert_eq!(d[1], [0; 4]);
         }
