@@ -15,7 +15,8 @@
 //! `frame_start` / `frame_end` bracket every `deform` call, and then every `normals` call, so the
 //! QEMU plugin in `qemu/` can count the instructions of each (deform and normals alternate in
 //! its output for the deform rigs); for the capture golden they bracket the capture stages, and
-//! for the packed take first the decoding of each frame and then its deformation.
+//! for the packed take first the decoding of each frame and then its capture stages and
+//! deformation.
 //!
 //! The packed take (`fixtures/golden/jawmocap.fbt`, all 1590 JawMoCap frames, 33 KB of flash)
 //! plays from flash: each frame is decoded with the runtime's `TakeReader` (a fixed state on
@@ -280,13 +281,15 @@ fn play_take(out: &mut [[i32; 3]; MAX_VERTICES]) {
         for (a, j) in actor.iter_mut().zip(&map).take(m) {
             *a = j.and_then(|j| row[j]);
         }
-        let report = match rig.play_markers(&mut state, &actor[..m], &mut markers[..m]) {
+        // What the frame costs besides decoding: the capture stages and the deformation.
+        frame_start(frames);
+        let played = rig.play_markers(&mut state, &actor[..m], &mut markers[..m]);
+        let done = rig.deform(&markers[..m], out);
+        frame_end(frames);
+        let report = match played {
             Ok(report) => report,
             Err(e) => panic!("take frame {frames}: {e}"),
         };
-        frame_start(frames);
-        let done = rig.deform(&markers[..m], out);
-        frame_end(frames);
         if let Err(e) = done {
             panic!("take frame {frames}: {e}");
         }

@@ -8,33 +8,45 @@
 //! # Why it cannot overflow, and why it fits 16-bit lanes
 //!
 //! The loader guarantees `Σ_k |w[v,k]| ≤ 2¹⁵ − 1` for every vertex (so every weight is an `i16`)
-//! and F ≤ 14. Split a displacement into 16-bit halves, `d = hi · 2¹⁶ + lo` with `lo = d as i16`
-//! (signed) and `hi = (d − lo) >> 16`. With |d| ≤ 2^(15+F): |lo| ≤ 2¹⁵ and |hi| ≤ 2^(F−1), both
-//! `i16`. Then
+//! and F ≤ 14. Both implementations first scale every clamped displacement by `2^(15−F)`:
 //!
 //! ```text
-//! H = Σ w · hi,  |H| ≤ 2^(14+F)       L = Σ w · lo,  |L| ≤ 2^30        (every partial sum too)
-//! Σ w · d = H · 2^16 + L
-//! (Σ w · d + 2^(F−1)) >> F = H · 2^(16−F) + ((L + 2^(F−1)) >> F)      exactly, as F ≤ 16
+//! s[j]   = d[j] · 2^(15−F),  |s| ≤ 2^30                                 per marker
+//! out[v] = rest[v] + ( Σ_k w[v,k] · s[idx[v,k]] + 2^14 ) >> 15          per vertex
 //! ```
 //!
-//! so |H · 2^(16−F)| ≤ 2³⁰, |(L + ½) >> F| ≤ 2²², and with |rest| ≤ 2²⁴ the output is below 2³¹:
-//! no step overflows an `i32` and none needs saturation. The only saturation is the displacement
+//! which is the same integer as the formula above: the sum and the rounding term are both scaled
+//! by `2^(15−F)` (an integer, as F ≤ 15), and `⌊2^(15−F) · X / 2^15⌋ = ⌊X / 2^F⌋`. The shift and
+//! the rounding term no longer depend on F: they are constants in the per-vertex code.
+//!
+//! Every partial sum is within `(2¹⁵ − 1) · 2³⁰ < 2⁴⁵`, so an `i64` accumulator is exact. Split a
+//! scaled displacement into 16-bit halves, `s = hi · 2¹⁶ + lo` with `lo = s as i16` (signed) and
+//! `hi = (s − lo) >> 16`: |lo| ≤ 2¹⁵ and |hi| ≤ 2¹⁴, both `i16`. Then
+//!
+//! ```text
+//! H = Σ w · hi,  |H| < 2^29           L = Σ w · lo,  |L| < 2^30        (every partial sum too)
+//! Σ w · s = H · 2^16 + L
+//! (Σ w · s + 2^14) >> 15 = 2 · H + ((L + 2^14) >> 15)                 exactly
+//! ```
+//!
+//! so |2 · H| < 2³⁰, |(L + 2¹⁴) >> 15| ≤ 2¹⁵, and with |rest| ≤ 2²⁴ the output is below 2³¹: no
+//! step overflows an `i32` and none needs saturation. The only saturation is the displacement
 //! clamp, which keeps a uniform translation exact (every displacement clamps alike, and the weights
 //! sum to exactly 2^F).
 //!
 //! Two implementations compute exactly this integer, so their outputs are bit for bit equal:
 //!
-//! * `portable`: one `i64` accumulator per axis (a 16 × 32 → 64-bit multiply-add per influence
-//!   and axis; one `SMLAL` on a Cortex-M4);
+//! * `portable`: one `i64` accumulator per axis, started at the rounding term (a 32 × 32 → 64-bit
+//!   multiply-add per influence and axis: one single-cycle `SMLAL` on a Cortex-M4, which beats the
+//!   16-bit halves there, as they need two multiplies per axis);
 //! * `sse2` (x86-64): the halves of every marker's displacement in one 128-bit table entry; two
 //!   influences at a time, their halves are interleaved (`punpcklwd`/`punpckhwd`) and multiplied by
 //!   the weight pair with `pmaddwd` into 32-bit lanes, which the bounds above make exact.
 //!
-//! Cost per frame: per marker a subtraction and a clamp; per influence a word decode and three
-//! multiply-adds (two `pmaddwd` per two influences on x86-64); per vertex one rounding shift and
-//! one addition per axis. There is no branch on marker data and no check that can fail: the loader
-//! has validated every index, count and bound.
+//! Cost per frame: per marker a subtraction, a clamp and a shift; per influence a word decode and
+//! three multiply-adds (two `pmaddwd` per two influences on x86-64); per vertex one rounding shift
+//! and one addition per axis. There is no branch on marker data and no check that can fail: the
+//! loader has validated every index, count and bound.
 
 use serde::{Deserialize, Serialize};
 
@@ -44,12 +56,12 @@ use crate::deformer::contract::{
 };
 use crate::deformer::Table;
 use crate::fixed::{
-    linear_displacement_limit, unpack_influence, LINEAR_MAX_WEIGHT_FRAC_BITS,
+    linear_displacement_limit, LINEAR_MAX_WEIGHT_FRAC_BITS,
     LINEAR_WEIGHT_ABS_SUM_MAX,
 };
 use crate::error::LoadError;
 use crate::records::{
-    read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
+    read_i32, read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
     POSITION_BYTES, REST_BYTES,
 };
 
@@ -171,7 +183,7 @@ impl DeformerSection for LinearDeformer<'_> {
         table: &mut Table,
     ) -> DegenerateTriangles {
         let d = displacements(markers, rig.marker_rest, self.weight_frac_bits);
-        *table = Table::Linear(prepared(&d, self.weight_frac_bits));
+        *table = Table::Linear(prepared(&d));
         DegenerateTriangles::default()
     }
 
@@ -183,7 +195,6 @@ impl DeformerSection for LinearDeformer<'_> {
                     rest: rig.vertex_rest,
                     counts: self.influence_counts.0,
                     influences: self.influences.0,
-                    weight_frac_bits: self.weight_frac_bits,
                 },
                 out,
             );
@@ -191,10 +202,18 @@ impl DeformerSection for LinearDeformer<'_> {
     }
 }
 
-/// Per marker index, its clamped displacement `[x, y, z, 0]` (Q8.24). Four lanes rather than
-/// three: an entry is 16 bytes, so indexing it is one shift (one instruction fewer per influence
-/// on a Cortex-M4 than a 12-byte entry).
+/// Per marker index, its clamped displacement scaled by `2^(15−F)` ([`SUM_SHIFT`]), in lanes
+/// `[0, x, y, z]`. Four lanes rather than three: an entry is 16 bytes, so its address is one
+/// shifted addition (a 12-byte entry takes two on a Cortex-M4). Lane 0 is unused so that every
+/// lane read is at a non-zero offset from that address: with `x` at offset 0, LLVM forms its
+/// address a second time, as a register offset (one instruction more per influence).
 pub(crate) type Displacements = [[i32; 4]; MAX_MARKERS];
+
+/// Fractional bits of every weighted sum of scaled displacements: the per-vertex shift. The
+/// rounding term is half of its unit.
+const SUM_SHIFT: u32 = LINEAR_MAX_WEIGHT_FRAC_BITS as u32 + 1;
+/// `2^(SUM_SHIFT − 1)`: added before the shift, so it rounds half up.
+const SUM_HALF: i32 = 1 << (SUM_SHIFT - 1);
 
 /// Stack the deformer uses per frame: the displacement table, plus on x86-64 its 16-bit halves
 /// (one 128-bit entry per marker index).
@@ -205,7 +224,8 @@ pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
         0
     };
 
-/// The clamped displacement of every marker (Q8.24), in marker order; later entries stay zero.
+/// The clamped displacement of every marker (Q8.24) times `2^(15−F)`, in marker order; later
+/// entries stay zero.
 ///
 /// `markers` are the current positions, `marker_rest` the rest section ([`POSITION_BYTES`] a
 /// marker).
@@ -215,6 +235,8 @@ pub(crate) fn displacements(
     weight_frac_bits: u8,
 ) -> Displacements {
     let limit = i64::from(linear_displacement_limit(u32::from(weight_frac_bits)));
+    // F ≤ 14 (validated), so the scale is a left shift by at least one bit.
+    let scale = SUM_SHIFT - u32::from(weight_frac_bits);
     let mut table = [[0i32; 4]; MAX_MARKERS];
     for ((d, m), r) in table
         .iter_mut()
@@ -223,8 +245,12 @@ pub(crate) fn displacements(
     {
         let rest = read_position(r);
         for c in 0..3 {
-            // In i64 the difference is exact; the clamp bounds it by ±2^29 at most.
-            d[c] = (i64::from(m[c]) - i64::from(rest[c])).clamp(-limit, limit) as i32;
+            // In i64 the difference is exact; the clamp bounds it by ±2^(15+F) (so it fits an
+            // i32), the scale by ±2^30. `max`/`min` rather than `clamp`, which asserts that its
+            // bounds are ordered: a panic path, and with it the Cortex-M4 build copied the 4 KiB
+            // table once a frame.
+            let difference = i64::from(m[c]) - i64::from(rest[c]);
+            d[c + 1] = (difference.max(-limit).min(limit) as i32) << scale;
         }
     }
     table
@@ -251,29 +277,25 @@ fn deform(
         rest,
         counts,
         influences,
-        weight_frac_bits,
     };
     deform_with(&d, rig, out);
 }
 
-/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the clamped displacement
+/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the scaled displacement
 /// table, on x86-64 as the SSE2 path's table of 16-bit halves.
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 pub(crate) type Prepared = sse2::Frame;
-/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the clamped displacement
+/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the scaled displacement
 /// table, on x86-64 as the SSE2 path's table of 16-bit halves.
 #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
 pub(crate) type Prepared = Displacements;
 
-/// This frame's [`Prepared`] data from the clamped displacement table `d`.
-fn prepared(d: &Displacements, weight_frac_bits: u8) -> Prepared {
+/// This frame's [`Prepared`] data from the scaled displacement table `d`.
+fn prepared(d: &Displacements) -> Prepared {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    return sse2::frame_checked(d, weight_frac_bits);
+    return sse2::frame_checked(d);
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        let _ = weight_frac_bits;
-        *d
-    }
+    *d
 }
 
 /// Every vertex of `rig` from this frame's [`Prepared`] data.
@@ -284,7 +306,7 @@ fn deform_prepared(p: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
     portable::deform(p, rig, out);
 }
 
-/// Write deformed positions for every vertex of `rig` from the clamped displacement table `d`.
+/// Write deformed positions for every vertex of `rig` from the scaled displacement table `d`.
 fn deform_with(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     sse2::deform_checked(d, rig, out);
@@ -301,8 +323,6 @@ pub(crate) struct Sections<'a> {
     counts: &'a [u8],
     /// Packed influences, [`INFLUENCE_BYTES`] each, vertex after vertex.
     influences: &'a [u8],
-    /// F.
-    weight_frac_bits: u8,
 }
 
 impl<'a> Sections<'a> {
@@ -313,15 +333,13 @@ impl<'a> Sections<'a> {
     /// chunk, so an inlined `f` compiles for exactly that K, without per-vertex tail handling.
     #[inline(always)]
     fn for_each_vertex(self, out: &mut [[i32; 3]], mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3])) {
-        let uniform =
-            |k: u8| self.counts.first() == Some(&k) && self.counts.iter().all(|&c| c == k);
-        if uniform(4) {
-            self.uniform::<{ 4 * INFLUENCE_BYTES }>(out, &mut f);
-        } else if uniform(8) {
-            self.uniform::<{ 8 * INFLUENCE_BYTES }>(out, &mut f);
-        } else {
-            for (o, r, words) in self.vertices(out) {
-                f(words, r, o);
+        match self.common_count() {
+            Some(4) => self.uniform::<{ 4 * INFLUENCE_BYTES }>(out, &mut f),
+            Some(8) => self.uniform::<{ 8 * INFLUENCE_BYTES }>(out, &mut f),
+            _ => {
+                for (o, r, words) in self.vertices(out) {
+                    f(words, r, o);
+                }
             }
         }
     }
@@ -333,14 +351,57 @@ impl<'a> Sections<'a> {
         out: &mut [[i32; 3]],
         f: &mut impl FnMut(&[u8], &[u8], &mut [i32; 3]),
     ) {
-        let vertices = out
-            .iter_mut()
-            .zip(self.rest.chunks_exact(REST_BYTES))
-            .zip(self.influences.chunks_exact(N));
-        for ((o, r), words) in vertices {
+        for (o, r, words) in self.uniform_vertices(out, N / INFLUENCE_BYTES) {
             let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
             f(words, r, o);
         }
+    }
+
+    /// [`Self::for_each_vertex`] with one loop for every common K: `f` sees slices whose length
+    /// is known only at run time, so it compiles once, for every K alike.
+    #[inline(always)]
+    fn for_each_vertex_rolled(
+        self,
+        out: &mut [[i32; 3]],
+        mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3]),
+    ) {
+        match self.common_count() {
+            Some(k) => {
+                for (o, r, words) in self.uniform_vertices(out, k) {
+                    f(words, r, o);
+                }
+            }
+            None => {
+                for (o, r, words) in self.vertices(out) {
+                    f(words, r, o);
+                }
+            }
+        }
+    }
+
+    /// The number of influences of every vertex, if all have the same (as bakes write them)
+    /// and it is not zero.
+    fn common_count(self) -> Option<usize> {
+        let &k = self.counts.first()?;
+        // Four counts a comparison: a scan of one byte a vertex costs a few per cent of a
+        // Cortex-M4 frame.
+        let four = read_i32(&[k; 4]);
+        let mut quads = self.counts.chunks_exact(4);
+        let same = quads.by_ref().all(|q| read_i32(q) == four)
+            && quads.remainder().iter().all(|&c| c == k);
+        (same && k > 0).then_some(usize::from(k))
+    }
+
+    /// [`Self::vertices`] when every vertex has `k ≥ 1` influences ([`Self::common_count`]).
+    fn uniform_vertices<'o>(
+        self,
+        out: &'o mut [[i32; 3]],
+        k: usize,
+    ) -> impl Iterator<Item = (&'o mut [i32; 3], &'a [u8], &'a [u8])> + use<'a, 'o> {
+        out.iter_mut()
+            .zip(self.rest.chunks_exact(REST_BYTES))
+            .zip(self.influences.chunks_exact(k * INFLUENCE_BYTES))
+            .map(|((o, r), words)| (o, r, words))
     }
 
     /// Each output slot with its vertex's rest bytes and influence words.
@@ -372,34 +433,61 @@ fn per_vertex<'a>(counts: &'a [u8], influences: &'a [u8]) -> impl Iterator<Item 
 
 /// The reference implementation, used on every target without SSE2 (and tested against the SSE2
 /// one on x86-64).
-#[cfg_attr(
-    all(target_arch = "x86_64", target_feature = "sse2", not(test)),
-    allow(dead_code)
-)]
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "sse2"), allow(dead_code))]
 pub(crate) mod portable {
     use super::*;
 
-    /// See [`super::deform`]; `d` is the clamped displacement table.
+    /// See [`super::deform`]; `d` is the scaled displacement table.
+    ///
+    /// On 32-bit ARM, one rolled loop over a vertex's influences whatever K (so a K = 4 and a
+    /// K = 8 rig cost the same per influence and per vertex): on a Cortex-M4 the loop fully
+    /// unrolled for K = 8, or unrolled four influences a pass, keeps more values live than the
+    /// registers hold and spills them to the stack (up to 34 instructions per influence), where
+    /// the rolled loop takes 11 (`LDR` word, `UXTB` index, `ASR` weight, entry address, `LDRD` +
+    /// `LDR`, three `SMLAL`, count and branch). Elsewhere (aarch64, i686, 32-bit PowerPC) the
+    /// loops fully unrolled for K = 4 and 8 take 6 to 28% fewer instructions than the rolled one.
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        let frac = u32::from(rig.weight_frac_bits);
-        let half = 1i64 << (frac - 1);
-        rig.for_each_vertex(out, |words, r, o| {
-            let mut acc = [0i64; 3];
-            for w in words.chunks_exact(INFLUENCE_BYTES) {
-                let (marker, weight) =
-                    unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-                // A u8 index into a 256-entry array: in range by construction.
-                let d = &d[usize::from(marker)];
-                for c in 0..3 {
-                    acc[c] += i64::from(weight) * i64::from(d[c]);
-                }
+        #[cfg(target_arch = "arm")]
+        rolled(d, rig, out);
+        #[cfg(not(target_arch = "arm"))]
+        unrolled(d, rig, out);
+    }
+
+    /// [`deform`] through [`Sections::for_each_vertex_rolled`] (32-bit ARM).
+    #[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+    pub(crate) fn rolled(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        rig.for_each_vertex_rolled(out, |words, r, o| vertex(d, words, r, o));
+    }
+
+    /// [`deform`] through [`Sections::for_each_vertex`] (every other target).
+    #[cfg_attr(all(target_arch = "arm", not(test)), allow(dead_code))]
+    pub(crate) fn unrolled(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        rig.for_each_vertex(out, |words, r, o| vertex(d, words, r, o));
+    }
+
+    /// One vertex: its influence words and rest bytes in, its position out.
+    #[inline(always)]
+    fn vertex(d: &Displacements, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
+        // The rounding term first: the sum is the same integer in any order.
+        let mut acc = [i64::from(SUM_HALF); 3];
+        for w in words.chunks_exact(INFLUENCE_BYTES) {
+            let (marker, weight) = read_influence(w);
+            // A u8 index into a 256-entry array: in range by construction.
+            let [_, x, y, z] = d[usize::from(marker)];
+            for (a, s) in acc.iter_mut().zip([x, y, z]) {
+                *a += i64::from(weight) * i64::from(s);
             }
-            // Below 2^30 in magnitude after the shift, and below 2^31 with the rest position, by
-            // the module's bounds: the narrowing and the addition are exact (wrapping is never
-            // reached, and cannot panic).
-            let rest = read_rest(r);
-            *o = [0, 1, 2].map(|c| rest[c].wrapping_add(((acc[c] + half) >> frac) as i32));
-        });
+            // LLVM's ARM cost model unrolls small loops four times over (and fully for a
+            // constant K), which spills (see `deform`); an opaque no-op in the body keeps the
+            // loop rolled and costs no instruction.
+            #[cfg(target_arch = "arm")]
+            core::hint::black_box(());
+        }
+        // Below 2^30 in magnitude after the shift, and below 2^31 with the rest position, by the
+        // module's bounds: the narrowing and the addition are exact (wrapping is never reached,
+        // and cannot panic).
+        let rest = read_rest(r);
+        *o = [0, 1, 2].map(|c| rest[c].wrapping_add((acc[c] >> SUM_SHIFT) as i32));
     }
 }
 
@@ -409,7 +497,7 @@ pub(crate) mod sse2 {
     use core::arch::x86_64::{
         __m128i, _mm_add_epi32, _mm_cvtsi128_si32, _mm_cvtsi128_si64, _mm_cvtsi32_si128,
         _mm_cvtsi64_si128, _mm_madd_epi16, _mm_packs_epi32, _mm_set1_epi32, _mm_set_epi16,
-        _mm_set_epi32, _mm_setzero_si128, _mm_shuffle_epi32, _mm_sll_epi32, _mm_sra_epi32,
+        _mm_set_epi32, _mm_setzero_si128, _mm_shuffle_epi32, _mm_slli_epi32,
         _mm_srai_epi32, _mm_unpackhi_epi16, _mm_unpacklo_epi16,
     };
 
@@ -417,9 +505,9 @@ pub(crate) mod sse2 {
 
     /// [`Frame::new`], callable from code compiled without the `sse2` attribute.
     #[allow(unsafe_code)]
-    pub(crate) fn frame_checked(d: &Displacements, weight_frac_bits: u8) -> Frame {
+    pub(crate) fn frame_checked(d: &Displacements) -> Frame {
         // SAFETY: as in `deform_checked`.
-        unsafe { Frame::new(d, weight_frac_bits) }
+        unsafe { Frame::new(d) }
     }
 
     /// [`deform_frame`], callable from code compiled without the `sse2` attribute.
@@ -438,14 +526,14 @@ pub(crate) mod sse2 {
         unsafe { deform(d, rig, out) }
     }
 
-    /// One marker's displacement as a table entry: lanes `[hi x, hi y, hi z, 0, lo x, lo y, lo z,
-    /// 0]` (16-bit), with `d = hi · 2^16 + lo` and `lo` signed.
+    /// One marker's scaled displacement `[0, x, y, z]` as a table entry: lanes `[hi x, hi y,
+    /// hi z, 0, lo x, lo y, lo z, 0]` (16-bit), with `s = hi · 2^16 + lo` and `lo` signed.
     #[target_feature(enable = "sse2")]
-    fn entry(d: [i32; 4]) -> __m128i {
-        let lo = d.map(|x| x as i16);
-        // |d| ≤ 2^29 (the clamp), so hi fits in 14 bits.
-        let hi = [0, 1, 2].map(|c| ((d[c] - i32::from(lo[c])) >> 16) as i16);
-        _mm_set_epi16(0, lo[2], lo[1], lo[0], 0, hi[2], hi[1], hi[0])
+    fn entry(s: [i32; 4]) -> __m128i {
+        let lo = s.map(|x| x as i16);
+        // |s| ≤ 2^30 (the clamp and the scale), so |hi| ≤ 2^14.
+        let hi = [1, 2, 3].map(|c| ((s[c] - i32::from(lo[c])) >> 16) as i16);
+        _mm_set_epi16(0, lo[3], lo[2], lo[1], 0, hi[2], hi[1], hi[0])
     }
 
     /// `acc_hi += hi halves · weights`, `acc_lo += lo halves · weights` for two influences:
@@ -478,27 +566,20 @@ pub(crate) mod sse2 {
     pub(crate) struct Frame {
         /// One [`entry`] per marker index.
         table: [__m128i; MAX_MARKERS],
-        /// 2^(F−1) in every 32-bit lane.
+        /// [`SUM_HALF`] in every 32-bit lane.
         half: __m128i,
-        /// F, as a shift count.
-        shift_lo: __m128i,
-        /// 16 − F, as a shift count.
-        shift_hi: __m128i,
     }
 
     impl Frame {
         #[target_feature(enable = "sse2")]
-        fn new(d: &Displacements, weight_frac_bits: u8) -> Self {
-            let frac = i32::from(weight_frac_bits);
+        fn new(d: &Displacements) -> Self {
             let mut table = [_mm_setzero_si128(); MAX_MARKERS];
             for (t, &d) in table.iter_mut().zip(d) {
                 *t = entry(d);
             }
             Self {
                 table,
-                half: _mm_set1_epi32(1 << (frac - 1)),
-                shift_lo: _mm_cvtsi32_si128(frac),
-                shift_hi: _mm_cvtsi32_si128(16 - frac),
+                half: _mm_set1_epi32(SUM_HALF),
             }
         }
 
@@ -553,8 +634,9 @@ pub(crate) mod sse2 {
             let rest = _mm_srai_epi32::<{ 16 - crate::fixed::REST_SHIFT as i32 }>(
                 _mm_unpacklo_epi16(_mm_setzero_si128(), rest16),
             );
-            let lo = _mm_sra_epi32(_mm_add_epi32(acc[1], self.half), self.shift_lo);
-            let hi = _mm_sll_epi32(acc[0], self.shift_hi);
+            // (H · 2^16 + L + 2^14) >> 15 = 2 · H + ((L + 2^14) >> 15) (the module docs).
+            let lo = _mm_srai_epi32::<{ SUM_SHIFT as i32 }>(_mm_add_epi32(acc[1], self.half));
+            let hi = _mm_slli_epi32::<{ 16 - SUM_SHIFT as i32 }>(acc[0]);
             let sum = _mm_add_epi32(_mm_add_epi32(hi, lo), rest);
             let xy = _mm_cvtsi128_si64(sum);
             *o = [
@@ -565,10 +647,10 @@ pub(crate) mod sse2 {
         }
     }
 
-    /// See [`super::deform`]; `d` is the clamped displacement table.
+    /// See [`super::deform`]; `d` is the scaled displacement table.
     #[target_feature(enable = "sse2")]
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        deform_frame(&Frame::new(d, rig.weight_frac_bits), rig, out);
+        deform_frame(&Frame::new(d), rig, out);
     }
 
     /// Every vertex of `rig` from this frame's `frame`.
@@ -584,7 +666,7 @@ mod tests {
     use std::{vec, vec::Vec};
 
     use super::*;
-    use crate::fixed::{pack_influence, widen_rest, LINEAR_WEIGHT_ABS_SUM_MAX};
+    use crate::fixed::{pack_influence, unpack_influence, widen_rest, LINEAR_WEIGHT_ABS_SUM_MAX};
 
     /// xorshift64: deterministic test data.
     struct Rng(u64);
@@ -661,9 +743,18 @@ mod tests {
         }
     }
 
-    /// The deformer's formula evaluated in i128, with no cleverness: the contract both
-    /// implementations must meet bit for bit.
-    fn reference(c: &Case, d: &Displacements) -> Vec<[i32; 3]> {
+    /// The deformer's formula (the first one in the module docs) evaluated in i128 from the
+    /// markers, with no cleverness: the contract both implementations must meet bit for bit.
+    fn reference(c: &Case, markers: &[[i32; 3]], marker_rest: &[u8]) -> Vec<[i32; 3]> {
+        let limit = i128::from(linear_displacement_limit(u32::from(c.frac)));
+        let d: Vec<[i128; 3]> = markers
+            .iter()
+            .zip(marker_rest.chunks_exact(POSITION_BYTES))
+            .map(|(m, r)| {
+                let r = read_position(r);
+                [0, 1, 2].map(|a| (i128::from(m[a]) - i128::from(r[a])).clamp(-limit, limit))
+            })
+            .collect();
         let mut out = vec![];
         let mut words = c.words.chunks_exact(INFLUENCE_BYTES);
         for (r, &n) in c.rest.chunks_exact(REST_BYTES).zip(&c.counts) {
@@ -671,7 +762,7 @@ mod tests {
             for w in words.by_ref().take(usize::from(n)) {
                 let (m, w) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
                 for a in 0..3 {
-                    acc[a] += i128::from(w) * i128::from(d[usize::from(m)][a]);
+                    acc[a] += i128::from(w) * d[usize::from(m)][a];
                 }
             }
             let v = [0, 1, 2].map(|a| {
@@ -715,19 +806,22 @@ mod tests {
                 0 => ([4, 8][trial % 2], true),
                 _ => ([1, 3, 4, 8, 9, 64][trial % 6], false),
             };
-            let c = case(&mut rng, frac, markers, 300, k, uniform);
+            // Vertex counts of every remainder modulo 4 (the count scan reads four at a time).
+            let c = case(&mut rng, frac, markers, 297 + trial % 4, k, uniform);
             let (m, mrest) = frame(&mut rng, &c);
             let d = displacements(&m, &mrest, frac);
-            let want = reference(&c, &d);
+            let want = reference(&c, &m, &mrest);
             let mut got = vec![[0; 3]; want.len()];
             let rig = Sections {
                 rest: &c.rest,
                 counts: &c.counts,
                 influences: &c.words,
-                weight_frac_bits: frac,
             };
-            portable::deform(&d, rig, &mut got);
+            portable::unrolled(&d, rig, &mut got);
             assert_eq!(got, want, "portable, trial {trial}");
+            let mut rolled = vec![[2; 3]; want.len()];
+            portable::rolled(&d, rig, &mut rolled);
+            assert_eq!(rolled, want, "portable rolled, trial {trial}");
             #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
             {
                 let mut simd = vec![[1; 3]; want.len()];
@@ -738,12 +832,36 @@ mod tests {
     }
 
     #[test]
+    fn common_count_is_the_count_every_vertex_has() {
+        let of = |counts: &[u8]| {
+            Sections {
+                rest: &[],
+                counts,
+                influences: &[],
+            }
+            .common_count()
+        };
+        assert_eq!(of(&[8; 7]), Some(8));
+        assert_eq!(of(&[4; 8]), Some(4));
+        assert_eq!(of(&[3]), Some(3));
+        // One different count anywhere, in the words read four at a time or in the tail.
+        for at in 0..7 {
+            let mut counts = [8; 7];
+            counts[at] = 7;
+            assert_eq!(of(&counts), None, "differs at {at}");
+        }
+        assert_eq!(of(&[0; 5]), None);
+        assert_eq!(of(&[]), None);
+    }
+
+    #[test]
     fn displacements_clamp_at_the_limit() {
         let rest: Vec<u8> = [5i32, -5, 0].iter().flat_map(|x| x.to_le_bytes()).collect();
         for frac in [8u8, 14] {
-            let limit = linear_displacement_limit(u32::from(frac));
+            // The limit 2^(15+F), scaled by 2^(15−F): 2^30 whatever F.
+            let scale = 1 << (15 - frac);
             let d = displacements(&[[i32::MAX, i32::MIN, 77]], &rest, frac);
-            assert_eq!(d[0], [limit, -limit, 77, 0]);
+            assert_eq!(d[0], [0, 1 << 30, -(1 << 30), 77 * scale]);
             assert_eq!(d[1], [0; 4]);
         }
     }
