@@ -301,7 +301,7 @@ fn prepared(d: &Displacements) -> Prepared {
 /// Every vertex of `rig` from this frame's [`Prepared`] data.
 fn deform_prepared(p: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    sse2::deform_frame_checked(p, rig, out);
+    sse2::deform_vertices_checked(p, rig, out);
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     portable::deform(p, rig, out);
 }
@@ -446,6 +446,9 @@ pub(crate) mod portable {
     /// the rolled loop takes 11 (`LDR` word, `UXTB` index, `ASR` weight, entry address, `LDRD` +
     /// `LDR`, three `SMLAL`, count and branch). Elsewhere (aarch64, i686, 32-bit PowerPC) the
     /// loops fully unrolled for K = 4 and 8 take 6 to 28% fewer instructions than the rolled one.
+    ///
+    /// Not inlined: `Rig::deform` and `Rig::deform_chunk` share this one copy of the loop.
+    #[inline(never)]
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         #[cfg(target_arch = "arm")]
         rolled(d, rig, out);
@@ -510,11 +513,11 @@ pub(crate) mod sse2 {
         unsafe { Frame::new(d) }
     }
 
-    /// [`deform_frame`], callable from code compiled without the `sse2` attribute.
+    /// [`deform_vertices`], callable from code compiled without the `sse2` attribute.
     #[allow(unsafe_code)]
-    pub(crate) fn deform_frame_checked(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+    pub(crate) fn deform_vertices_checked(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         // SAFETY: as in `deform_checked`.
-        unsafe { deform_frame(frame, rig, out) }
+        unsafe { deform_vertices(frame, rig, out) }
     }
 
     /// [`deform`], callable from code compiled without the `sse2` attribute.
@@ -650,12 +653,12 @@ pub(crate) mod sse2 {
     /// See [`super::deform`]; `d` is the scaled displacement table.
     #[target_feature(enable = "sse2")]
     pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        deform_frame(&Frame::new(d), rig, out);
+        deform_vertices(&Frame::new(d), rig, out);
     }
 
     /// Every vertex of `rig` from this frame's `frame`.
     #[target_feature(enable = "sse2")]
-    fn deform_frame(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+    fn deform_vertices(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         rig.for_each_vertex(out, |words, r, o| frame.vertex(words, r, o));
     }
 }

@@ -171,9 +171,14 @@ impl<'a> TakeReader<'a> {
 
     /// Marker `i`'s quantised value `q` on `axis`, after checking that `q × step` fits `i32`.
     fn set(&mut self, i: usize, axis: usize, q: i64) -> Result<(), TakeFrameError> {
-        let value = q.saturating_mul(i64::from(le_u32_at(self.take.steps, i)));
-        match (i32::try_from(q), i32::try_from(value)) {
-            (Ok(q), Ok(_)) => {
+        // q first narrowed to 32 bits, so the product is one 32 × 32 → 64-bit multiply (a
+        // 64-bit saturating one costs a Cortex-M4 several): |q| < 2³¹ and step < 2³², so it
+        // cannot overflow, and it fits 32 bits exactly when the saturating product of the wide
+        // q did.
+        let q = i32::try_from(q).ok();
+        let value = q.map(|q| i64::from(q) * i64::from(le_u32_at(self.take.steps, i)));
+        match (q, value.map(i32::try_from)) {
+            (Some(q), Some(Ok(_))) => {
                 self.q[i][axis] = q;
                 Ok(())
             }
