@@ -6,7 +6,6 @@
 //! with no cycle between the files.
 
 use crate::cost::Cost;
-use crate::deformer::Table;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
 use crate::error::{expect_len, LoadError, Section};
 use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
@@ -60,20 +59,6 @@ pub(crate) trait DeformerSection {
         markers: &[[i32; 3]],
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles;
-
-    /// The per-frame marker work of [`Self::deform`] for `markers` (one per rig marker, the
-    /// caller checked) into `table`, as this deformer's variant.
-    fn prepare(
-        &self,
-        rig: &Shared<'_>,
-        markers: &[[i32; 3]],
-        table: &mut Table,
-    ) -> DegenerateTriangles;
-
-    /// The vertices of `rig` into `out` (one entry per vertex of `rig`, the caller checked) from
-    /// a `table` that [`Self::prepare`] filled: the integers [`Self::deform`] writes. A table of
-    /// another variant writes nothing (the caller checked it is this deformer's).
-    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]);
 }
 
 /// Validation steps more than one deformer shares.

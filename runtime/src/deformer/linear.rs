@@ -54,7 +54,6 @@ use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{
     check, counted_range, DeformerSection, DegenerateTriangles, Shared,
 };
-use crate::deformer::Table;
 use crate::fixed::{
     linear_displacement_limit, LINEAR_MAX_WEIGHT_FRAC_BITS,
     LINEAR_WEIGHT_ABS_SUM_MAX,
@@ -176,29 +175,27 @@ impl DeformerSection for LinearDeformer<'_> {
         DegenerateTriangles::default()
     }
 
-    fn prepare(
-        &self,
-        rig: &Shared<'_>,
-        markers: &[[i32; 3]],
-        table: &mut Table,
-    ) -> DegenerateTriangles {
-        let d = displacements(markers, rig.marker_rest, self.weight_frac_bits);
-        *table = Table::Linear(prepared(&d));
-        DegenerateTriangles::default()
+}
+
+impl LinearDeformer<'_> {
+    /// The per-frame marker work of [`DeformerSection::deform`] for `markers` (one per rig
+    /// marker, the caller checked), for [`Self::deform_prepared`].
+    pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]]) -> Prepared {
+        prepared(&displacements(markers, rig.marker_rest, self.weight_frac_bits))
     }
 
-    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
-        if let Table::Linear(p) = table {
-            deform_prepared(
-                p,
-                Sections {
-                    rest: rig.vertex_rest,
-                    counts: self.influence_counts.0,
-                    influences: self.influences.0,
-                },
-                out,
-            );
-        }
+    /// The vertices of `rig` into `out` (one entry each, the caller checked) from this frame's
+    /// `prepared` work: the integers [`DeformerSection::deform`] writes.
+    pub(crate) fn deform_prepared(&self, rig: &Shared<'_>, prepared: &Prepared, out: &mut [[i32; 3]]) {
+        deform_prepared(
+            prepared,
+            Sections {
+                rest: rig.vertex_rest,
+                counts: self.influence_counts.0,
+                influences: self.influences.0,
+            },
+            out,
+        );
     }
 }
 

@@ -2,14 +2,17 @@
 //! each. A deformer's module owns its section type (what the blob stores), its validation, its
 //! cost and its per-frame `deform`, all with the one signature shape of the crate-private trait
 //! `DeformerSection` (`deformer/contract.rs`). [`Deformer`] is the blob's choice of deformer and
-//! dispatches to it: one arm per deformer, in `Deformer::section`, here and nowhere else.
+//! dispatches to it: one arm per deformer, in `Deformer::section`, here and nowhere else, but
+//! for a frame split into chunks (`Deformer::prepare`, `Deformer::deform_prepared`), whose
+//! per-frame data ([`FrameTable`]) has a type per deformer and so no common signature.
 //!
 //! * [`linear`]: K weights per vertex on marker displacements;
 //! * [`rbf`]: per-frame RBF coefficients, then K radial terms per vertex plus an affine part;
 //! * [`planar`]: planar bones, per-frame frames of marker triangles (paper 000 §4.1–4.2).
 //!
-//! A new deformer is a new module implementing `DeformerSection` and a variant here (appended:
-//! the variant index is the blob's encoding).
+//! A new deformer is a new module implementing `DeformerSection` and its own `prepare` and
+//! `deform_prepared`, and a variant here and in `Table` (appended: the variant index is the
+//! blob's encoding).
 
 mod contract;
 pub mod linear;
@@ -100,22 +103,35 @@ impl<'a> Deformer<'a> {
         self.section().deform(rig, markers, out)
     }
 
+    /// The per-frame marker work of [`Self::deform`] into `table` (the deformer's variant).
     pub(crate) fn prepare(
         &self,
         rig: &Shared<'_>,
         markers: &[[i32; 3]],
         table: &mut Table,
     ) -> DegenerateTriangles {
-        self.section().prepare(rig, markers, table)
+        match self {
+            Self::Linear(d) => *table = Table::Linear(d.prepare(rig, markers)),
+            Self::Rbf(d) => *table = Table::Rbf(d.prepare(rig, markers)),
+            Self::Planar(d) => {
+                let frames = d.prepare(rig, markers);
+                *table = Table::Planar(frames);
+                return frames.degenerate();
+            }
+        }
+        DegenerateTriangles::default()
     }
 
-    pub(crate) fn deform_prepared(
-        &self,
-        rig: &Shared<'_>,
-        table: &Table,
-        out: &mut [[i32; 3]],
-    ) {
-        self.section().deform_prepared(rig, table, out)
+    /// The vertices of `rig` into `out` from a `table` that [`Self::prepare`] filled: the
+    /// integers [`Self::deform`] writes. A table of another deformer writes nothing (the caller
+    /// checked that this rig filled it).
+    pub(crate) fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
+        match (self, table) {
+            (Self::Linear(d), Table::Linear(p)) => d.deform_prepared(rig, p, out),
+            (Self::Rbf(d), Table::Rbf(p)) => d.deform_prepared(rig, p, out),
+            (Self::Planar(d), Table::Planar(p)) => d.deform_prepared(p, out),
+            _ => {}
+        }
     }
 }
 
@@ -146,7 +162,7 @@ pub(crate) enum Table {
     /// The linear deformer's clamped marker displacements.
     Linear(linear::Prepared),
     /// The RBF deformer's coefficients.
-    Rbf([[i32; 3]; rbf::MAX_ROWS]),
+    Rbf(rbf::Prepared),
     /// Planar bones' frames and markers.
     Planar(planar::Frames),
 }

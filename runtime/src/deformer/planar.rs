@@ -44,7 +44,6 @@ use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{
     check, counted_range, DeformerSection, DegenerateTriangles, Shared,
 };
-use crate::deformer::Table;
 use crate::fixed::round_shift_bounded;
 use crate::error::{expect_len, LoadError, Section};
 use crate::records::{
@@ -284,6 +283,11 @@ pub(crate) struct Frames {
 }
 
 impl Frames {
+    /// The triangles that were degenerate in this frame.
+    pub(crate) fn degenerate(&self) -> DegenerateTriangles {
+        self.degenerate
+    }
+
     /// The frames of `planar`'s triangles at `markers` (one position per rig marker, checked by
     /// the caller); `marker_rest` and `planar` were validated at load.
     fn new(planar: &PlanarDeformer<'_>, marker_rest: &[u8], markers: &[[i32; 3]]) -> Self {
@@ -313,6 +317,20 @@ impl Frames {
             };
         }
         this
+    }
+}
+
+impl PlanarDeformer<'_> {
+    /// The per-frame marker work of [`DeformerSection::deform`] for `markers` (one per rig
+    /// marker, the caller checked), for [`Self::deform_prepared`].
+    pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]]) -> Frames {
+        Frames::new(self, rig.marker_rest, markers)
+    }
+
+    /// The vertices into `out` (one entry each, the caller checked) from this frame's
+    /// `frames`: the integers [`DeformerSection::deform`] writes.
+    pub(crate) fn deform_prepared(&self, frames: &Frames, out: &mut [[i32; 3]]) {
+        place_vertices(self, frames, out);
     }
 }
 
@@ -500,23 +518,6 @@ impl DeformerSection for PlanarDeformer<'_> {
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles {
         deform(self, rig.marker_rest, markers, out)
-    }
-
-    fn prepare(
-        &self,
-        rig: &Shared<'_>,
-        markers: &[[i32; 3]],
-        table: &mut Table,
-    ) -> DegenerateTriangles {
-        let frames = Frames::new(self, rig.marker_rest, markers);
-        *table = Table::Planar(frames);
-        frames.degenerate
-    }
-
-    fn deform_prepared(&self, _rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
-        if let Table::Planar(frames) = table {
-            place_vertices(self, frames, out);
-        }
     }
 }
 

@@ -21,7 +21,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{check, DeformerSection, DegenerateTriangles, Shared};
-use crate::deformer::Table;
 use crate::fixed::{
     mul_acc, round_shift_bounded, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS, MIN_ROW_SHIFT,
     POS_FRAC_BITS,
@@ -60,7 +59,7 @@ const AFFINE_ROWS: usize = 4;
 const AFFINE_HALF: i64 = 1 << (POS_FRAC_BITS - 1);
 
 /// Coefficient rows the scratch table holds: one per marker plus the four affine rows.
-pub(crate) const MAX_ROWS: usize = MAX_MARKERS + AFFINE_ROWS;
+const MAX_ROWS: usize = MAX_MARKERS + AFFINE_ROWS;
 
 impl RbfDeformer<'_> {
     /// Coefficient rows: one per marker, plus the affine rows.
@@ -179,24 +178,25 @@ impl DeformerSection for RbfDeformer<'_> {
         radial_terms(self, rig.markers, &table, rig.vertex_rest, out);
         DegenerateTriangles::default()
     }
+}
 
-    fn prepare(
-        &self,
-        rig: &Shared<'_>,
-        markers: &[[i32; 3]],
-        table: &mut Table,
-    ) -> DegenerateTriangles {
+/// The RBF deformer's per-frame work in a [`crate::FrameTable`]: this frame's coefficients.
+pub(crate) type Prepared = [[i32; 3]; MAX_ROWS];
+
+impl RbfDeformer<'_> {
+    /// The per-frame marker work of [`DeformerSection::deform`] for `markers` (one per rig
+    /// marker, the caller checked), for [`Self::deform_prepared`].
+    pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]]) -> Prepared {
         let displacements = displacements(markers, rig.marker_rest);
-        let mut coefficients_table = [[0i32; 3]; MAX_ROWS];
-        coefficients(self, rig.markers, &displacements, &mut coefficients_table);
-        *table = Table::Rbf(coefficients_table);
-        DegenerateTriangles::default()
+        let mut table = [[0i32; 3]; MAX_ROWS];
+        coefficients(self, rig.markers, &displacements, &mut table);
+        table
     }
 
-    fn deform_prepared(&self, rig: &Shared<'_>, table: &Table, out: &mut [[i32; 3]]) {
-        if let Table::Rbf(t) = table {
-            radial_terms(self, rig.markers, t, rig.vertex_rest, out);
-        }
+    /// The vertices of `rig` into `out` (one entry each, the caller checked) from this frame's
+    /// `prepared` coefficients: the integers [`DeformerSection::deform`] writes.
+    pub(crate) fn deform_prepared(&self, rig: &Shared<'_>, prepared: &Prepared, out: &mut [[i32; 3]]) {
+        radial_terms(self, rig.markers, prepared, rig.vertex_rest, out);
     }
 }
 
