@@ -706,12 +706,34 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     );
     assert_bad_input(&out, "facecap_jawmocap_layout.toml");
     assert!(stderr(&out).contains("linear deformer"), "{}", stderr(&out));
+    // Without groups, masks find them from the mouth and eye openings, and say so: the lip and
+    // eyelid markers, as the bundled layout's groups name them.
     let plain = dir.join("plain.toml");
     let text = std::fs::read_to_string(&layout).unwrap();
     std::fs::write(&plain, text.split("[groups]").next().unwrap()).unwrap();
+    let out = bake(
+        &mesh_path(),
+        &plain,
+        &dir.join("y.fbk"),
+        &["--masks", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["mask_groups"][0]["name"], "mouth");
+    assert_eq!(j["mask_groups"][0]["source"], "found from the openings");
+    assert_eq!(
+        j["mask_groups"][0]["lower"],
+        serde_json::json!(["Mouth_Down", "Mouth_DownL", "Mouth_DownR"])
+    );
+    assert_eq!(
+        j["mask_groups"][1]["upper"],
+        serde_json::json!(["Leye_Up", "Reye_Up"])
+    );
     let out = bake(&mesh_path(), &plain, &dir.join("y.fbk"), &["--masks"]);
-    assert_bad_input(&out, "plain.toml");
-    assert!(stderr(&out).contains("[groups]"), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("mask groups   mouth (found from the openings): upper Mouth_Up"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -938,13 +960,14 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
     assert_bad_input(&out, "layout.toml");
     assert!(stderr(&out).contains("twice"), "{}", stderr(&out));
 
-    // Masks apply to planar bones: the same control surface, other influences.
-    let masked = dir.join("masked.fbk");
+    // Planar bones are masked by default; `--no-masks` leaves them bare: the same control
+    // surface, other influences.
+    let bare = dir.join("bare.fbk");
     let out = bake(
         &mesh_path(),
         &fixture("facecap_jawmocap_layout.toml"),
-        &masked,
-        &["--deformer", "planar", "--masks", "--json"],
+        &bare,
+        &["--deformer", "planar", "--no-masks", "--json"],
     );
     let j = json_ok(&out);
     assert_eq!(j["report"]["deformer"], "planar");
@@ -953,7 +976,7 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
         auto
     );
     assert_ne!(
-        std::fs::read(&masked).unwrap(),
+        std::fs::read(&bare).unwrap(),
         std::fs::read(dir.join("auto.fbk")).unwrap(),
         "masks change which triangles the lips ride"
     );
