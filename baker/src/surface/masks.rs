@@ -442,3 +442,43 @@ pub fn masked_weights(
     }
     Ok((rows, touched))
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::io::gltf_mesh::load_mesh;
+    use crate::io::gltf_mesh::tests::{head, MEDIAPIPE};
+
+    /// Points above, below, beside and far from a unit-wide opening (a circle of rim points in
+    /// the xy plane centred at the origin).
+    #[test]
+    fn a_marker_joins_the_side_of_the_rim_it_is_on_within_reach() {
+        let rim: Vec<[f64; 3]> = (0..32)
+            .map(|i| {
+                let a = f64::from(i) / 32.0 * std::f64::consts::TAU;
+                [0.5 * a.cos(), 0.2 * a.sin(), 0.0]
+            })
+            .collect();
+        assert_eq!(side_of_opening(&rim, &[0.0, 0.3, 0.0]), Some(Side::Upper));
+        assert_eq!(side_of_opening(&rim, &[0.1, -0.5, 0.1]), Some(Side::Lower));
+        // At a corner, beyond the span, or further than the reach: in no group.
+        assert_eq!(side_of_opening(&rim, &[0.48, 0.05, 0.0]), None);
+        assert_eq!(side_of_opening(&rim, &[0.7, 0.0, 0.0]), None);
+        assert_eq!(side_of_opening(&rim, &[0.0, 1.2, 0.0]), None);
+    }
+
+    /// A mesh without a mouth and two eyes (MediaPipe's canonical face is one disk) has no
+    /// openings to find groups from: an error that says so, not empty masks.
+    #[test]
+    fn a_face_without_openings_is_an_error() {
+        let disk = load_mesh(Path::new(MEDIAPIPE), None, None).unwrap();
+        let err = groups_from_openings(&disk, &[[0.0; 3]]).unwrap_err();
+        assert!(matches!(err, MaskError::NoFaceOpenings(_)), "{err}");
+        assert!(err.to_string().contains("boundary loops"), "{err}");
+        // FaceCap has them.
+        let face = head();
+        assert_eq!(groups_from_openings(&face, &[]).unwrap().len(), 2);
+    }
+}
