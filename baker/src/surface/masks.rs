@@ -479,6 +479,6 @@ mod tests {
         assert!(err.to_string().contains("boundary loops"), "{err}");
         // FaceCap has them.
         let face = head();
-        assert_eq!(groups_from_openings(&face, &[]).unwrap().len(), 2);
+        assert_eq!(groups_from_openings(face, &[]).unwrap().len(), 2);
     }
 }
