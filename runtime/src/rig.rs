@@ -3,7 +3,7 @@
 use crate::cost::Cost;
 #[cfg(feature = "format")]
 use crate::deformer::Deformer;
-use crate::deformer::{DegenerateTriangles, FrameTable};
+use crate::deformer::{DegenerateTriangles, FrameTable, Shared};
 use crate::error::LoadError;
 use crate::format::header;
 use crate::format::{self, RigData};
@@ -22,8 +22,8 @@ use crate::stages::Stages;
 pub struct Rig<'a> {
     data: RigData<'a>,
     /// The influences every vertex has, when every vertex has the same number (what bakes
-    /// write): a chunk then finds its first influence by a multiplication instead of summing
-    /// the counts before it. Found once at load.
+    /// write), found once at load: a chunk then finds its first influence by a multiplication
+    /// instead of summing the counts before it, and no frame scans the counts again.
     uniform_influences: Option<u8>,
 }
 
@@ -186,7 +186,7 @@ impl<'a> Rig<'a> {
     pub fn cost(&self) -> Cost {
         Cost {
             normals: self.data.normals.cost(),
-            ..self.data.deformer.cost(&self.data.shared())
+            ..self.data.deformer.cost(&self.shared())
         }
     }
 
@@ -245,7 +245,7 @@ impl<'a> Rig<'a> {
         let degenerate = self
             .data
             .deformer
-            .prepare(&self.data.shared(), markers, &mut table.table);
+            .prepare(&self.shared(), markers, &mut table.table);
         table.owner = self.table_owner();
         Ok(degenerate)
     }
@@ -266,18 +266,26 @@ impl<'a> Rig<'a> {
             return Err(FrameError::TableMismatch);
         }
         self.check_range(first, out.len())?;
-        let shared = self.data.shared().vertex_range(first, out.len());
+        let shared = self.shared().vertex_range(first, out.len());
         self.data
             .deformer
-            .vertex_range(first, out.len(), self.uniform_influences)
+            .vertex_range(first, out.len(), shared.uniform_influences)
             .deform_prepared(&shared, &table.table, out);
         Ok(())
+    }
+
+    /// The counts and sections every deformer reads, with the influence count found at load.
+    fn shared(&self) -> Shared<'a> {
+        Shared {
+            uniform_influences: self.uniform_influences,
+            ..self.data.shared()
+        }
     }
 
     /// Who a [`FrameTable`] filled by this rig says filled it: the address of the rig's marker
     /// rest section, never 0.
     fn table_owner(&self) -> usize {
-        (self.data.shared().marker_rest.as_ptr() as usize).max(1)
+        (self.data.marker_rest.0.as_ptr() as usize).max(1)
     }
 
     /// `first .. first + len` is a range of this rig's vertices.
@@ -308,10 +316,10 @@ impl<'a> Rig<'a> {
         self.check_marker_count(markers.len())?;
         let len = out.len();
         self.check_range(first, len)?;
-        let shared = self.data.shared().vertex_range(first, len);
+        let shared = self.shared().vertex_range(first, len);
         self.data
             .deformer
-            .vertex_range(first, len, self.uniform_influences)
+            .vertex_range(first, len, shared.uniform_influences)
             .deform(&shared, markers, out);
         Ok(())
     }
@@ -331,7 +339,7 @@ impl<'a> Rig<'a> {
                 found: out.len(),
             });
         }
-        Ok(self.data.deformer.deform(&self.data.shared(), markers, out))
+        Ok(self.data.deformer.deform(&self.shared(), markers, out))
     }
 
     /// The capture stages, if the rig was baked with them.

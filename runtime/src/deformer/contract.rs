@@ -8,7 +8,7 @@
 use crate::cost::Cost;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
 use crate::error::{expect_len, LoadError, Section};
-use crate::records::{Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
+use crate::records::{read_i32, Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
 
 /// The rig's counts and the sections every deformer reads besides its own.
 #[derive(Clone, Copy, Debug)]
@@ -21,6 +21,9 @@ pub(crate) struct Shared<'a> {
     pub marker_rest: &'a [u8],
     /// The `vertex_rest` section (validated before the deformer).
     pub vertex_rest: &'a [u8],
+    /// The number of influences every vertex has, when all have the same ([`uniform`]), found
+    /// once when the rig is loaded; `None` when they differ or it is not known (validation).
+    pub uniform_influences: Option<u8>,
 }
 
 impl<'a> Shared<'a> {
@@ -100,8 +103,8 @@ pub(crate) mod check {
 /// The counts and records of vertices `first .. first + len` of a section that stores, vertex
 /// after vertex, a count (`u8`) and that many `record_bytes`-long records (validated at load; an
 /// out-of-range request gives empty slices). `uniform` is the count every vertex has, when they
-/// all have the same ([`uniform`]): the records before `first` are then `first` times it;
-/// otherwise the counts before `first` are summed.
+/// all have the same ([`Shared::uniform_influences`]): the records before `first` are then
+/// `first` times it; otherwise the counts before `first` are summed.
 pub(crate) fn counted_range<'a>(
     counts: &'a [u8],
     records: &'a [u8],
@@ -124,10 +127,16 @@ pub(crate) fn counted_range<'a>(
     (mine, records)
 }
 
-/// The count every vertex has, if `counts` are all equal (and not empty).
+/// The number of influences of every vertex, if all have the same (as bakes write them) and it
+/// is not zero: what a rig notes once at load ([`Shared::uniform_influences`]).
 pub(crate) fn uniform(counts: &[u8]) -> Option<u8> {
-    let first = *counts.first()?;
-    counts.iter().all(|&c| c == first).then_some(first)
+    let &k = counts.first()?;
+    // Four counts a comparison.
+    let four = read_i32(&[k; 4]);
+    let mut quads = counts.chunks_exact(4);
+    let same = quads.by_ref().all(|q| read_i32(q) == four)
+        && quads.remainder().iter().all(|&c| c == k);
+    (same && k > 0).then_some(k)
 }
 
 /// The sum of `counts`, in blocks whose `u32` sums cannot overflow (255 · 2¹⁶ < 2³²), so the

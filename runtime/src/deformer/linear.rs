@@ -60,7 +60,7 @@ use crate::fixed::{
 };
 use crate::error::LoadError;
 use crate::records::{
-    read_i32, read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
+    read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
     POSITION_BYTES, REST_BYTES,
 };
 
@@ -163,15 +163,8 @@ impl DeformerSection for LinearDeformer<'_> {
         markers: &[[i32; 3]],
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles {
-        deform(
-            markers,
-            rig.marker_rest,
-            rig.vertex_rest,
-            self.influence_counts.0,
-            self.influences.0,
-            self.weight_frac_bits,
-            out,
-        );
+        let d = displacements(markers, rig.marker_rest, self.weight_frac_bits);
+        deform_with(&d, self.sections(rig), out);
         DegenerateTriangles::default()
     }
 
@@ -187,15 +180,18 @@ impl LinearDeformer<'_> {
     /// The vertices of `rig` into `out` (one entry each, the caller checked) from this frame's
     /// `prepared` work: the integers [`DeformerSection::deform`] writes.
     pub(crate) fn deform_prepared(&self, rig: &Shared<'_>, prepared: &Prepared, out: &mut [[i32; 3]]) {
-        deform_prepared(
-            prepared,
-            Sections {
-                rest: rig.vertex_rest,
-                counts: self.influence_counts.0,
-                influences: self.influences.0,
-            },
-            out,
-        );
+        deform_prepared(prepared, self.sections(rig), out);
+    }
+
+    /// The per-vertex sections of `rig` (validated at load, including Σ|w| ≤ 2¹⁵ − 1 per vertex
+    /// and F ≤ 14) as the per-frame loops read them.
+    fn sections<'s>(&'s self, rig: &Shared<'s>) -> Sections<'s> {
+        Sections {
+            rest: rig.vertex_rest,
+            counts: self.influence_counts.0,
+            influences: self.influences.0,
+            uniform: rig.uniform_influences,
+        }
     }
 }
 
@@ -253,31 +249,6 @@ pub(crate) fn displacements(
     table
 }
 
-/// Write deformed positions for every vertex.
-///
-/// `markers` and `marker_rest` as in [`displacements`]; `rest` is the vertex rest section
-/// ([`REST_BYTES`] a vertex), `counts` one byte a vertex, `influences` [`INFLUENCE_BYTES`] an
-/// influence, all
-/// validated at load (including Σ|w| ≤ 2¹⁵ − 1 per vertex and F ≤ 14). `out` has one entry per
-/// vertex.
-fn deform(
-    markers: &[[i32; 3]],
-    marker_rest: &[u8],
-    rest: &[u8],
-    counts: &[u8],
-    influences: &[u8],
-    weight_frac_bits: u8,
-    out: &mut [[i32; 3]],
-) {
-    let d = displacements(markers, marker_rest, weight_frac_bits);
-    let rig = Sections {
-        rest,
-        counts,
-        influences,
-    };
-    deform_with(&d, rig, out);
-}
-
 /// The linear deformer's per-frame data in a [`crate::FrameTable`]: the scaled displacement
 /// table, on x86-64 as the SSE2 path's table of 16-bit halves.
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
@@ -320,6 +291,8 @@ pub(crate) struct Sections<'a> {
     counts: &'a [u8],
     /// Packed influences, [`INFLUENCE_BYTES`] each, vertex after vertex.
     influences: &'a [u8],
+    /// The count every vertex has, when all have the same ([`Shared::uniform_influences`]).
+    uniform: Option<u8>,
 }
 
 impl<'a> Sections<'a> {
@@ -377,16 +350,9 @@ impl<'a> Sections<'a> {
     }
 
     /// The number of influences of every vertex, if all have the same (as bakes write them)
-    /// and it is not zero.
+    /// and it is not zero: found once when the rig was loaded, not scanned per frame.
     fn common_count(self) -> Option<usize> {
-        let &k = self.counts.first()?;
-        // Four counts a comparison: a scan of one byte a vertex costs a few per cent of a
-        // Cortex-M4 frame.
-        let four = read_i32(&[k; 4]);
-        let mut quads = self.counts.chunks_exact(4);
-        let same = quads.by_ref().all(|q| read_i32(q) == four)
-            && quads.remainder().iter().all(|&c| c == k);
-        (same && k > 0).then_some(usize::from(k))
+        self.uniform.map(usize::from)
     }
 
     /// [`Self::vertices`] when every vertex has `k ≥ 1` influences ([`Self::common_count`]).
@@ -816,6 +782,7 @@ mod tests {
                 rest: &c.rest,
                 counts: &c.counts,
                 influences: &c.words,
+                uniform: crate::deformer::contract::uniform(&c.counts),
             };
             portable::unrolled(&d, rig, &mut got);
             assert_eq!(got, want, "portable, trial {trial}");
@@ -838,6 +805,7 @@ mod tests {
                 rest: &[],
                 counts,
                 influences: &[],
+                uniform: crate::deformer::contract::uniform(counts),
             }
             .common_count()
         };

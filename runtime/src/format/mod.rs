@@ -185,13 +185,15 @@ pub struct RigData<'a> {
 }
 
 impl<'a> RigData<'a> {
-    /// The counts and shared sections every deformer reads.
+    /// The counts and shared sections every deformer reads (without the influence count a
+    /// loaded [`crate::Rig`] notes once: see `Rig::shared`).
     pub(crate) fn shared(&self) -> Shared<'a> {
         Shared {
             vertices: usize::try_from(self.vertex_count).unwrap_or(usize::MAX),
             markers: usize::from(self.marker_count),
             marker_rest: self.marker_rest.0,
             vertex_rest: self.vertex_rest.0,
+            uniform_influences: None,
         }
     }
 }
