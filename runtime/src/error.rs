@@ -8,7 +8,7 @@ use crate::fixed::{
     LINEAR_WEIGHT_ABS_SUM_MAX, MAX_INFLUENCES, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS,
     MIN_ROW_SHIFT, MIN_WEIGHT_FRAC_BITS,
 };
-use crate::records::{Bytes, MAX_MARKERS, MAX_TRIANGLES, VERSION};
+use crate::records::{Bytes, MAX_MARKERS, MAX_MARKER_PAIRS, MAX_TRIANGLES, VERSION};
 
 /// Why a byte string is not a loadable rig. Every variant is a distinct failure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,6 +82,32 @@ pub enum LoadError {
         vertex: usize,
         /// Its influence count.
         count: u8,
+    },
+    /// A vertex has more influence pairs than `max_influences` needs (⌈K/2⌉).
+    TooManyInfluencePairs {
+        /// The vertex.
+        vertex: usize,
+        /// Its influence pair count.
+        count: u8,
+    },
+    /// A linear rig has more marker pairs than `MAX_MARKER_PAIRS`.
+    TooManyMarkerPairs {
+        /// How many it has.
+        found: usize,
+    },
+    /// A marker pair names a marker that does not exist.
+    PairMarkerOutOfRange {
+        /// The marker pair.
+        pair: usize,
+        /// The marker index it names.
+        marker: u8,
+    },
+    /// An influence pair names a marker pair that does not exist.
+    PairIndexOutOfRange {
+        /// The vertex the influence pair belongs to.
+        vertex: usize,
+        /// The marker pair index it names.
+        pair: u16,
     },
     /// An influence names a marker that does not exist.
     MarkerIndexOutOfRange {
@@ -185,6 +211,12 @@ pub enum Section {
     InfluenceCounts,
     /// `influences`
     Influences,
+    /// `marker_pairs`
+    MarkerPairs,
+    /// `pair_counts`
+    PairCounts,
+    /// `pairs`
+    Pairs,
     /// `row_shifts`
     RowShifts,
     /// `matrix`
@@ -236,6 +268,20 @@ impl core::fmt::Display for LoadError {
             Self::BadMarkerName { marker } => write!(f, "marker {marker} has an invalid name"),
             Self::TooManyInfluences { vertex, count } => {
                 write!(f, "vertex {vertex} has {count} influences, above the rig's maximum")
+            }
+            Self::TooManyInfluencePairs { vertex, count } => write!(
+                f,
+                "vertex {vertex} has {count} influence pairs, above half the rig's maximum influences"
+            ),
+            Self::TooManyMarkerPairs { found } => write!(
+                f,
+                "the rig has {found} marker pairs, above the limit of {MAX_MARKER_PAIRS}"
+            ),
+            Self::PairMarkerOutOfRange { pair, marker } => {
+                write!(f, "marker pair {pair} names marker {marker}, which does not exist")
+            }
+            Self::PairIndexOutOfRange { vertex, pair } => {
+                write!(f, "vertex {vertex} names marker pair {pair}, which does not exist")
             }
             Self::MarkerIndexOutOfRange { vertex, marker } => {
                 write!(f, "vertex {vertex} is influenced by marker {marker}, which does not exist")

@@ -41,7 +41,7 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate reads and writes.
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 
@@ -59,6 +59,15 @@ pub const POSITION_BYTES: usize = 12;
 /// Bytes of one packed influence word (`u32` LE: bits 0–7 an index, bits 8–31 a signed 24-bit
 /// weight); fill neighbours use the same word.
 pub const INFLUENCE_BYTES: usize = 4;
+/// Bytes of one influence pair of the linear deformer: its two weights (2 × `i16` LE) and its
+/// marker pair's index (`u16` LE), stored as all of a vertex's weight pairs, then all of its
+/// indices.
+pub const INFLUENCE_PAIR_BYTES: usize = 6;
+/// Bytes of one marker pair of the linear deformer: 2 × `u8` marker indices.
+pub const MARKER_PAIR_BYTES: usize = 2;
+/// Most marker pairs a linear rig may have: bounds its per-frame pair table (16 bytes a pair,
+/// see [`crate::Cost::scratch_bytes`]).
+pub const MAX_MARKER_PAIRS: usize = 512;
 /// Bytes of one per-vertex influence count (`u8`).
 pub const COUNT_BYTES: usize = 1;
 /// Bytes of one RBF coefficient row's scale exponent (`u8`).

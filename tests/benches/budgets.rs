@@ -99,20 +99,16 @@ impl Skinning {
         let scale = (1u32 << lin.weight_frac_bits) as f32;
         let k = usize::from(lin.max_influences);
         let (mut joints, mut weights) = (Vec::new(), Vec::new());
-        let mut words = lin.influences.0.chunks_exact(4);
-        for &count in lin.influence_counts.0 {
-            for j in 0..k {
-                if j < usize::from(count) {
-                    let w = words.next().expect("counted");
-                    let (m, q) = facebake_runtime::fixed::unpack_influence(u32::from_le_bytes([
-                        w[0], w[1], w[2], w[3],
-                    ]));
-                    joints.push(m);
-                    weights.push(q as f32 / scale);
-                } else {
-                    joints.push(0);
-                    weights.push(0.0);
-                }
+        for vertex in lin.vertex_influences() {
+            let mut n = 0;
+            for (m, q) in vertex.filter(|&(_, q)| q != 0) {
+                joints.push(m);
+                weights.push(f32::from(q) / scale);
+                n += 1;
+            }
+            for _ in n..k {
+                joints.push(0);
+                weights.push(0.0);
             }
         }
         let one = (1u32 << 24) as f32;

@@ -44,7 +44,7 @@ use facebake::model::FaceMesh;
 use facebake::surface::SurfaceMarker;
 use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
 use facebake_runtime::deformer::Deformer;
-use facebake_runtime::fixed::{unpack_influence, POS_FRAC_BITS};
+use facebake_runtime::fixed::POS_FRAC_BITS;
 use facebake_runtime::format::records::MAX_MARKERS;
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_truth, median, median_ratio, weights_config};
@@ -96,21 +96,21 @@ impl F32Rig {
         };
         let to_f32 = |q: [i32; 3]| q.map(|c| c as f32 / Q24);
         let scale = (1u32 << lin.weight_frac_bits) as f32;
-        let (markers, weights) = lin
-            .influences
-            .0
-            .chunks_exact(4)
-            .map(|w| {
-                let (m, q) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-                (m, q as f32 / scale)
-            })
-            .unzip();
+        let (mut counts, mut markers, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+        for vertex in lin.vertex_influences() {
+            let before = markers.len();
+            for (m, q) in vertex.filter(|&(_, q)| q != 0) {
+                markers.push(m);
+                weights.push(f32::from(q) / scale);
+            }
+            counts.push((markers.len() - before) as u8);
+        }
         Some(Self {
             rest: (0..rig.vertex_count())
                 .filter_map(|i| rig.vertex_rest(i))
                 .map(to_f32)
                 .collect(),
-            counts: lin.influence_counts.0.to_vec(),
+            counts,
             markers,
             weights,
             marker_rest: (0..rig.marker_count())

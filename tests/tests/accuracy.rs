@@ -7,6 +7,7 @@
 use facebake::deformer::SparseF64;
 use facebake::ground_truth::{stats, ErrorStats, GroundTruth};
 use facebake::{BakeOptions, Baked};
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::Rig;
 use facebake_tests::{bake_truth, facecap_blobs, facecap_default, facecap_weights};
 
@@ -131,15 +132,19 @@ fn blobs_meet_the_size_budget() {
         let cost = rig.cost();
         let (v, i) = (rig.vertex_count(), cost.influences);
         assert_eq!(i, v * 8, "{name}: K = 8 everywhere");
-        // At most 4 bytes per stored influence plus 8 bytes per vertex of everything else but
-        // the normals section, which has its own budget: 30 bytes per vertex (rest normal 6,
-        // fan count 1, about 5.6 fan corners of 4 bytes, welds).
+        // At most 4 bytes per stored influence (3 in the linear form's pairs) plus 8 bytes per
+        // vertex of everything else but the normals section, which has its own budget: 30
+        // bytes per vertex (rest normal 6, fan count 1, about 5.6 fan corners of 4 bytes, welds).
+        let per_influence = match rig.deformer() {
+            Deformer::Linear(_) => 3,
+            _ => 4,
+        };
         let n = rig.data().normals;
         let normals = n.rest.0.len() + n.fan_counts.0.len() + n.corners.0.len() + n.welds.0.len();
-        let other = blob.len() - 4 * i - normals;
+        let other = blob.len() - per_influence * i - normals;
         println!(
-            "{name}: {} bytes = 4 × {i} influences + normals {:.2} bytes × {v} vertices + {:.2} \
-             bytes × {v} vertices",
+            "{name}: {} bytes = {per_influence} × {i} influences + normals {:.2} bytes × {v} \
+             vertices + {:.2} bytes × {v} vertices",
             blob.len(),
             normals as f64 / v as f64,
             other as f64 / v as f64

@@ -6,9 +6,10 @@ use facebake_runtime::deformer::linear::LinearDeformer;
 use facebake_runtime::deformer::planar::PlanarDeformer;
 use facebake_runtime::deformer::rbf::RbfDeformer;
 use facebake_runtime::deformer::Deformer;
-use facebake_runtime::fixed::{pack_influence, unpack_influence};
 use facebake_runtime::format::header::header_for;
-use facebake_runtime::format::records::{Bytes, HEADER_LEN, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES};
+use facebake_runtime::format::records::{
+    Bytes, HEADER_LEN, MAX_MARKER_PAIRS, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES,
+};
 use facebake_runtime::format::RigData;
 use facebake_runtime::Rig;
 use facebake_runtime::{LoadError, Section};
@@ -230,22 +231,25 @@ fn every_payload_error_is_distinct() {
         }
     ));
 
-    let short = &lin.influence_counts.0[1..];
-    let fewer = &lin.influences.0[4..];
-    let mut bad_index = lin.influences.0.to_vec();
-    bad_index[0] = 200; // marker 200 of 40
-    let mut bad_sum = lin.influences.0.to_vec();
-    bad_sum[1] ^= 1; // the first weight off by one unit
+    let short = &lin.pair_counts.0[1..];
+    let fewer = &lin.pairs.0[6..];
+    // Vertex 0 has four pairs: 16 bytes of weights, then four marker pair indices.
+    let mut bad_index = lin.pairs.0.to_vec();
+    bad_index[16..18].copy_from_slice(&600u16.to_le_bytes());
+    let mut bad_marker = lin.marker_pairs.0.to_vec();
+    bad_marker[1] = 200; // marker 200 of 40
+    let odd_table = &lin.marker_pairs.0[1..];
+    let too_many = vec![0u8; 2 * (MAX_MARKER_PAIRS + 1)];
+    let mut bad_sum = lin.pairs.0.to_vec();
+    bad_sum[0] ^= 1; // the first weight off by one unit
                      // Vertex 0's first two weights ±20,000 apart from before: still summing to 2^F, but with
                      // magnitudes summing past i16::MAX.
-    let mut heavy = lin.influences.0.to_vec();
-    for (at, delta) in [(0, 20_000), (4, -20_000)] {
-        let word = u32::from_le_bytes(heavy[at..at + 4].try_into().unwrap());
-        let (m, w) = unpack_influence(word);
-        let packed = pack_influence(m, w + delta).unwrap();
-        heavy[at..at + 4].copy_from_slice(&packed.to_le_bytes());
+    let mut heavy = lin.pairs.0.to_vec();
+    for (at, delta) in [(0, 20_000), (2, -20_000)] {
+        let w = i16::from_le_bytes([heavy[at], heavy[at + 1]]) + delta;
+        heavy[at..at + 2].copy_from_slice(&w.to_le_bytes());
     }
-    let cases: [(LinearDeformer<'_>, Option<LoadError>); 10] = [
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 14] = [
         (
             LinearDeformer {
                 max_influences: 0,
@@ -268,35 +272,55 @@ fn every_payload_error_is_distinct() {
             Some(LoadError::BadWeightFormat { found: 23 }),
         ),
         (
+            // K = 6 allows three pairs; the vertices have four.
             LinearDeformer {
-                max_influences: 7,
+                max_influences: 6,
                 ..lin
             },
-            Some(LoadError::TooManyInfluences {
+            Some(LoadError::TooManyInfluencePairs {
                 vertex: 0,
-                count: 8,
+                count: 4,
             }),
         ),
         (
             LinearDeformer {
-                influences: Bytes(&bad_index),
+                pairs: Bytes(&bad_index),
                 ..lin
             },
-            Some(LoadError::MarkerIndexOutOfRange {
+            Some(LoadError::PairIndexOutOfRange {
                 vertex: 0,
+                pair: 600,
+            }),
+        ),
+        (
+            LinearDeformer {
+                marker_pairs: Bytes(&bad_marker),
+                ..lin
+            },
+            Some(LoadError::PairMarkerOutOfRange {
+                pair: 0,
                 marker: 200,
             }),
         ),
         (
             LinearDeformer {
-                influences: Bytes(&bad_sum),
+                marker_pairs: Bytes(&too_many),
+                ..lin
+            },
+            Some(LoadError::TooManyMarkerPairs {
+                found: MAX_MARKER_PAIRS + 1,
+            }),
+        ),
+        (
+            LinearDeformer {
+                pairs: Bytes(&bad_sum),
                 ..lin
             },
             Some(LoadError::WeightsNotNormalised { vertex: 0 }),
         ),
         (
             LinearDeformer {
-                influences: Bytes(&heavy),
+                pairs: Bytes(&heavy),
                 ..lin
             },
             Some(LoadError::WeightsTooLarge { vertex: 0 }),
@@ -311,14 +335,28 @@ fn every_payload_error_is_distinct() {
         ),
         (
             LinearDeformer {
-                influence_counts: Bytes(short),
+                marker_pairs: Bytes(odd_table),
                 ..lin
             },
             None,
         ),
         (
             LinearDeformer {
-                influences: Bytes(fewer),
+                pair_counts: Bytes(short),
+                ..lin
+            },
+            None,
+        ),
+        (
+            LinearDeformer {
+                pairs: Bytes(fewer),
+                ..lin
+            },
+            None,
+        ),
+        (
+            LinearDeformer {
+                pair_counts: Bytes(&lin.pair_counts.0[..0]),
                 ..lin
             },
             None,
@@ -736,4 +774,32 @@ fn every_normals_error_is_distinct() {
             ..
         }
     ));
+}
+
+/// `fixtures/repro/blob_marker_name_terminal_escape.fbk` is the golden linear rig with its first
+/// marker named by a terminal escape sequence (what `baker/tests/hostile.rs` feeds `inspect`),
+/// re-encoded for this format version: rewritten with `FACEBAKE_BLESS=1`.
+#[test]
+fn terminal_escape_repro_is_the_golden_rig_renamed() {
+    let b = facecap_weights().blob.clone();
+    let good = *Rig::from_bytes(&b).unwrap().data();
+    let mut names = vec![13u8];
+    names.extend_from_slice(b"\x1b[2J\x1b[31mPWN\n");
+    // Every name after the first, as it was.
+    let first = usize::from(good.marker_names.0[0]);
+    names.extend_from_slice(&good.marker_names.0[1 + first..]);
+    let mut d = good;
+    d.marker_names = Bytes(&names);
+    let want = seal(&d);
+    let path = facebake_tests::fixture("repro").join("blob_marker_name_terminal_escape.fbk");
+    if std::env::var_os("FACEBAKE_BLESS").is_some_and(|v| v == "1") {
+        std::fs::write(&path, &want).unwrap();
+    }
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        want,
+        "{} is stale (rerun with FACEBAKE_BLESS=1)",
+        path.display()
+    );
+    assert!(Rig::from_bytes(&want).is_ok());
 }

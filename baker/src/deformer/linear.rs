@@ -1,30 +1,37 @@
 //! The linear deformer: K weights per vertex on marker displacements; its f64 reference,
 //! `LinearF64`, is the rig's own quantised weights in exact arithmetic.
 
+use std::collections::HashMap;
+
 use facebake_runtime::deformer::linear::LinearDeformer;
 use facebake_runtime::deformer::Deformer;
-use facebake_runtime::format::records::{Bytes, INFLUENCE_BYTES};
+use facebake_runtime::fixed::unpack_influence;
+use facebake_runtime::format::records::{Bytes, INFLUENCE_PAIR_BYTES, MAX_MARKER_PAIRS};
 
-use super::{
-    dequantise_rows, influence_counts, le_words, DeformerBytes, DeformerOutput, Section,
-    SectionError,
-};
+use super::{influence_counts, DeformerBytes, DeformerOutput, Section, SectionError};
 use crate::sparsify::{self, Refit};
 
-/// The linear section, encoded: per vertex its influence count, and the packed influences.
+/// The linear section, encoded: the marker pairs, per vertex its influence pair count, and the
+/// influence pairs.
 pub struct LinearBytes {
     weight_frac_bits: u8,
+    max_influences: u8,
+    marker_pairs: Vec<u8>,
     counts: Vec<u8>,
-    words: Vec<u8>,
+    pairs: Vec<u8>,
 }
 
 impl LinearBytes {
-    /// Per vertex, its packed influences (at most 64).
+    /// Per vertex, its packed influences (at most 64), stored in pairs ([`pair_up`]).
     fn new(weight_frac_bits: u8, rows: &[Vec<u32>]) -> Result<Self, SectionError> {
+        let lens = influence_counts(rows.iter().map(Vec::len))?;
+        let paired = pair_up(rows)?;
         Ok(Self {
             weight_frac_bits,
-            counts: influence_counts(rows.iter().map(Vec::len))?,
-            words: le_words(rows),
+            max_influences: lens.iter().copied().max().unwrap_or(0).max(1),
+            marker_pairs: paired.marker_pairs.concat(),
+            counts: paired.counts,
+            pairs: paired.bytes,
         })
     }
 
@@ -33,13 +40,129 @@ impl LinearBytes {
         Section {
             deformer: Deformer::Linear(LinearDeformer {
                 weight_frac_bits: self.weight_frac_bits,
-                max_influences: self.counts.iter().copied().max().unwrap_or(0).max(1),
-                influence_counts: Bytes(&self.counts),
-                influences: Bytes(&self.words),
+                max_influences: self.max_influences,
+                marker_pairs: Bytes(&self.marker_pairs),
+                pair_counts: Bytes(&self.counts),
+                pairs: Bytes(&self.pairs),
             }),
-            influence_bytes: self.words.len(),
-            influences: self.words.len() / INFLUENCE_BYTES,
+            influence_bytes: self.pairs.len(),
+            influences: 2 * self.pairs.len() / INFLUENCE_PAIR_BYTES,
         }
+    }
+}
+
+/// Every vertex's influences in pairs, as the linear section stores them.
+struct Paired {
+    /// The distinct marker pairs, each `(a, b)` with `a ≤ b`.
+    marker_pairs: Vec<[u8; 2]>,
+    /// Per vertex, its pair count.
+    counts: Vec<u8>,
+    /// Per vertex, its weight pairs then its marker pair indices.
+    bytes: Vec<u8>,
+}
+
+/// Pairs each vertex's influences so that vertices share marker pairs: the per-frame table has
+/// one entry per distinct pair, so fewer pairs is less marker work and a smaller table. Per
+/// vertex (influences in marker order), first the pairs already in the table, then neighbours
+/// in marker order; an odd influence out joins a pair that holds its marker with a zero weight
+/// on the other side, else the pair of its marker with itself.
+fn pair_up(rows: &[Vec<u32>]) -> Result<Paired, SectionError> {
+    let mut table = PairTable::default();
+    let (mut counts, mut bytes) = (Vec::with_capacity(rows.len()), Vec::new());
+    for row in rows {
+        let mut influences: Vec<(u8, i16)> = row
+            .iter()
+            .map(|&w| {
+                let (m, q) = unpack_influence(w);
+                i16::try_from(q)
+                    .map(|q| (m, q))
+                    .map_err(|_| SectionError(format!("linear weight {q} does not fit 16 bits")))
+            })
+            .collect::<Result<_, _>>()?;
+        influences.sort_by_key(|&(m, _)| m);
+        let mut chosen: Vec<[(u8, i16); 2]> = Vec::new();
+        let mut used = vec![false; influences.len()];
+        // Pairs the table already has.
+        for i in 0..influences.len() {
+            for j in i + 1..influences.len() {
+                if !used[i] && !used[j] && table.get([influences[i].0, influences[j].0]).is_some() {
+                    used[i] = true;
+                    used[j] = true;
+                    chosen.push([influences[i], influences[j]]);
+                }
+            }
+        }
+        // Neighbours in marker order.
+        let rest: Vec<(u8, i16)> = influences
+            .iter()
+            .zip(&used)
+            .filter(|(_, &u)| !u)
+            .map(|(&x, _)| x)
+            .collect();
+        let mut twos = rest.chunks_exact(2);
+        for two in &mut twos {
+            chosen.push([two[0], two[1]]);
+        }
+        if let [(m, w)] = *twos.remainder() {
+            chosen.push(table.with_marker(m, w));
+        }
+        let mut ids = Vec::with_capacity(chosen.len());
+        for [(a, wa), (b, wb)] in &chosen {
+            bytes.extend(wa.to_le_bytes());
+            bytes.extend(wb.to_le_bytes());
+            ids.push(table.id([*a, *b])?);
+        }
+        bytes.extend(ids.iter().flat_map(|id| id.to_le_bytes()));
+        counts.push(chosen.len() as u8);
+    }
+    Ok(Paired {
+        marker_pairs: table.pairs,
+        counts,
+        bytes,
+    })
+}
+
+/// The distinct marker pairs so far, with their indices.
+#[derive(Default)]
+struct PairTable {
+    pairs: Vec<[u8; 2]>,
+    index: HashMap<[u8; 2], u16>,
+}
+
+impl PairTable {
+    /// The index of `pair`, if the table has it.
+    fn get(&self, pair: [u8; 2]) -> Option<u16> {
+        self.index.get(&pair).copied()
+    }
+
+    /// The index of `pair`, added if new.
+    fn id(&mut self, pair: [u8; 2]) -> Result<u16, SectionError> {
+        if let Some(id) = self.get(pair) {
+            return Ok(id);
+        }
+        if self.pairs.len() == MAX_MARKER_PAIRS {
+            return Err(SectionError(format!(
+                "the linear rig needs more than {MAX_MARKER_PAIRS} distinct marker pairs; \
+                 use fewer influences per vertex (--k) or fewer markers"
+            )));
+        }
+        let id = self.pairs.len() as u16;
+        self.pairs.push(pair);
+        self.index.insert(pair, id);
+        Ok(id)
+    }
+
+    /// A pair for marker `m` with weight `w` alone: one the table has that holds `m`, with a
+    /// zero weight on its other side, else `m` with itself.
+    fn with_marker(&self, m: u8, w: i16) -> [(u8, i16); 2] {
+        self.pairs
+            .iter()
+            .find_map(|&[a, b]| match (a == m, b == m) {
+                (true, _) => Some([(m, w), (b, 0)]),
+                (_, true) => Some([(a, 0), (m, w)]),
+                _ => None,
+            })
+            .unwrap_or([(m, w), (m, 0)])
     }
 }
 
@@ -78,11 +201,13 @@ impl LinearF64 {
     /// The section `l`, weights scaled by `scale`.
     pub(crate) fn new(l: &LinearDeformer<'_>, scale: f64) -> Self {
         Self {
-            rows: dequantise_rows(
-                l.influences.0,
-                l.influence_counts.0.iter().map(|&c| usize::from(c)),
-                scale,
-            ),
+            rows: l
+                .vertex_influences()
+                .map(|v| {
+                    v.map(|(m, w)| (usize::from(m), f64::from(w) / scale))
+                        .collect()
+                })
+                .collect(),
         }
     }
 

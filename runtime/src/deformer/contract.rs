@@ -87,16 +87,17 @@ pub(crate) mod check {
     }
 
     /// `counts` has one `u8` per vertex and `records` exactly as many `record_bytes`-long
-    /// records as the counts add up to (vertex after vertex).
+    /// records as the counts add up to (vertex after vertex); `names` are the two sections'.
     pub(crate) fn counted_records(
         counts: Bytes<'_>,
         records: Bytes<'_>,
         vertices: usize,
         record_bytes: usize,
+        names: [Section; 2],
     ) -> Result<(), LoadError> {
-        expect_len(Section::InfluenceCounts, counts, vertices, COUNT_BYTES)?;
+        expect_len(names[0], counts, vertices, COUNT_BYTES)?;
         let total: usize = counts.0.iter().map(|&c| usize::from(c)).sum();
-        expect_len(Section::Influences, records, total, record_bytes)
+        expect_len(names[1], records, total, record_bytes)
     }
 }
 

@@ -1,52 +1,58 @@
-//! The linear deformer: each vertex moves by a weighted sum of at most K marker displacements.
+//! The linear deformer: each vertex moves by a weighted sum of at most K marker displacements,
+//! its influences stored in pairs so that one dual 16 × 16-bit multiply-add serves two of them
+//! (`SMLAD` on a Cortex-M4, `pmaddwd` on x86-64).
 //!
 //! ```text
-//! d[j]   = clamp(m[j] − m_rest[j], ±2^(15+F))                          per marker
-//! out[v] = rest[v] + ( Σ_k w[v,k] · d[idx[v,k]] + 2^(F−1) ) >> F       per vertex
+//! s[j]   = clamp(m[j] − m_rest[j], ±2^(15+F)) · 2^(15−F),  |s| ≤ 2^30             per marker, axis
+//! e      = the least e in [0, 15] with |(s + ⌊2^e/2⌋) >> e| ≤ 2^15 − 1 for every s
+//!          of the frame (15 if none)                                             per frame
+//! q[j]   = clamp((s[j] + ⌊2^e/2⌋) >> e, ±(2^15 − 1))                               per marker, axis
+//! out[v] = rest[v] + (Σ_k w[v,k] · q[idx[v,k]]) >> (15 − e)                        per vertex
 //! ```
 //!
-//! # Why it cannot overflow, and why it fits 16-bit lanes
+//! `s` is the clamped displacement in Q8.24 scaled so that the weights' F fractional bits and the
+//! final shift no longer depend on F; `q` is `s` in 16 bits with a block exponent `e` shared by
+//! the whole frame, the smallest that holds the frame's largest displacement.
 //!
-//! The loader guarantees `Σ_k |w[v,k]| ≤ 2¹⁵ − 1` for every vertex (so every weight is an `i16`)
-//! and F ≤ 14. Both implementations first scale every clamped displacement by `2^(15−F)`:
+//! # Why it cannot overflow
 //!
-//! ```text
-//! s[j]   = d[j] · 2^(15−F),  |s| ≤ 2^30                                 per marker
-//! out[v] = rest[v] + ( Σ_k w[v,k] · s[idx[v,k]] + 2^14 ) >> 15          per vertex
-//! ```
+//! The loader guarantees that every vertex's weights are `i16` with `Σ_k |w[v,k]| ≤ 2¹⁵ − 1`
+//! and F ≤ 14. Then `|Σ w · q| ≤ (2¹⁵ − 1)²  < 2³⁰` for the whole sum and every partial sum:
+//! every multiply-add is exact in an `i32`. After the shift the
+//! sum is below 2³⁰ in magnitude and the rest position (Q0.15 widened to Q8.24) below 2²⁴: the
+//! output fits an `i32` with no saturation. The only saturations are the displacement clamp and
+//! the 16-bit clamp of `q`, which the exponent makes reachable only at e = 15 (a displacement
+//! within 2¹⁴ of the limit, far outside any face).
 //!
-//! which is the same integer as the formula above: the sum and the rounding term are both scaled
-//! by `2^(15−F)` (an integer, as F ≤ 15), and `⌊2^(15−F) · X / 2^15⌋ = ⌊X / 2^F⌋`. The shift and
-//! the rounding term no longer depend on F: they are constants in the per-vertex code.
+//! # Precision
 //!
-//! Every partial sum is within `(2¹⁵ − 1) · 2³⁰ < 2⁴⁵`, so an `i64` accumulator is exact. Split a
-//! scaled displacement into 16-bit halves, `s = hi · 2¹⁶ + lo` with `lo = s as i16` (signed) and
-//! `hi = (s − lo) >> 16`: |lo| ≤ 2¹⁵ and |hi| ≤ 2¹⁴, both `i16`. Then
+//! `q · 2^e` differs from `s` by at most 2^(e−1) (2¹⁵ at e = 15, where the 16-bit clamp can
+//! bite), so the output differs from the exact sum `rest + (Σ w · s + 2¹⁴) >> 15` by at most
+//! `Σ|w| · 2^(e−1) / 2¹⁵ + 1 ≤ 2^(e−1) + 1` Q8.24 units (2¹⁵ + 1 at e = 15; the final shift
+//! truncates, for one Q8.24 unit at most: no rounding term to add per vertex), and `2^e < 2 · max|s| / (2¹⁵ − 1)`: the error is at most about `2^−15 · Σ|w|/2^F` of
+//! the frame's largest marker displacement (a 30 mm jaw: under 2 µm at Σ|w| = 2). A uniform
+//! translation of every marker moves every vertex by the same amount, within that bound.
 //!
-//! ```text
-//! H = Σ w · hi,  |H| < 2^29           L = Σ w · lo,  |L| < 2^30        (every partial sum too)
-//! Σ w · s = H · 2^16 + L
-//! (Σ w · s + 2^14) >> 15 = 2 · H + ((L + 2^14) >> 15)                 exactly
-//! ```
+//! # Pairs
 //!
-//! so |2 · H| < 2³⁰, |(L + 2¹⁴) >> 15| ≤ 2¹⁵, and with |rest| ≤ 2²⁴ the output is below 2³¹: no
-//! step overflows an `i32` and none needs saturation. The only saturation is the displacement
-//! clamp, which keeps a uniform translation exact (every displacement clamps alike, and the weights
-//! sum to exactly 2^F).
+//! A vertex's influences are stored two by two: each pair holds its two weights (`i16`
+//! each) and the index of a *marker pair* `(a, b)`. Per frame, each marker pair's table entry
+//! holds `q[a]` and `q[b]` side by side for each axis (16-bit lanes `[x_a, x_b, y_a, y_b, z_a,
+//! z_b, 0, 0]`), so a pair's three multiply-adds are three dual multiply-adds of its weight word
+//! with the entry's words. A vertex with an odd count has one pair whose second weight is zero.
 //!
-//! Two implementations compute exactly this integer, so their outputs are bit for bit equal:
+//! Three implementations compute exactly these integers, so their outputs are bit for bit equal:
 //!
-//! * `portable`: one `i64` accumulator per axis, started at the rounding term (a 32 × 32 → 64-bit
-//!   multiply-add per influence and axis: one single-cycle `SMLAL` on a Cortex-M4, which beats the
-//!   16-bit halves there, as they need two multiplies per axis);
-//! * `sse2` (x86-64): the halves of every marker's displacement in one 128-bit table entry; two
-//!   influences at a time, their halves are interleaved (`punpcklwd`/`punpckhwd`) and multiplied by
-//!   the weight pair with `pmaddwd` into 32-bit lanes, which the bounds above make exact.
+//! * `portable` (every target but x86-64): one `i32` accumulator per axis, one dual
+//!   multiply-add per pair and axis, written so that LLVM's ARM backend emits `SMLAD` where the
+//!   target has the DSP extension (a Cortex-M4: three single-cycle `SMLAD` a pair);
+//! * `sse2` (x86-64): the accumulators in one 128-bit register; per pair one `pmaddwd` of the
+//!   entry by the broadcast weight word and one `paddd`.
 //!
-//! Cost per frame: per marker a subtraction, a clamp and a shift; per influence a word decode and
-//! three multiply-adds (two `pmaddwd` per two influences on x86-64); per vertex one rounding shift
-//! and one addition per axis. There is no branch on marker data and no check that can fail: the
-//! loader has validated every index, count and bound.
+//! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per marker pair
+//! three packings; per influence pair three dual multiply-adds; per vertex one shift and one
+//! addition per axis. There is no branch on marker data and no check that can fail: the loader
+//! has validated every index, count and bound.
 
 use serde::{Deserialize, Serialize};
 
@@ -54,75 +60,157 @@ use crate::cost::{Cost, NormalsCost};
 use crate::deformer::contract::{
     check, counted_range, DeformerSection, DegenerateTriangles, Shared,
 };
+use crate::error::{LoadError, Section};
 use crate::fixed::{
-    linear_displacement_limit, LINEAR_MAX_WEIGHT_FRAC_BITS,
-    LINEAR_WEIGHT_ABS_SUM_MAX,
+    linear_displacement_limit, LINEAR_MAX_WEIGHT_FRAC_BITS, LINEAR_WEIGHT_ABS_SUM_MAX,
 };
-use crate::error::LoadError;
 use crate::records::{
-    read_influence, read_position, read_rest, Bytes, INFLUENCE_BYTES, MAX_MARKERS,
-    POSITION_BYTES, REST_BYTES,
+    read_position, read_rest, Bytes, INFLUENCE_PAIR_BYTES, MARKER_PAIR_BYTES, MAX_MARKERS,
+    MAX_MARKER_PAIRS, POSITION_BYTES, REST_BYTES,
 };
 
 /// The linear deformer's section: every vertex moves by a fixed weighted sum of marker
-/// displacements (layout: [`crate::format::RigData`]).
+/// displacements, its influences stored in pairs (layout: [`crate::format::RigData`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LinearDeformer<'a> {
     /// Fractional bits of the stored weights, in [8, 14].
     pub weight_frac_bits: u8,
-    /// Most influences any vertex has (K), in [1, 64].
+    /// Most influences any vertex has (K), in [1, 64]: a vertex has at most ⌈K/2⌉ pairs.
     pub max_influences: u8,
-    /// Per vertex: how many influences it has (`u8` each).
+    /// The marker pairs the influence pairs name: [`MARKER_PAIR_BYTES`] each (two `u8` marker
+    /// indices), at most [`MAX_MARKER_PAIRS`].
     #[serde(borrow)]
-    pub influence_counts: Bytes<'a>,
-    /// The packed influences, vertex after vertex (`u32` LE each).
+    pub marker_pairs: Bytes<'a>,
+    /// Per vertex: how many influence pairs it has (`u8` each).
     #[serde(borrow)]
-    pub influences: Bytes<'a>,
+    pub pair_counts: Bytes<'a>,
+    /// The influence pairs, vertex after vertex ([`INFLUENCE_PAIR_BYTES`] each): a vertex with
+    /// n pairs stores its n weight pairs (2 × `i16` LE), then its n marker pair indices (`u16`
+    /// LE).
+    #[serde(borrow)]
+    pub pairs: Bytes<'a>,
 }
+
+/// Largest magnitude of a 16-bit displacement `q` (and of a weight).
+const Q_MAX: i32 = i16::MAX as i32;
+/// Fractional bits of every weighted sum of scaled displacements at e = 0: the largest shift.
+const SUM_SHIFT: u32 = LINEAR_MAX_WEIGHT_FRAC_BITS as u32 + 1;
 
 impl<'a> LinearDeformer<'a> {
     /// The section for vertices `first .. first + len` only (see [`super::Deformer::vertex_range`]).
     pub(crate) fn vertex_range(&self, first: usize, len: usize, uniform: Option<u8>) -> Self {
-        let (counts, influences) = counted_range(
-            self.influence_counts.0,
-            self.influences.0,
-            INFLUENCE_BYTES,
+        let (counts, pairs) = counted_range(
+            self.pair_counts.0,
+            self.pairs.0,
+            INFLUENCE_PAIR_BYTES,
             first,
             len,
             uniform,
         );
         Self {
-            influence_counts: Bytes(counts),
-            influences: Bytes(influences),
+            pair_counts: Bytes(counts),
+            pairs: Bytes(pairs),
             ..*self
         }
     }
+
+    /// Each vertex's influences in order, as `(marker, weight)` (the second influence of a pair
+    /// included when its weight is zero): what the pairs encode, for tools and references.
+    /// Indices out of range (an unvalidated section) read as marker 0.
+    #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
+    pub fn vertex_influences(&self) -> impl Iterator<Item = impl Iterator<Item = (u8, i16)> + 'a> + 'a {
+        let table = self.marker_pairs.0;
+        per_vertex(self.pair_counts.0, self.pairs.0).map(move |words| {
+            let (weights, ids) = split_pairs(words);
+            weights
+                .chunks_exact(4)
+                .zip(ids.chunks_exact(2))
+                .flat_map(move |(w, id)| {
+                    let [wa, wb] = read_weights(w);
+                    let [a, b] = marker_pair(table, read_u16(id));
+                    [(a, wa), (b, wb)]
+                })
+        })
+    }
+}
+
+/// The two markers of marker pair `p` of `table` (`[0, 0]` out of range).
+#[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
+fn marker_pair(table: &[u8], p: u16) -> [u8; 2] {
+    let at = usize::from(p) * MARKER_PAIR_BYTES;
+    match table.get(at..at + MARKER_PAIR_BYTES) {
+        Some(&[a, b]) => [a, b],
+        _ => [0, 0],
+    }
+}
+
+/// A weight pair (2 × `i16` LE) from a four-byte chunk.
+#[inline(always)]
+fn read_weights(b: &[u8]) -> [i16; 2] {
+    let b: [u8; 4] = b.try_into().unwrap_or([0; 4]);
+    [i16::from_le_bytes([b[0], b[1]]), i16::from_le_bytes([b[2], b[3]])]
+}
+
+/// A `u16` LE from a two-byte chunk.
+#[inline(always)]
+fn read_u16(b: &[u8]) -> u16 {
+    u16::from_le_bytes(b.try_into().unwrap_or([0; 2]))
+}
+
+/// A vertex's pair bytes split into its weight pairs and its marker pair indices.
+#[inline(always)]
+fn split_pairs(words: &[u8]) -> (&[u8], &[u8]) {
+    words.split_at(words.len() / INFLUENCE_PAIR_BYTES * 4)
 }
 
 impl DeformerSection for LinearDeformer<'_> {
     fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError> {
         check::max_influences(self.max_influences)?;
         check::weight_format(self.weight_frac_bits, LINEAR_MAX_WEIGHT_FRAC_BITS)?;
+        if !self.marker_pairs.0.len().is_multiple_of(MARKER_PAIR_BYTES) {
+            return Err(LoadError::SectionLength {
+                section: Section::MarkerPairs,
+                expected: self.marker_pairs.0.len() / MARKER_PAIR_BYTES * MARKER_PAIR_BYTES,
+                found: self.marker_pairs.0.len(),
+            });
+        }
+        let marker_pairs = self.marker_pairs.0.len() / MARKER_PAIR_BYTES;
+        if marker_pairs > MAX_MARKER_PAIRS {
+            return Err(LoadError::TooManyMarkerPairs {
+                found: marker_pairs,
+            });
+        }
+        for (pair, markers) in self.marker_pairs.0.chunks_exact(MARKER_PAIR_BYTES).enumerate() {
+            if let Some(&marker) = markers.iter().find(|&&m| usize::from(m) >= rig.markers) {
+                return Err(LoadError::PairMarkerOutOfRange { pair, marker });
+            }
+        }
         check::counted_records(
-            self.influence_counts,
-            self.influences,
+            self.pair_counts,
+            self.pairs,
             rig.vertices,
-            INFLUENCE_BYTES,
+            INFLUENCE_PAIR_BYTES,
+            [Section::PairCounts, Section::Pairs],
         )?;
         let one = 1i64 << self.weight_frac_bits;
-        let mut words = self.influences.0.chunks_exact(INFLUENCE_BYTES);
-        for (vertex, &count) in self.influence_counts.0.iter().enumerate() {
-            if count > self.max_influences {
-                return Err(LoadError::TooManyInfluences { vertex, count });
+        let most_pairs = self.max_influences.div_ceil(2);
+        let vertices = per_vertex(self.pair_counts.0, self.pairs.0);
+        for (vertex, (&count, words)) in self.pair_counts.0.iter().zip(vertices).enumerate() {
+            if count > most_pairs {
+                return Err(LoadError::TooManyInfluencePairs { vertex, count });
+            }
+            let (weights, ids) = split_pairs(words);
+            if let Some(pair) = ids
+                .chunks_exact(2)
+                .map(read_u16)
+                .find(|&p| usize::from(p) >= marker_pairs)
+            {
+                return Err(LoadError::PairIndexOutOfRange { vertex, pair });
             }
             let (mut sum, mut abs_sum) = (0i64, 0i64);
-            for w in words.by_ref().take(usize::from(count)) {
-                let (marker, weight) = read_influence(w);
-                if usize::from(marker) >= rig.markers {
-                    return Err(LoadError::MarkerIndexOutOfRange { vertex, marker });
-                }
-                sum += i64::from(weight);
-                abs_sum += i64::from(weight).abs();
+            for w in weights.chunks_exact(4).flat_map(read_weights) {
+                sum += i64::from(w);
+                abs_sum += i64::from(w).abs();
             }
             if count > 0 && sum != one {
                 return Err(LoadError::WeightsNotNormalised { vertex });
@@ -136,14 +224,14 @@ impl DeformerSection for LinearDeformer<'_> {
 
     fn cost(&self, rig: &Shared<'_>) -> Cost {
         let (v, m) = (rig.vertices, rig.markers);
-        let influences = self.influences.0.len() / INFLUENCE_BYTES;
+        let pairs = self.pairs.0.len() / INFLUENCE_PAIR_BYTES;
         Cost {
             vertices: v,
             markers: m,
-            influences,
+            influences: 2 * pairs,
             max_influences: usize::from(self.max_influences),
             coefficient_rows: 0,
-            multiply_adds: 3 * influences,
+            multiply_adds: 3 * 2 * pairs,
             subtractions: 3 * m,
             narrowings: 3 * v,
             scratch_bytes: SCRATCH_BYTES,
@@ -163,18 +251,22 @@ impl DeformerSection for LinearDeformer<'_> {
         markers: &[[i32; 3]],
         out: &mut [[i32; 3]],
     ) -> DegenerateTriangles {
-        let d = displacements(markers, rig.marker_rest, self.weight_frac_bits);
-        deform_with(&d, self.sections(rig), out);
+        let mut table = Prepared::EMPTY;
+        self.prepare(rig, markers, &mut table);
+        deform_prepared(&table, self.sections(rig), out);
         DegenerateTriangles::default()
     }
-
 }
 
 impl LinearDeformer<'_> {
     /// The per-frame marker work of [`DeformerSection::deform`] for `markers` (one per rig
-    /// marker, the caller checked), for [`Self::deform_prepared`].
-    pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]]) -> Prepared {
-        prepared(&displacements(markers, rig.marker_rest, self.weight_frac_bits))
+    /// marker, the caller checked) into `table`, for [`Self::deform_prepared`]. In place: the
+    /// table is 6 to 8 KB, and a copy costs more than filling it.
+    pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]], table: &mut Prepared) {
+        table.fill(
+            &quantised(markers, rig.marker_rest, self.weight_frac_bits),
+            self.marker_pairs.0,
+        );
     }
 
     /// The vertices of `rig` into `out` (one entry each, the caller checked) from this frame's
@@ -183,103 +275,174 @@ impl LinearDeformer<'_> {
         deform_prepared(prepared, self.sections(rig), out);
     }
 
-    /// The per-vertex sections of `rig` (validated at load, including Σ|w| ≤ 2¹⁵ − 1 per vertex
-    /// and F ≤ 14) as the per-frame loops read them.
+    /// The per-vertex sections of `rig` (validated at load, including Σ|w| ≤ 2¹⁵ − 1 per vertex,
+    /// F ≤ 14 and every marker pair index) as the per-frame loops read them.
     fn sections<'s>(&'s self, rig: &Shared<'s>) -> Sections<'s> {
         Sections {
             rest: rig.vertex_rest,
-            counts: self.influence_counts.0,
-            influences: self.influences.0,
+            counts: self.pair_counts.0,
+            pairs: self.pairs.0,
             uniform: rig.uniform_influences,
         }
     }
 }
 
-/// Per marker index, its clamped displacement scaled by `2^(15−F)` ([`SUM_SHIFT`]), in lanes
-/// `[0, x, y, z]`. Four lanes rather than three: an entry is 16 bytes, so its address is one
-/// shifted addition (a 12-byte entry takes two on a Cortex-M4). Lane 0 is unused so that every
-/// lane read is at a non-zero offset from that address: with `x` at offset 0, LLVM forms its
-/// address a second time, as a register offset (one instruction more per influence).
-pub(crate) type Displacements = [[i32; 4]; MAX_MARKERS];
+/// A frame's markers as 16-bit displacements: `q` per marker index (later entries zero) and the
+/// block exponent e (module docs).
+pub(crate) struct Quantised {
+    /// `q[j]` for axes x, y, z.
+    q: [[i16; 3]; MAX_MARKERS],
+    /// The block exponent, in [0, 15].
+    exponent: u32,
+}
 
-/// Fractional bits of every weighted sum of scaled displacements: the per-vertex shift. The
-/// rounding term is half of its unit.
-const SUM_SHIFT: u32 = LINEAR_MAX_WEIGHT_FRAC_BITS as u32 + 1;
-/// `2^(SUM_SHIFT − 1)`: added before the shift, so it rounds half up.
-const SUM_HALF: i32 = 1 << (SUM_SHIFT - 1);
-
-/// Stack the deformer uses per frame: the displacement table, plus on x86-64 its 16-bit halves
-/// (one 128-bit entry per marker index).
-pub(crate) const SCRATCH_BYTES: usize = core::mem::size_of::<Displacements>()
-    + if cfg!(all(target_arch = "x86_64", target_feature = "sse2")) {
-        16 * MAX_MARKERS
-    } else {
-        0
-    };
-
-/// The clamped displacement of every marker (Q8.24) times `2^(15−F)`, in marker order; later
-/// entries stay zero.
-///
-/// `markers` are the current positions, `marker_rest` the rest section ([`POSITION_BYTES`] a
-/// marker).
-pub(crate) fn displacements(
-    markers: &[[i32; 3]],
-    marker_rest: &[u8],
+/// The scaled, clamped displacement `s` of every marker (module docs), in marker order.
+fn scaled<'m>(
+    markers: &'m [[i32; 3]],
+    marker_rest: &'m [u8],
     weight_frac_bits: u8,
-) -> Displacements {
+) -> impl Iterator<Item = [i32; 3]> + 'm {
     let limit = i64::from(linear_displacement_limit(u32::from(weight_frac_bits)));
     // F ≤ 14 (validated), so the scale is a left shift by at least one bit.
     let scale = SUM_SHIFT - u32::from(weight_frac_bits);
-    let mut table = [[0i32; 4]; MAX_MARKERS];
-    for ((d, m), r) in table
-        .iter_mut()
-        .zip(markers)
+    markers
+        .iter()
         .zip(marker_rest.chunks_exact(POSITION_BYTES))
-    {
-        let rest = read_position(r);
-        for c in 0..3 {
+        .map(move |(m, r)| {
+            let rest = read_position(r);
             // In i64 the difference is exact; the clamp bounds it by ±2^(15+F) (so it fits an
             // i32), the scale by ±2^30. `max`/`min` rather than `clamp`, which asserts that its
-            // bounds are ordered: a panic path, and with it the Cortex-M4 build copied the 4 KiB
-            // table once a frame.
-            let difference = i64::from(m[c]) - i64::from(rest[c]);
-            d[c + 1] = (difference.max(-limit).min(limit) as i32) << scale;
+            // bounds are ordered: a panic path.
+            [0, 1, 2].map(|c| {
+                let difference = i64::from(m[c]) - i64::from(rest[c]);
+                (difference.max(-limit).min(limit) as i32) << scale
+            })
+        })
+}
+
+/// The frame's 16-bit displacements (module docs): two passes over the markers, one for the
+/// largest magnitude, one to round.
+pub(crate) fn quantised(markers: &[[i32; 3]], marker_rest: &[u8], weight_frac_bits: u8) -> Quantised {
+    let largest = scaled(markers, marker_rest, weight_frac_bits)
+        .flatten()
+        .map(i32::unsigned_abs)
+        .max()
+        .unwrap_or(0);
+    // The exponents that do not hold the largest magnitude are the smallest ones (rounding is
+    // monotonic): count them, with the same 15 steps whatever the data.
+    let exponent: u32 = (0..15u32)
+        .map(|e| u32::from((largest + ((1 << e) >> 1)) >> e > Q_MAX as u32))
+        .sum();
+    let half = (1i32 << exponent) >> 1;
+    let mut q = [[0i16; 3]; MAX_MARKERS];
+    for (q, s) in q.iter_mut().zip(scaled(markers, marker_rest, weight_frac_bits)) {
+        // |s| ≤ 2^30 and half ≤ 2^14: the sum fits an i32.
+        *q = s.map(|s| ((s + half) >> exponent).clamp(-Q_MAX, Q_MAX) as i16);
+    }
+    Quantised { q, exponent }
+}
+
+/// One marker pair's table entry: three words x, y, z (and a zero word), each with marker a's
+/// value in its low half and marker b's in its high half (16-bit lanes `[x_a, x_b, y_a, y_b,
+/// z_a, z_b, 0, 0]` in memory): one aligned 128-bit load on x86-64.
+#[cfg(not(facebake_smlad))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, align(16))]
+pub(crate) struct Entry(pub(crate) [u32; 4]);
+
+/// The linear deformer's per-frame data (in a [`crate::FrameTable`], or on the stack): one
+/// [`Entry`] per marker pair, and the frame's final shift.
+#[cfg(not(facebake_smlad))]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Prepared {
+    /// One entry per marker pair of the rig; later ones zero.
+    entries: [Entry; MAX_MARKER_PAIRS],
+    /// `15 − e`: the per-vertex shift, in [0, 15].
+    shift: u32,
+}
+
+/// The linear deformer's per-frame data (in a [`crate::FrameTable`], or on the stack): per axis,
+/// one word per marker pair (marker a's value in the low half, b's in the high half), and the
+/// frame's final shift. One array per axis, so that the Cortex-M4 kernel reads a pair's three
+/// words with three register-offset loads from three bases, without an address computation.
+#[cfg(facebake_smlad)]
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub(crate) struct Prepared {
+    /// Per axis x, y, z: one word per marker pair of the rig; later ones zero.
+    axes: [[u32; MAX_MARKER_PAIRS]; 3],
+    /// `15 − e`: the per-vertex shift, in [0, 15].
+    shift: u32,
+}
+
+impl Prepared {
+    /// A table of zeros, to [`Self::fill`].
+    #[cfg(not(facebake_smlad))]
+    pub(crate) const EMPTY: Self = Self {
+        entries: [Entry([0; 4]); MAX_MARKER_PAIRS],
+        shift: 0,
+    };
+    /// A table of zeros, to [`Self::fill`].
+    #[cfg(facebake_smlad)]
+    pub(crate) const EMPTY: Self = Self {
+        axes: [[0; MAX_MARKER_PAIRS]; 3],
+        shift: 0,
+    };
+
+    /// This frame's table from its quantised displacements `q`, for the rig's `marker_pairs`
+    /// (at most [`MAX_MARKER_PAIRS`], validated): the entries past them are left as they were
+    /// (no index reads them).
+    fn fill(&mut self, q: &Quantised, marker_pairs: &[u8]) {
+        self.shift = SUM_SHIFT - q.exponent;
+        let pairs = marker_pairs.chunks_exact(MARKER_PAIR_BYTES).map(|pair| {
+            // u8 indices into a 256-entry array: in range by construction.
+            let [a, b] = [pair[0], pair[1]].map(|m| q.q[usize::from(m)]);
+            [0, 1, 2].map(|c| u32::from(a[c] as u16) | u32::from(b[c] as u16) << 16)
+        });
+        #[cfg(not(facebake_smlad))]
+        for (e, words) in self.entries.iter_mut().zip(pairs) {
+            *e = Entry([words[0], words[1], words[2], 0]);
+        }
+        #[cfg(facebake_smlad)]
+        {
+            let [x, y, z] = &mut self.axes;
+            for (((x, y), z), words) in x.iter_mut().zip(y.iter_mut()).zip(z.iter_mut()).zip(pairs) {
+                [*x, *y, *z] = words;
+            }
         }
     }
-    table
+
+    /// The words x, y, z of marker pair `p`: validated below the rig's pair count at load; the
+    /// mask keeps the read in the table without a branch whatever the bytes.
+    #[inline(always)]
+    fn words(&self, p: u16) -> [u32; 3] {
+        let p = usize::from(p) & (MAX_MARKER_PAIRS - 1);
+        #[cfg(not(facebake_smlad))]
+        return [0, 1, 2].map(|c| self.entries[p].0[c]);
+        #[cfg(facebake_smlad)]
+        return [0, 1, 2].map(|c| self.axes[c][p]);
+    }
+
+    /// The entry of marker pair `p` (see [`Self::words`]).
+    #[cfg(not(facebake_smlad))]
+    #[inline(always)]
+    fn entry(&self, p: u16) -> &Entry {
+        &self.entries[usize::from(p) & (MAX_MARKER_PAIRS - 1)]
+    }
 }
 
-/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the scaled displacement
-/// table, on x86-64 as the SSE2 path's table of 16-bit halves.
-#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-pub(crate) type Prepared = sse2::Frame;
-/// The linear deformer's per-frame data in a [`crate::FrameTable`]: the scaled displacement
-/// table, on x86-64 as the SSE2 path's table of 16-bit halves.
-#[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-pub(crate) type Prepared = Displacements;
+const _: () = assert!(MAX_MARKER_PAIRS.is_power_of_two());
 
-/// This frame's [`Prepared`] data from the scaled displacement table `d`.
-fn prepared(d: &Displacements) -> Prepared {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    return sse2::frame_checked(d);
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    *d
-}
+/// Stack the deformer uses per frame: the 16-bit displacements and the pair table.
+pub(crate) const SCRATCH_BYTES: usize =
+    core::mem::size_of::<Quantised>() + core::mem::size_of::<Prepared>();
 
-/// Every vertex of `rig` from this frame's [`Prepared`] data.
+/// Every vertex of `rig` from this frame's [`Prepared`] table.
 fn deform_prepared(p: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    sse2::deform_vertices_checked(p, rig, out);
+    sse2::deform_checked(p, rig, out);
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
     portable::deform(p, rig, out);
-}
-
-/// Write deformed positions for every vertex of `rig` from the scaled displacement table `d`.
-fn deform_with(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    sse2::deform_checked(d, rig, out);
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    portable::deform(d, rig, out);
 }
 
 /// A linear rig's per-vertex sections, validated at load.
@@ -287,25 +450,25 @@ fn deform_with(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
 pub(crate) struct Sections<'a> {
     /// Vertex rest positions, [`REST_BYTES`] a vertex.
     rest: &'a [u8],
-    /// Influences per vertex, one byte a vertex.
+    /// Influence pairs per vertex, one byte a vertex.
     counts: &'a [u8],
-    /// Packed influences, [`INFLUENCE_BYTES`] each, vertex after vertex.
-    influences: &'a [u8],
-    /// The count every vertex has, when all have the same ([`Shared::uniform_influences`]).
+    /// The influence pairs, [`INFLUENCE_PAIR_BYTES`] each, vertex after vertex.
+    pairs: &'a [u8],
+    /// The pair count every vertex has, when all have the same ([`Shared::uniform_influences`]).
     uniform: Option<u8>,
 }
 
 impl<'a> Sections<'a> {
-    /// Call `f(words, rest bytes, output slot)` for every vertex in turn.
+    /// Call `f(pair bytes, rest bytes, output slot)` for every vertex in turn.
     ///
-    /// Bakes give every vertex exactly K influences. When a rig's counts are all 4 or all 8 (a
-    /// property of the rig, never of the markers), each vertex's words come as a fixed-size
-    /// chunk, so an inlined `f` compiles for exactly that K, without per-vertex tail handling.
+    /// Bakes give every vertex exactly ⌈K/2⌉ pairs. When a rig's counts are all 2 or all 4 (K =
+    /// 4 or 8; a property of the rig, never of the markers), each vertex's bytes come as a
+    /// fixed-size chunk, so an inlined `f` compiles for exactly that count.
     #[inline(always)]
     fn for_each_vertex(self, out: &mut [[i32; 3]], mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3])) {
         match self.common_count() {
-            Some(4) => self.uniform::<{ 4 * INFLUENCE_BYTES }>(out, &mut f),
-            Some(8) => self.uniform::<{ 8 * INFLUENCE_BYTES }>(out, &mut f),
+            Some(2) => self.uniform::<{ 2 * INFLUENCE_PAIR_BYTES }>(out, &mut f),
+            Some(4) => self.uniform::<{ 4 * INFLUENCE_PAIR_BYTES }>(out, &mut f),
             _ => {
                 for (o, r, words) in self.vertices(out) {
                     f(words, r, o);
@@ -314,80 +477,58 @@ impl<'a> Sections<'a> {
         }
     }
 
-    /// [`Self::for_each_vertex`] when every vertex has `N / INFLUENCE_BYTES` influences.
+    /// [`Self::for_each_vertex`] when every vertex has `N / INFLUENCE_PAIR_BYTES` pairs.
     #[inline(always)]
     fn uniform<const N: usize>(
         self,
         out: &mut [[i32; 3]],
         f: &mut impl FnMut(&[u8], &[u8], &mut [i32; 3]),
     ) {
-        for (o, r, words) in self.uniform_vertices(out, N / INFLUENCE_BYTES) {
+        for (o, r, words) in self.uniform_vertices(out, N / INFLUENCE_PAIR_BYTES) {
             let words: &[u8; N] = words.try_into().unwrap_or(&[0; N]);
             f(words, r, o);
         }
     }
 
-    /// [`Self::for_each_vertex`] with one loop for every common K: `f` sees slices whose length
-    /// is known only at run time, so it compiles once, for every K alike.
-    #[inline(always)]
-    fn for_each_vertex_rolled(
-        self,
-        out: &mut [[i32; 3]],
-        mut f: impl FnMut(&[u8], &[u8], &mut [i32; 3]),
-    ) {
-        match self.common_count() {
-            Some(k) => {
-                for (o, r, words) in self.uniform_vertices(out, k) {
-                    f(words, r, o);
-                }
-            }
-            None => {
-                for (o, r, words) in self.vertices(out) {
-                    f(words, r, o);
-                }
-            }
-        }
-    }
-
-    /// The number of influences of every vertex, if all have the same (as bakes write them)
-    /// and it is not zero: found once when the rig was loaded, not scanned per frame.
+    /// The number of pairs of every vertex, if all have the same (as bakes write them) and it
+    /// is not zero: found once when the rig was loaded, not scanned per frame.
     fn common_count(self) -> Option<usize> {
         self.uniform.map(usize::from)
     }
 
-    /// [`Self::vertices`] when every vertex has `k ≥ 1` influences ([`Self::common_count`]).
+    /// [`Self::vertices`] when every vertex has `n ≥ 1` pairs ([`Self::common_count`]).
     fn uniform_vertices<'o>(
         self,
         out: &'o mut [[i32; 3]],
-        k: usize,
+        n: usize,
     ) -> impl Iterator<Item = (&'o mut [i32; 3], &'a [u8], &'a [u8])> + use<'a, 'o> {
         out.iter_mut()
             .zip(self.rest.chunks_exact(REST_BYTES))
-            .zip(self.influences.chunks_exact(k * INFLUENCE_BYTES))
+            .zip(self.pairs.chunks_exact(n * INFLUENCE_PAIR_BYTES))
             .map(|((o, r), words)| (o, r, words))
     }
 
-    /// Each output slot with its vertex's rest bytes and influence words.
+    /// Each output slot with its vertex's rest bytes and pair bytes.
     fn vertices<'o>(
         self,
         out: &'o mut [[i32; 3]],
     ) -> impl Iterator<Item = (&'o mut [i32; 3], &'a [u8], &'a [u8])> + use<'a, 'o> {
         out.iter_mut()
             .zip(self.rest.chunks_exact(REST_BYTES))
-            .zip(per_vertex(self.counts, self.influences))
+            .zip(per_vertex(self.counts, self.pairs))
             .map(|((o, r), words)| (o, r, words))
     }
 }
 
-/// The influences of each vertex in turn, as one slice of words per vertex.
+/// The pair bytes of each vertex in turn.
 ///
 /// The loader checked that the counts add up to the section, so the fallback (an empty slice)
-/// is never taken.
-fn per_vertex<'a>(counts: &'a [u8], influences: &'a [u8]) -> impl Iterator<Item = &'a [u8]> {
-    let mut words = influences;
+/// is never taken on a loaded rig.
+fn per_vertex<'a>(counts: &'a [u8], pairs: &'a [u8]) -> impl Iterator<Item = &'a [u8]> + 'a {
+    let mut words = pairs;
     counts.iter().map(move |&count| {
         let (mine, tail) = words
-            .split_at_checked(INFLUENCE_BYTES * usize::from(count))
+            .split_at_checked(INFLUENCE_PAIR_BYTES * usize::from(count))
             .unwrap_or((&[], &[]));
         words = tail;
         mine
@@ -400,61 +541,226 @@ fn per_vertex<'a>(counts: &'a [u8], influences: &'a [u8]) -> impl Iterator<Item 
 pub(crate) mod portable {
     use super::*;
 
-    /// See [`super::deform`]; `d` is the scaled displacement table.
-    ///
-    /// On 32-bit ARM, one rolled loop over a vertex's influences whatever K (so a K = 4 and a
-    /// K = 8 rig cost the same per influence and per vertex): on a Cortex-M4 the loop fully
-    /// unrolled for K = 8, or unrolled four influences a pass, keeps more values live than the
-    /// registers hold and spills them to the stack (up to 34 instructions per influence), where
-    /// the rolled loop takes 11 (`LDR` word, `UXTB` index, `ASR` weight, entry address, `LDRD` +
-    /// `LDR`, three `SMLAL`, count and branch). Elsewhere (aarch64, i686, 32-bit PowerPC) the
-    /// loops fully unrolled for K = 4 and 8 take 6 to 28% fewer instructions than the rolled one.
+    /// Every vertex of `rig` from the frame's table `t`.
     ///
     /// Not inlined: `Rig::deform` and `Rig::deform_chunk` share this one copy of the loop.
     #[inline(never)]
-    pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        #[cfg(target_arch = "arm")]
-        rolled(d, rig, out);
-        #[cfg(not(target_arch = "arm"))]
-        unrolled(d, rig, out);
+    pub(crate) fn deform(t: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        #[cfg(facebake_smlad)]
+        match rig.common_count() {
+            Some(2) => return m4::two_pairs(t, rig, out),
+            Some(4) => return m4::four_pairs(t, rig, out),
+            _ => {}
+        }
+        rig.for_each_vertex(out, |words, r, o| vertex(t, words, r, o));
     }
 
-    /// [`deform`] through [`Sections::for_each_vertex_rolled`] (32-bit ARM).
-    #[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
-    pub(crate) fn rolled(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        rig.for_each_vertex_rolled(out, |words, r, o| vertex(d, words, r, o));
-    }
-
-    /// [`deform`] through [`Sections::for_each_vertex`] (every other target).
-    #[cfg_attr(all(target_arch = "arm", not(test)), allow(dead_code))]
-    pub(crate) fn unrolled(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        rig.for_each_vertex(out, |words, r, o| vertex(d, words, r, o));
-    }
-
-    /// One vertex: its influence words and rest bytes in, its position out.
+    /// `acc + a.lo · b.lo + a.hi · b.hi`, the halves of each word signed 16-bit: exact within
+    /// the module's bounds (neither the products nor the sums can overflow).
+    #[cfg(not(facebake_smlad))]
     #[inline(always)]
-    fn vertex(d: &Displacements, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
-        // The rounding term first: the sum is the same integer in any order.
-        let mut acc = [i64::from(SUM_HALF); 3];
-        for w in words.chunks_exact(INFLUENCE_BYTES) {
-            let (marker, weight) = read_influence(w);
-            // A u8 index into a 256-entry array: in range by construction.
-            let [_, x, y, z] = d[usize::from(marker)];
-            for (a, s) in acc.iter_mut().zip([x, y, z]) {
-                *a += i64::from(weight) * i64::from(s);
+    fn dual_mul_add(acc: i32, a: u32, b: u32) -> i32 {
+        let lo = i32::from(a as i16) * i32::from(b as i16);
+        let hi = i32::from((a >> 16) as i16) * i32::from((b >> 16) as i16);
+        acc.wrapping_add(lo).wrapping_add(hi)
+    }
+
+    /// `acc + a.lo · b.lo + a.hi · b.hi` in one `SMLAD` (Cortex-M4/M7: a single cycle), which
+    /// LLVM does not form from the portable expression (it emits an `SMLABB` and an `SMLATB`).
+    /// The same integer: `SMLAD` multiplies the signed halves and adds both products and the
+    /// accumulator, exactly, as long as the sum fits 32 bits (the module's bounds).
+    #[cfg(facebake_smlad)]
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    fn dual_mul_add(acc: i32, a: u32, b: u32) -> i32 {
+        let sum: i32;
+        // SAFETY: one register-only instruction: it reads three registers and writes one,
+        // touches no memory and no stack; it may only set the sticky Q flag on an overflow,
+        // which the module's bounds rule out (and nothing reads Q).
+        unsafe {
+            core::arch::asm!(
+                "smlad {sum}, {a}, {b}, {acc}",
+                sum = lateout(reg) sum,
+                a = in(reg) a,
+                b = in(reg) b,
+                acc = in(reg) acc,
+                options(pure, nomem, nostack),
+            );
+        }
+        sum
+    }
+
+    /// One vertex: its pair bytes and rest bytes in, its position out.
+    #[inline(always)]
+    fn vertex(t: &Prepared, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
+        let (weights, ids) = split_pairs(words);
+        let mut acc = [0i32; 3];
+        for (w, id) in weights.chunks_exact(4).zip(ids.chunks_exact(2)) {
+            let w = u32::from_le_bytes(w.try_into().unwrap_or([0; 4]));
+            for (a, e) in acc.iter_mut().zip(t.words(read_u16(id))) {
+                *a = dual_mul_add(*a, w, e);
             }
-            // LLVM's ARM cost model unrolls small loops four times over (and fully for a
-            // constant K), which spills (see `deform`); an opaque no-op in the body keeps the
-            // loop rolled and costs no instruction.
-            #[cfg(target_arch = "arm")]
-            core::hint::black_box(());
         }
         // Below 2^30 in magnitude after the shift, and below 2^31 with the rest position, by the
-        // module's bounds: the narrowing and the addition are exact (wrapping is never reached,
-        // and cannot panic).
+        // module's bounds: the addition is exact (wrapping is never reached, and cannot panic).
         let rest = read_rest(r);
-        *o = [0, 1, 2].map(|c| rest[c].wrapping_add((acc[c] >> SUM_SHIFT) as i32));
+        *o = [0, 1, 2].map(|c| rest[c].wrapping_add(acc[c] >> t.shift));
     }
+}
+
+/// The Cortex-M4/M7 kernels for rigs whose vertices all have two or four pairs (K = 4 or 8, what
+/// bakes write): the whole vertex loop in Thumb-2 assembly, computing exactly the integers of
+/// [`portable`] (the firmware's golden hashes prove it under QEMU).
+///
+/// LLVM compiles the portable loop for four pairs into about 90 instructions a vertex with a
+/// dozen spills to the stack; it has fourteen registers to work with and the loop needs them
+/// all: three section pointers, three table bases (one per axis), three accumulators, the
+/// weight word, the pair index, two loaded words and the shift. The loop end lives on the stack.
+/// Per pair: `LDR` weights, `LDRH` index, three register-offset `LDR` (x, y, z of the pair,
+/// the index reused for z), three `SMLAD` (the first pair `SMUAD`): 8 instructions, about 10
+/// cycles by the Cortex-M4 TRM. Per vertex: three `LDRSH` rest, three `ASR` and three `ADD`
+/// (the rest widened by the shifted operand), three `STR`, the loop end's `LDR`, `CMP`, `BNE`.
+#[cfg(facebake_smlad)]
+mod m4 {
+    use super::*;
+
+    /// One vertex loop with `$stride` bytes of pairs a vertex; the pair lines address the
+    /// pairs relative to the pointer already advanced past the vertex.
+    macro_rules! kernel {
+        ($name:ident, $n:literal, $stride:literal, [$($pairs:expr),* $(,)?]) => {
+            /// Every vertex of `rig` (each with
+            #[doc = stringify!($n)]
+            /// pairs) from the frame's table `t`.
+            #[allow(unsafe_code)]
+            pub(super) fn $name(t: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+                let vertices = out
+                    .len()
+                    .min(rig.rest.len() / REST_BYTES)
+                    .min(rig.pairs.len() / $stride);
+                if vertices == 0 {
+                    return;
+                }
+                let out = &mut out[..vertices];
+                let end = out.as_mut_ptr_range().end;
+                // SAFETY: the loop writes `vertices` ≥ 1 outputs, four a pass (`vertices % 4` in
+                // the first pass when that is not zero, which enters at a later copy), and for each
+                // reads REST_BYTES of `rig.rest` and `$stride` bytes of `rig.pairs`: all in bounds
+                // by the minimum above. The table reads are at the pair indices of the rig,
+                // which the loader validated below its marker pair count, itself at most
+                // MAX_MARKER_PAIRS: in bounds of each axis array. Unaligned section bytes are
+                // fine for LDR/LDRH/LDRSH on ARMv7E-M. r6, r7 and r9 (reserved by LLVM) and the
+                // loop end (in lr) are pushed and popped around the loop; every other register
+                // written is an output or clobber. The flags are clobbered (`cmp`).
+                unsafe {
+                    core::arch::asm!(
+                        "push {{r6, r7, r9, lr}}",
+                        "cmp r8, #1",
+                        "beq 5f",
+                        "cmp r8, #2",
+                        "beq 4f",
+                        "cmp r8, #3",
+                        "beq 3f",
+                        "2:",
+                        $($pairs,)*
+                        vertex_out!(),
+                        "3:",
+                        $($pairs,)*
+                        vertex_out!(),
+                        "4:",
+                        $($pairs,)*
+                        vertex_out!(),
+                        "5:",
+                        $($pairs,)*
+                        vertex_out!(),
+                        "ldr r9, [sp, #12]",
+                        "cmp r2, r9",
+                        "bne 2b",
+                        "pop {{r6, r7, r9, lr}}",
+                        inout("r0") rig.rest.as_ptr() => _,
+                        inout("r1") rig.pairs.as_ptr() => _,
+                        inout("r2") out.as_mut_ptr() => _,
+                        in("r3") t.axes[0].as_ptr(),
+                        in("r4") t.axes[1].as_ptr(),
+                        in("r5") t.axes[2].as_ptr(),
+                        in("r12") t.shift,
+                        in("lr") end,
+                        inout("r8") vertices % 4 => _,
+                        out("r10") _,
+                        out("r11") _,
+                    );
+                }
+            }
+        };
+    }
+
+    /// A vertex's last lines: its rest position (x, y, z; the pointer advanced), each axis's
+    /// sum shifted and added to it, the three outputs stored (the pointer advanced).
+    macro_rules! vertex_out {
+        () => {
+            concat!(
+                "ldrsh r11, [r0, #2]\n",
+                "ldrsh lr, [r0, #4]\n",
+                "ldrsh r10, [r0], #6\n",
+                "asr r6, r6, r12\n",
+                "add r6, r6, r10, lsl #9\n",
+                "asr r7, r7, r12\n",
+                "add r7, r7, r11, lsl #9\n",
+                "asr r8, r8, r12\n",
+                "add r8, r8, lr, lsl #9\n",
+                "str r7, [r2, #4]\n",
+                "str r8, [r2, #8]\n",
+                "str r6, [r2], #12",
+            )
+        };
+    }
+
+    /// The first pair's lines: its weights (advancing the pointer past the vertex by
+    /// `$stride`), its index at `$i` from the advanced pointer, the products by `SMUAD`.
+    macro_rules! first_pair {
+        ($stride:literal, $i:literal) => {
+            concat!(
+                "ldr r9, [r1], #", $stride, "\n",
+                "ldrh r10, [r1, #", $i, "]\n",
+                "ldr r11, [r3, r10, lsl #2]\n",
+                "ldr lr, [r4, r10, lsl #2]\n",
+                "ldr r10, [r5, r10, lsl #2]\n",
+                "smuad r6, r9, r11\n",
+                "smuad r7, r9, lr\n",
+                "smuad r8, r9, r10",
+            )
+        };
+    }
+    /// A later pair's lines: weights at `$w` and index at `$i` from the advanced pointer, the
+    /// products added by `SMLAD`.
+    macro_rules! next_pair {
+        ($w:literal, $i:literal) => {
+            concat!(
+                "ldr r9, [r1, #", $w, "]\n",
+                "ldrh r10, [r1, #", $i, "]\n",
+                "ldr r11, [r3, r10, lsl #2]\n",
+                "ldr lr, [r4, r10, lsl #2]\n",
+                "ldr r10, [r5, r10, lsl #2]\n",
+                "smlad r6, r9, r11, r6\n",
+                "smlad r7, r9, lr, r7\n",
+                "smlad r8, r9, r10, r8",
+            )
+        };
+    }
+
+    // Two pairs, 12 bytes: weights at 0 and 4, indices at 8 and 10.
+    kernel!(two_pairs, 2, 12, [first_pair!(12, -4), next_pair!(-8, -2)]);
+    // Four pairs, 24 bytes: weights at 0, 4, 8, 12, indices at 16, 18, 20, 22.
+    kernel!(
+        four_pairs,
+        4,
+        24,
+        [
+            first_pair!(24, -8),
+            next_pair!(-20, -6),
+            next_pair!(-16, -4),
+            next_pair!(-12, -2),
+        ]
+    );
 }
 
 /// The x86-64 implementation (SSE2 is part of the x86-64 baseline).
@@ -462,167 +768,62 @@ pub(crate) mod portable {
 pub(crate) mod sse2 {
     use core::arch::x86_64::{
         __m128i, _mm_add_epi32, _mm_cvtsi128_si32, _mm_cvtsi128_si64, _mm_cvtsi32_si128,
-        _mm_cvtsi64_si128, _mm_madd_epi16, _mm_packs_epi32, _mm_set1_epi32, _mm_set_epi16,
-        _mm_set_epi32, _mm_setzero_si128, _mm_shuffle_epi32, _mm_slli_epi32,
-        _mm_srai_epi32, _mm_unpackhi_epi16, _mm_unpacklo_epi16,
+        _mm_cvtsi64_si128, _mm_madd_epi16, _mm_set1_epi32, _mm_set_epi32, _mm_setzero_si128,
+        _mm_shuffle_epi32, _mm_sra_epi32, _mm_srai_epi32, _mm_unpacklo_epi16,
     };
 
     use super::*;
 
-    /// [`Frame::new`], callable from code compiled without the `sse2` attribute.
-    #[allow(unsafe_code)]
-    pub(crate) fn frame_checked(d: &Displacements) -> Frame {
-        // SAFETY: as in `deform_checked`.
-        unsafe { Frame::new(d) }
-    }
-
-    /// [`deform_vertices`], callable from code compiled without the `sse2` attribute.
-    #[allow(unsafe_code)]
-    pub(crate) fn deform_vertices_checked(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        // SAFETY: as in `deform_checked`.
-        unsafe { deform_vertices(frame, rig, out) }
-    }
-
     /// [`deform`], callable from code compiled without the `sse2` attribute.
     #[allow(unsafe_code)]
-    pub(crate) fn deform_checked(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+    pub(crate) fn deform_checked(t: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
         // SAFETY: `deform` is safe Rust whose only requirement is the SSE2 target feature, and
         // this module is compiled only when SSE2 is enabled for the whole build (the x86-64
         // baseline), so every CPU that runs this code has it.
-        unsafe { deform(d, rig, out) }
+        unsafe { deform(t, rig, out) }
     }
 
-    /// One marker's scaled displacement `[0, x, y, z]` as a table entry: lanes `[hi x, hi y,
-    /// hi z, 0, lo x, lo y, lo z, 0]` (16-bit), with `s = hi · 2^16 + lo` and `lo` signed.
-    #[target_feature(enable = "sse2")]
-    fn entry(s: [i32; 4]) -> __m128i {
-        let lo = s.map(|x| x as i16);
-        // |s| ≤ 2^30 (the clamp and the scale), so |hi| ≤ 2^14.
-        let hi = [1, 2, 3].map(|c| ((s[c] - i32::from(lo[c])) >> 16) as i16);
-        _mm_set_epi16(0, lo[3], lo[2], lo[1], 0, hi[2], hi[1], hi[0])
-    }
-
-    /// `acc_hi += hi halves · weights`, `acc_lo += lo halves · weights` for two influences:
-    /// `pair` holds their two weights as 16-bit lanes, repeated.
+    /// An entry as a vector (LLVM makes the four word reads one aligned load).
     #[target_feature(enable = "sse2")]
     #[inline]
-    fn madd_pair(acc: &mut [__m128i; 2], a: __m128i, b: __m128i, pair: __m128i) {
-        acc[0] = _mm_add_epi32(acc[0], _mm_madd_epi16(_mm_unpacklo_epi16(a, b), pair));
-        acc[1] = _mm_add_epi32(acc[1], _mm_madd_epi16(_mm_unpackhi_epi16(a, b), pair));
+    fn vector(e: &Entry) -> __m128i {
+        let e = e.0.map(|w| w as i32);
+        _mm_set_epi32(e[3], e[2], e[1], e[0])
     }
 
-    /// The weights of the (up to four) words in lanes 0–3 of `words`, as 16-bit lanes
-    /// `[w0, w1, w2, w3, w0, w1, w2, w3]`: the weight is the word's top 24 bits, which fit 16.
+    /// One vertex: its pair bytes and rest bytes in, its position out.
     #[target_feature(enable = "sse2")]
     #[inline]
-    fn weights16(words: __m128i) -> __m128i {
-        let w = _mm_srai_epi32::<8>(words);
-        _mm_packs_epi32(w, w)
-    }
-
-    /// The little-endian word at byte `at` of a chunk (in range: the callers' chunks are
-    /// fixed-size arrays).
-    #[inline(always)]
-    fn word<const N: usize>(chunk: &[u8; N], at: usize) -> u32 {
-        u32::from_le_bytes([chunk[at], chunk[at + 1], chunk[at + 2], chunk[at + 3]])
-    }
-
-    /// What every vertex of a frame reads: the displacement table and the rounding constants.
-    #[derive(Clone, Copy, Debug)]
-    pub(crate) struct Frame {
-        /// One [`entry`] per marker index.
-        table: [__m128i; MAX_MARKERS],
-        /// [`SUM_HALF`] in every 32-bit lane.
-        half: __m128i,
-    }
-
-    impl Frame {
-        #[target_feature(enable = "sse2")]
-        fn new(d: &Displacements) -> Self {
-            let mut table = [_mm_setzero_si128(); MAX_MARKERS];
-            for (t, &d) in table.iter_mut().zip(d) {
-                *t = entry(d);
-            }
-            Self {
-                table,
-                half: _mm_set1_epi32(SUM_HALF),
-            }
+    fn vertex(t: &Prepared, shift: __m128i, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
+        let (weights, ids) = split_pairs(words);
+        let mut acc = _mm_setzero_si128();
+        for (w, id) in weights.chunks_exact(4).zip(ids.chunks_exact(2)) {
+            let w = _mm_set1_epi32(i32::from_le_bytes(w.try_into().unwrap_or([0; 4])));
+            let e = vector(t.entry(read_u16(id)));
+            acc = _mm_add_epi32(acc, _mm_madd_epi16(e, w));
         }
-
-        /// The table entry of marker `i`: a u8 index into a 256-entry array, in range by
-        /// construction.
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        fn t(&self, i: u8) -> __m128i {
-            self.table[usize::from(i)]
-        }
-
-        /// One vertex: its influence words and rest bytes in, its position out.
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        fn vertex(&self, words: &[u8], r: &[u8], o: &mut [i32; 3]) {
-            let mut acc = [_mm_setzero_si128(); 2];
-            let mut quads = words.chunks_exact(16);
-            for q in &mut quads {
-                let q: &[u8; 16] = q.try_into().unwrap_or(&[0; 16]);
-                let u = [word(q, 0), word(q, 4), word(q, 8), word(q, 12)];
-                let w = weights16(_mm_set_epi32(
-                    u[3] as i32,
-                    u[2] as i32,
-                    u[1] as i32,
-                    u[0] as i32,
-                ));
-                let m = [u[0] as u8, u[1] as u8, u[2] as u8, u[3] as u8];
-                let pair01 = _mm_shuffle_epi32::<0b00_00_00_00>(w);
-                let pair23 = _mm_shuffle_epi32::<0b01_01_01_01>(w);
-                madd_pair(&mut acc, self.t(m[0]), self.t(m[1]), pair01);
-                madd_pair(&mut acc, self.t(m[2]), self.t(m[3]), pair23);
-            }
-            let mut pairs = quads.remainder().chunks_exact(8);
-            for p in &mut pairs {
-                let p: &[u8; 8] = p.try_into().unwrap_or(&[0; 8]);
-                let u = [word(p, 0), word(p, 4)];
-                let w = weights16(_mm_set_epi32(0, 0, u[1] as i32, u[0] as i32));
-                let (a, b) = (self.t(u[0] as u8), self.t(u[1] as u8));
-                madd_pair(&mut acc, a, b, _mm_shuffle_epi32::<0>(w));
-            }
-            if let Ok(single) = <&[u8; 4]>::try_from(pairs.remainder()) {
-                // The odd influence, paired with a zero weight on a zero entry.
-                let u = u32::from_le_bytes(*single);
-                let w = _mm_shuffle_epi32::<0>(weights16(_mm_cvtsi32_si128(u as i32)));
-                madd_pair(&mut acc, self.t(u as u8), _mm_setzero_si128(), w);
-            }
-            // rest (Q0.15) in the high halves of 32-bit lanes, shifted down to Q8.24.
-            let r: &[u8; REST_BYTES] = r.try_into().unwrap_or(&[0; REST_BYTES]);
-            let rest16 = _mm_cvtsi64_si128(i64::from_le_bytes([
-                r[0], r[1], r[2], r[3], r[4], r[5], 0, 0,
-            ]));
-            let rest = _mm_srai_epi32::<{ 16 - crate::fixed::REST_SHIFT as i32 }>(
-                _mm_unpacklo_epi16(_mm_setzero_si128(), rest16),
-            );
-            // (H · 2^16 + L + 2^14) >> 15 = 2 · H + ((L + 2^14) >> 15) (the module docs).
-            let lo = _mm_srai_epi32::<{ SUM_SHIFT as i32 }>(_mm_add_epi32(acc[1], self.half));
-            let hi = _mm_slli_epi32::<{ 16 - SUM_SHIFT as i32 }>(acc[0]);
-            let sum = _mm_add_epi32(_mm_add_epi32(hi, lo), rest);
-            let xy = _mm_cvtsi128_si64(sum);
-            *o = [
-                xy as i32,
-                (xy >> 32) as i32,
-                _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(sum)),
-            ];
-        }
+        // rest (Q0.15) in the high halves of 32-bit lanes, shifted down to Q8.24.
+        let r: &[u8; REST_BYTES] = r.try_into().unwrap_or(&[0; REST_BYTES]);
+        let rest16 = _mm_cvtsi64_si128(i64::from_le_bytes([
+            r[0], r[1], r[2], r[3], r[4], r[5], 0, 0,
+        ]));
+        let rest = _mm_srai_epi32::<{ 16 - crate::fixed::REST_SHIFT as i32 }>(
+            _mm_unpacklo_epi16(_mm_setzero_si128(), rest16),
+        );
+        let sum = _mm_add_epi32(_mm_sra_epi32(acc, shift), rest);
+        let xy = _mm_cvtsi128_si64(sum);
+        *o = [
+            xy as i32,
+            (xy >> 32) as i32,
+            _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10>(sum)),
+        ];
     }
 
-    /// See [`super::deform`]; `d` is the scaled displacement table.
+    /// Every vertex of `rig` from the frame's table `t`.
     #[target_feature(enable = "sse2")]
-    pub(crate) fn deform(d: &Displacements, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        deform_vertices(&Frame::new(d), rig, out);
-    }
-
-    /// Every vertex of `rig` from this frame's `frame`.
-    #[target_feature(enable = "sse2")]
-    fn deform_vertices(frame: &Frame, rig: Sections<'_>, out: &mut [[i32; 3]]) {
-        rig.for_each_vertex(out, |words, r, o| frame.vertex(words, r, o));
+    fn deform(t: &Prepared, rig: Sections<'_>, out: &mut [[i32; 3]]) {
+        let shift = _mm_cvtsi32_si128(t.shift as i32);
+        rig.for_each_vertex(out, |words, r, o| vertex(t, shift, words, r, o));
     }
 }
 
@@ -632,7 +833,7 @@ mod tests {
     use std::{vec, vec::Vec};
 
     use super::*;
-    use crate::fixed::{pack_influence, unpack_influence, widen_rest, LINEAR_WEIGHT_ABS_SUM_MAX};
+    use crate::fixed::widen_rest;
 
     /// xorshift64: deterministic test data.
     struct Rng(u64);
@@ -649,12 +850,16 @@ mod tests {
     }
 
     /// A random valid linear rig: `vertices` vertices of 0..=`k` influences over `markers`
-    /// markers, weights summing to 2^F with Σ|w| as large as the loader allows.
+    /// markers, weights summing to 2^F with Σ|w| as large as the loader allows, in pairs over
+    /// `marker_pairs` random marker pairs.
     struct Case {
         frac: u8,
         rest: Vec<u8>,
+        marker_pairs: Vec<u8>,
         counts: Vec<u8>,
-        words: Vec<u8>,
+        pairs: Vec<u8>,
+        /// Per vertex, its influences as (marker, weight): what the pairs encode.
+        influences: Vec<Vec<(u8, i32)>>,
         markers: usize,
     }
 
@@ -668,7 +873,10 @@ mod tests {
         uniform: bool,
     ) -> Case {
         let one = 1i32 << frac;
-        let (mut rest, mut counts, mut words) = (vec![], vec![], vec![]);
+        let table: Vec<[u8; 2]> = (0..1 + rng.below(MAX_MARKER_PAIRS as u64))
+            .map(|_| [0; 2].map(|_| rng.below(markers as u64) as u8))
+            .collect();
+        let (mut rest, mut counts, mut pairs, mut influences) = (vec![], vec![], vec![], vec![]);
         for _ in 0..vertices {
             for _ in 0..3 {
                 rest.extend_from_slice(&(rng.next() as i16).to_le_bytes());
@@ -678,9 +886,9 @@ mod tests {
             } else {
                 rng.below(u64::from(k) + 1) as usize
             };
-            counts.push(n as u8);
             // Weights with large magnitudes of both signs, fixed up to sum to 2^F and kept
-            // within the Σ|w| bound (scaled down until they fit).
+            // within the Σ|w| bound (scaled down until they fit); an odd count's last pair has
+            // a zero second weight.
             let mut w: Vec<i32> = (0..n)
                 .map(|_| (rng.below(2 * 32767) as i32 - 32767) / n.max(1) as i32)
                 .collect();
@@ -695,54 +903,106 @@ mod tests {
                     w[0] += one - s;
                 }
             }
-            for x in w {
-                let m = rng.below(markers as u64) as u8;
-                words.extend_from_slice(&pack_influence(m, x).unwrap().to_le_bytes());
+            if n % 2 == 1 {
+                w.push(0);
             }
+            let ids: Vec<u16> = (0..w.len() / 2)
+                .map(|_| rng.below(table.len() as u64) as u16)
+                .collect();
+            counts.push(ids.len() as u8);
+            for x in &w {
+                pairs.extend_from_slice(&(*x as i16).to_le_bytes());
+            }
+            let mut mine = vec![];
+            for (i, &id) in ids.iter().enumerate() {
+                pairs.extend_from_slice(&id.to_le_bytes());
+                let [a, b] = table[usize::from(id)];
+                mine.extend([(a, w[2 * i]), (b, w[2 * i + 1])]);
+            }
+            influences.push(mine);
         }
         Case {
             frac,
             rest,
+            marker_pairs: table.concat(),
             counts,
-            words,
+            pairs,
+            influences,
             markers,
         }
     }
 
-    /// The deformer's formula (the first one in the module docs) evaluated in i128 from the
-    /// markers, with no cleverness: the contract both implementations must meet bit for bit.
-    fn reference(c: &Case, markers: &[[i32; 3]], marker_rest: &[u8]) -> Vec<[i32; 3]> {
+    impl Case {
+        fn sections(&self) -> Sections<'_> {
+            Sections {
+                rest: &self.rest,
+                counts: &self.counts,
+                pairs: &self.pairs,
+                uniform: crate::deformer::contract::uniform(&self.counts),
+            }
+        }
+    }
+
+    /// The clamped, scaled displacements `s` (module docs) in i128, with no cleverness.
+    fn scaled_exact(c: &Case, markers: &[[i32; 3]], marker_rest: &[u8]) -> Vec<[i128; 3]> {
         let limit = i128::from(linear_displacement_limit(u32::from(c.frac)));
-        let d: Vec<[i128; 3]> = markers
+        markers
             .iter()
             .zip(marker_rest.chunks_exact(POSITION_BYTES))
             .map(|(m, r)| {
                 let r = read_position(r);
-                [0, 1, 2].map(|a| (i128::from(m[a]) - i128::from(r[a])).clamp(-limit, limit))
+                [0, 1, 2].map(|a| {
+                    (i128::from(m[a]) - i128::from(r[a])).clamp(-limit, limit) << (15 - c.frac)
+                })
             })
-            .collect();
-        let mut out = vec![];
-        let mut words = c.words.chunks_exact(INFLUENCE_BYTES);
-        for (r, &n) in c.rest.chunks_exact(REST_BYTES).zip(&c.counts) {
-            let mut acc = [0i128; 3];
-            for w in words.by_ref().take(usize::from(n)) {
-                let (m, w) = unpack_influence(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-                for a in 0..3 {
-                    acc[a] += i128::from(w) * d[usize::from(m)][a];
-                }
-            }
-            let v = [0, 1, 2].map(|a| {
-                let rest = widen_rest(i16::from_le_bytes([r[2 * a], r[2 * a + 1]]));
-                let x = i128::from(rest) + ((acc[a] + (1 << (c.frac - 1))) >> c.frac);
-                i32::try_from(x).expect("the module's bound: no overflow")
-            });
-            out.push(v);
-        }
-        out
+            .collect()
     }
 
-    /// Marker positions: extreme, large and small displacements from random rest positions.
-    fn frame(rng: &mut Rng, c: &Case) -> (Vec<[i32; 3]>, Vec<u8>) {
+    /// Each vertex as `rest + (Σ w · x + half) >> shift` over per-marker values `x`, with
+    /// `half = 2^(shift−1)` when `rounded`, else 0.
+    fn weighted(c: &Case, x: &[[i128; 3]], shift: u32, rounded: bool) -> Vec<[i32; 3]> {
+        c.rest
+            .chunks_exact(REST_BYTES)
+            .zip(&c.influences)
+            .map(|(r, row)| {
+                [0, 1, 2].map(|a| {
+                    let sum: i128 = row
+                        .iter()
+                        .map(|&(m, w)| i128::from(w) * x[usize::from(m)][a])
+                        .sum();
+                    let rest = widen_rest(i16::from_le_bytes([r[2 * a], r[2 * a + 1]]));
+                    let half = if rounded { (1i128 << shift) >> 1 } else { 0 };
+                    i32::try_from(i128::from(rest) + ((sum + half) >> shift))
+                        .expect("the module's bound: no overflow")
+                })
+            })
+            .collect()
+    }
+
+    /// The deformer's formula (module docs) evaluated in i128 from the markers: the contract
+    /// every implementation must meet bit for bit. Also returns the exponent.
+    fn reference(c: &Case, markers: &[[i32; 3]], marker_rest: &[u8]) -> (Vec<[i32; 3]>, u32) {
+        let s = scaled_exact(c, markers, marker_rest);
+        let fits = |e: u32| {
+            s.iter()
+                .flatten()
+                .all(|&x| ((x.abs() + ((1 << e) >> 1)) >> e) <= i128::from(Q_MAX))
+        };
+        let e = (0..15).find(|&e| fits(e)).unwrap_or(15);
+        let q: Vec<[i128; 3]> = s
+            .iter()
+            .map(|v| {
+                v.map(|x| {
+                    ((x + ((1 << e) >> 1)) >> e).clamp(-i128::from(Q_MAX), i128::from(Q_MAX))
+                })
+            })
+            .collect();
+        (weighted(c, &q, 15 - e, false), e)
+    }
+
+    /// Marker positions: extreme, large and small displacements from random rest positions; with
+    /// `small`, only small ones (a face's frame).
+    fn frame(rng: &mut Rng, c: &Case, small: bool) -> (Vec<[i32; 3]>, Vec<u8>) {
         let mut rest = vec![];
         let mut markers = vec![];
         for j in 0..c.markers {
@@ -751,6 +1011,7 @@ mod tests {
                 rest.extend_from_slice(&x.to_le_bytes());
             }
             let m = r.map(|x| match (j + rng.below(4) as usize) % 4 {
+                _ if small => x.wrapping_add((rng.next() as i32) >> 10),
                 0 => rng.next() as i32,
                 1 => x.wrapping_add((rng.next() as i32) >> 3),
                 2 => x.wrapping_add((rng.next() as i32) >> 20),
@@ -761,10 +1022,16 @@ mod tests {
         (markers, rest)
     }
 
+    fn prepared(c: &Case, m: &[[i32; 3]], mrest: &[u8]) -> Prepared {
+        let mut t = Prepared::EMPTY;
+        t.fill(&quantised(m, mrest, c.frac), &c.marker_pairs);
+        t
+    }
+
     #[test]
     fn every_implementation_matches_the_exact_formula() {
         let mut rng = Rng(0x1234_5678_9ABC_DEF1);
-        for trial in 0..60 {
+        for trial in 0..80 {
             let frac = [8u8, 11, 13, 14][trial % 4];
             let markers = [1, 7, 40, 256][(trial % 4) ^ ((trial / 4) % 4)];
             // Every third trial has K = 4 or 8 everywhere: the specialised loops.
@@ -772,30 +1039,77 @@ mod tests {
                 0 => ([4, 8][trial % 2], true),
                 _ => ([1, 3, 4, 8, 9, 64][trial % 6], false),
             };
-            // Vertex counts of every remainder modulo 4 (the count scan reads four at a time).
             let c = case(&mut rng, frac, markers, 297 + trial % 4, k, uniform);
-            let (m, mrest) = frame(&mut rng, &c);
-            let d = displacements(&m, &mrest, frac);
-            let want = reference(&c, &m, &mrest);
+            let (m, mrest) = frame(&mut rng, &c, trial % 2 == 0);
+            let (want, _) = reference(&c, &m, &mrest);
+            let t = prepared(&c, &m, &mrest);
             let mut got = vec![[0; 3]; want.len()];
-            let rig = Sections {
-                rest: &c.rest,
-                counts: &c.counts,
-                influences: &c.words,
-                uniform: crate::deformer::contract::uniform(&c.counts),
-            };
-            portable::unrolled(&d, rig, &mut got);
+            portable::deform(&t, c.sections(), &mut got);
             assert_eq!(got, want, "portable, trial {trial}");
-            let mut rolled = vec![[2; 3]; want.len()];
-            portable::rolled(&d, rig, &mut rolled);
-            assert_eq!(rolled, want, "portable rolled, trial {trial}");
             #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
             {
                 let mut simd = vec![[1; 3]; want.len()];
-                sse2::deform_checked(&d, rig, &mut simd);
+                sse2::deform_checked(&t, c.sections(), &mut simd);
                 assert_eq!(simd, want, "sse2, trial {trial}");
             }
         }
+    }
+
+    #[test]
+    fn sixteen_bits_stay_within_the_documented_bound_of_the_exact_sum() {
+        let mut rng = Rng(0x0DDB_A11C_AFE0_0001);
+        for trial in 0..40 {
+            let frac = [8u8, 14][trial % 2];
+            let c = case(&mut rng, frac, 41, 500, 8, true);
+            let (m, mrest) = frame(&mut rng, &c, trial % 4 != 0);
+            let (got, e) = reference(&c, &m, &mrest);
+            let exact = weighted(&c, &scaled_exact(&c, &m, &mrest), 15, true);
+            let bound = if e == 15 { 1 << 15 } else { (1i64 << e) >> 1 } + 1;
+            for (v, (g, x)) in got.iter().zip(&exact).enumerate() {
+                for a in 0..3 {
+                    let error = (i64::from(g[a]) - i64::from(x[a])).abs();
+                    assert!(error <= bound, "trial {trial} vertex {v}: {error} > {bound} (e = {e})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_exponent_is_the_least_that_holds_the_largest_displacement() {
+        let rest: Vec<u8> = [0i32; 6].iter().flat_map(|x| x.to_le_bytes()).collect();
+        let frac = 14; // s = d · 2
+        let of = |d: i32| quantised(&[[d, 0, 0], [0, -3, 0]], &rest, frac);
+        // Small displacements need no exponent and are exact.
+        let q = of(1000);
+        assert_eq!((q.exponent, q.q[0], q.q[1]), (0, [2000, 0, 0], [0, -6, 0]));
+        assert_eq!(q.q[2], [0; 3]);
+        // 2 · 16383 = 32766 fits; 2 · 16384 = 32768 does not, and rounds to 16384 at e = 1.
+        assert_eq!(of(16383).exponent, 0);
+        let q = of(16384);
+        assert_eq!((q.exponent, q.q[0][0], q.q[1][1]), (1, 16384, -3));
+        // At the clamp (2^29 · 2 = 2^30) e = 15, and the 16-bit clamp holds the rounded 2^15.
+        let q = of(i32::MAX);
+        assert_eq!((q.exponent, q.q[0][0]), (15, Q_MAX as i16));
+        let q = of(i32::MIN);
+        assert_eq!((q.exponent, q.q[0][0]), (15, -Q_MAX as i16));
+    }
+
+    #[test]
+    fn the_pairs_decode_to_the_influences_they_encode() {
+        let mut rng = Rng(77);
+        let c = case(&mut rng, 12, 40, 50, 9, false);
+        let l = LinearDeformer {
+            weight_frac_bits: c.frac,
+            max_influences: 10,
+            marker_pairs: Bytes(&c.marker_pairs),
+            pair_counts: Bytes(&c.counts),
+            pairs: Bytes(&c.pairs),
+        };
+        let decoded: Vec<Vec<(u8, i32)>> = l
+            .vertex_influences()
+            .map(|v| v.map(|(m, w)| (m, i32::from(w))).collect())
+            .collect();
+        assert_eq!(decoded, c.influences);
     }
 
     #[test]
@@ -804,33 +1118,21 @@ mod tests {
             Sections {
                 rest: &[],
                 counts,
-                influences: &[],
+                pairs: &[],
                 uniform: crate::deformer::contract::uniform(counts),
             }
             .common_count()
         };
-        assert_eq!(of(&[8; 7]), Some(8));
-        assert_eq!(of(&[4; 8]), Some(4));
+        assert_eq!(of(&[4; 7]), Some(4));
+        assert_eq!(of(&[2; 8]), Some(2));
         assert_eq!(of(&[3]), Some(3));
-        // One different count anywhere, in the words read four at a time or in the tail.
         for at in 0..7 {
-            let mut counts = [8; 7];
-            counts[at] = 7;
+            let mut counts = [4; 7];
+            counts[at] = 3;
             assert_eq!(of(&counts), None, "differs at {at}");
         }
         assert_eq!(of(&[0; 5]), None);
         assert_eq!(of(&[]), None);
     }
-
-    #[test]
-    fn displacements_clamp_at_the_limit() {
-        let rest: Vec<u8> = [5i32, -5, 0].iter().flat_map(|x| x.to_le_bytes()).collect();
-        for frac in [8u8, 14] {
-            // The limit 2^(15+F), scaled by 2^(15−F): 2^30 whatever F.
-            let scale = 1 << (15 - frac);
-            let d = displacements(&[[i32::MAX, i32::MIN, 77]], &rest, frac);
-            assert_eq!(d[0], [0, 1 << 30, -(1 << 30), 77 * scale]);
-            assert_eq!(d[1], [0; 4]);
-        }
-    }
 }
+

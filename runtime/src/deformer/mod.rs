@@ -87,7 +87,7 @@ impl<'a> Deformer<'a> {
     /// [`contract::counted_range`]); the RBF deformer's are always K and need no count.
     pub(crate) fn uniform_influences(&self) -> Option<u8> {
         match self {
-            Self::Linear(d) => contract::uniform(d.influence_counts.0),
+            Self::Linear(d) => contract::uniform(d.pair_counts.0),
             Self::Rbf(_) => None,
             Self::Planar(d) => contract::uniform(d.influence_counts.0),
         }
@@ -111,7 +111,14 @@ impl<'a> Deformer<'a> {
         table: &mut Table,
     ) -> DegenerateTriangles {
         match self {
-            Self::Linear(d) => *table = Table::Linear(d.prepare(rig, markers)),
+            Self::Linear(d) => {
+                if !matches!(table, Table::Linear(_)) {
+                    *table = Table::Linear(linear::Prepared::EMPTY);
+                }
+                if let Table::Linear(p) = table {
+                    d.prepare(rig, markers, p);
+                }
+            }
             Self::Rbf(d) => *table = Table::Rbf(d.prepare(rig, markers)),
             Self::Planar(d) => {
                 let frames = d.prepare(rig, markers);
@@ -159,7 +166,7 @@ pub struct FrameTable {
 pub(crate) enum Table {
     /// Not filled.
     Empty,
-    /// The linear deformer's clamped marker displacements.
+    /// The linear deformer's marker pair table.
     Linear(linear::Prepared),
     /// The RBF deformer's coefficients.
     Rbf(rbf::Prepared),

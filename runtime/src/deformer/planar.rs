@@ -447,6 +447,7 @@ fn validate(
         planar.influences,
         vertices,
         PLANAR_INFLUENCE_BYTES,
+        [Section::InfluenceCounts, Section::Influences],
     )?;
     let one = 1u32 << PLANAR_WEIGHT_FRAC_BITS;
     let mut records = planar.influences.0.chunks_exact(PLANAR_INFLUENCE_BYTES);

@@ -64,17 +64,19 @@ use crate::stages::Stages;
 /// # Deformer sections
 ///
 /// Variant 0, **linear** ([`crate::deformer::linear::LinearDeformer`]): per vertex, weights on
-/// marker displacements.
+/// marker displacements, two influences at a time.
 ///
 /// | section | per item | contents |
 /// |---|---|---|
 /// | `weight_frac_bits` | — | `u8` F in [8, 14] |
 /// | `max_influences` | — | `u8` K in [1, 64] |
-/// | `influence_counts` | vertex | `u8`, at most K |
-/// | `influences` | influence | packed influence word, vertex after vertex |
+/// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b); at most [`records::MAX_MARKER_PAIRS`] |
+/// | `pair_counts` | vertex | `u8` n, at most ⌈K/2⌉ |
+/// | `pairs` | vertex | its n weight pairs (2 × `i16` LE: w_a, w_b), then its n marker pair indices (`u16` LE) |
 ///
 /// The weights of a vertex sum to exactly `2^F` (or it has no influences and never moves), and
-/// their magnitudes to at most `i16::MAX`: the linear deformer's 32-bit sums rely on it.
+/// their magnitudes to at most `i16::MAX`: the linear deformer's 32-bit sums rely on it. A
+/// vertex with an odd number of influences has one pair with a zero weight.
 ///
 /// Variant 1, **rbf** ([`crate::deformer::rbf::RbfDeformer`]): per frame, the RBF coefficients
 /// `c = M · D` (one row of `M` per radial centre, plus four affine rows β₀, βx, βy, βz), then per

@@ -87,14 +87,14 @@ pub struct Sections {
     pub marker_rest: usize,
     /// Vertex rest positions (3 × i16 each).
     pub vertex_rest: usize,
-    /// Influence counts (1 byte per vertex; linear rigs).
+    /// Influence counts, or influence pair counts for linear rigs (1 byte per vertex).
     pub influence_counts: usize,
     /// Coefficient row shifts (1 byte per row; RBF-coefficient rigs).
     pub row_shifts: usize,
-    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs), or the control triangles
-    /// (3 bytes each; planar-bones rigs).
+    /// Coefficient map (rows × markers × i16; RBF-coefficient rigs), the control triangles
+    /// (3 bytes each; planar-bones rigs) or the marker pairs (2 bytes each; linear rigs).
     pub matrix: usize,
-    /// Influences (4 bytes each; 20 for planar bones).
+    /// Influences (4 bytes each; 20 for planar bones; 6 per pair of two for linear rigs).
     pub influences: usize,
     /// Capture stages' byte sections (neutral, head, fill, radii, coefficients).
     pub stages: usize,
@@ -180,10 +180,10 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         Deformer::Linear(l) => (
             "linear",
             None,
-            l.influence_counts.0.len(),
+            l.pair_counts.0.len(),
             0,
-            0,
-            l.influences.0.len(),
+            l.marker_pairs.0.len(),
+            l.pairs.0.len(),
         ),
         Deformer::Rbf(r) => (
             "rbf",
@@ -388,7 +388,10 @@ fn print_text(s: &InspectSummary) {
                 sec.matrix, sec.influence_counts
             )
         } else {
-            format!("influence counts {}, ", sec.influence_counts)
+            format!(
+                "marker pairs {}, pair counts {}, ",
+                sec.matrix, sec.influence_counts
+            )
         },
         sec.influences,
         sec.other
