@@ -365,10 +365,19 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     }
     let mut a = renormalise(&a, 30)?;
     for _ in 0..SQUARINGS {
+        // Entries below 2^30 after renormalising: each is an i32, each product a 32 × 32 → 64-bit
+        // multiply (one SMULL or SMLAL on a 32-bit core instead of a 64 × 64 multiply), and the
+        // sums of four below 2^62. A is symmetric (N is, σ is on the diagonal, the shifts are
+        // common), so A² is: ten entries computed, mirrored — the same integers as all sixteen.
+        let b = a.map(|row| row.map(|v| v as i32));
         let mut sq = [[0i64; 4]; 4];
         for i in 0..4 {
-            for j in 0..4 {
-                sq[i][j] = (0..4).map(|k| a[i][k] * a[k][j]).sum();
+            for j in i..4 {
+                let v: i64 = (0..4)
+                    .map(|k| i64::from(b[i][k]) * i64::from(b[k][j]))
+                    .sum();
+                sq[i][j] = v;
+                sq[j][i] = v;
             }
         }
         a = renormalise(&sq, 30)?;

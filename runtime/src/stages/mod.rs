@@ -305,13 +305,14 @@ impl<'a> Stages<'a> {
         }
 
         if let Some(smoothing) = &self.smoothing {
+            let alpha_d = smoothing.derivative_alpha();
             for (j, (d, filter)) in displacement
                 .iter_mut()
                 .zip(state.filters.iter_mut())
                 .enumerate()
                 .take(markers)
             {
-                *d = smoothing.step(filter, *d, !state.filtering.contains(j));
+                *d = smoothing.step(alpha_d, filter, *d, !state.filtering.contains(j));
                 state.filtering.insert(j);
             }
         }
@@ -422,10 +423,11 @@ impl<'a> Stages<'a> {
         };
         let centre = self.head_centroid();
         let mut pairs = HeadPairs::new();
+        let alpha_d = smoothing.derivative_alpha();
         for (filter, offset) in state.head_filters.iter_mut().zip(HEAD_FRAME_POINTS) {
             // |centre| ≤ 4 units and |offset| ≤ 1: the sum is far inside the i32 range.
             let p = [0, 1, 2].map(|c| centre[c] + offset[c]);
-            let q = smoothing.step(filter, fit.apply(p), !state.head_filtering);
+            let q = smoothing.step(alpha_d, filter, fit.apply(p), !state.head_filtering);
             pairs.push(p, q);
         }
         state.head_filtering = true;

@@ -96,9 +96,15 @@ impl Smoothing {
         ((1u32 << CUTOFF_FRAC_BITS) + c / 2) / c
     }
 
+    /// The derivative filter's α, the same for every marker and frame: computed once per frame
+    /// by the caller of [`Self::step`] rather than once per marker (a 64-bit division).
+    pub fn derivative_alpha(&self) -> i64 {
+        alpha(self.derivative_cutoff)
+    }
+
     /// One frame of the filter for one marker: the filtered displacement of `x`. `first` starts
-    /// the filter at `x`.
-    pub fn step(&self, state: &mut MarkerFilter, x: [i32; 3], first: bool) -> [i32; 3] {
+    /// the filter at `x`. `alpha_d` is [`Self::derivative_alpha`].
+    pub fn step(&self, alpha_d: i64, state: &mut MarkerFilter, x: [i32; 3], first: bool) -> [i32; 3] {
         if first {
             *state = MarkerFilter {
                 value: x,
@@ -108,7 +114,6 @@ impl Smoothing {
             return x;
         }
         let v = [0, 1, 2].map(|c| i64::from(x[c]) - i64::from(state.value[c]));
-        let alpha_d = alpha(self.derivative_cutoff);
         let speed = [0, 1, 2].map(|c| {
             let w = i64::from(state.speed[c]);
             // |v − w| < 2^33, α ≤ 2^30: below 2^63.
@@ -127,8 +132,9 @@ impl Smoothing {
         let boost = u64::from(self.speed_gain).saturating_mul(s) >> 24;
         let cutoff = (u64::from(self.min_cutoff) + boost).min(u64::from(MAX_CUTOFF)) as u32;
         // Start-up: the running mean of the n frames so far while 1/n is the larger weight.
-        let n = i64::from(state.frames) + 1;
-        let a = alpha(cutoff).max((1 << ALPHA_FRAC_BITS) / n);
+        // n ≤ 2^16: a 32-bit division (one UDIV on a Cortex-M4; a 64-bit one is a library call).
+        let n = u32::from(state.frames) + 1;
+        let a = alpha(cutoff).max(i64::from((1u32 << ALPHA_FRAC_BITS) / n));
         let value = [0, 1, 2].map(|c| {
             let step = i64::from(round_shift_sat(a * v[c], ALPHA_FRAC_BITS));
             (i64::from(state.value[c]) + step).clamp(i64::from(i32::MIN), i64::from(i32::MAX))
@@ -195,7 +201,7 @@ mod tests {
             let phase = f64::from(i % 120) / 60.0;
             let x = 0.2 * (if phase < 1.0 { phase } else { 2.0 - phase }) + 0.005 * noise;
             let q = (x * f64::from(1 << 24)).round() as i32;
-            let got = p.step(&mut state, [q, 0, 0], i == 0);
+            let got = p.step(p.derivative_alpha(), &mut state, [q, 0, 0], i == 0);
             let xq = f64::from(q) / f64::from(1 << 24);
             want = if i == 0 {
                 (xq, 0.0)
@@ -215,14 +221,14 @@ mod tests {
         let p = params(0.1, 0.0, 0.1);
         assert_eq!(p.still_lag_frames(), 10);
         let mut state = MarkerFilter::default();
-        assert_eq!(p.step(&mut state, [5, -7, 1 << 30], true), [5, -7, 1 << 30]);
-        assert_eq!(p.step(&mut state, [5, -7, 1 << 30], false), [5, -7, 1 << 30]);
+        assert_eq!(p.step(p.derivative_alpha(), &mut state, [5, -7, 1 << 30], true), [5, -7, 1 << 30]);
+        assert_eq!(p.step(p.derivative_alpha(), &mut state, [5, -7, 1 << 30], false), [5, -7, 1 << 30]);
         let mut last = 0;
         let mut state = MarkerFilter::default();
-        p.step(&mut state, [0; 3], true);
+        p.step(p.derivative_alpha(), &mut state, [0; 3], true);
         let target = 1 << 24;
         for f in 1..=200 {
-            let y = p.step(&mut state, [target, 0, 0], false)[0];
+            let y = p.step(p.derivative_alpha(), &mut state, [target, 0, 0], false)[0];
             assert!(y >= last && y <= target, "frame {f}");
             // The running mean of the first frames (f of f + 1 frames at the target), then an
             // exponential smoother of α = c/(1+c), which loses 1 − α of the gap each frame.
@@ -249,9 +255,9 @@ mod tests {
             derivative_cutoff: MAX_CUTOFF,
         };
         let mut state = MarkerFilter::default();
-        let mut last = p.step(&mut state, [i32::MIN; 3], true)[0];
+        let mut last = p.step(p.derivative_alpha(), &mut state, [i32::MIN; 3], true)[0];
         for x in [i32::MAX, i32::MIN, 0, i32::MAX, i32::MAX] {
-            let y = p.step(&mut state, [x; 3], false)[0];
+            let y = p.step(p.derivative_alpha(), &mut state, [x; 3], false)[0];
             // Each output lies between the last one and the input: a convex combination.
             assert!(y >= last.min(x) && y <= last.max(x), "{last} → {x}: {y}");
             last = y;
