@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Proves the runtime's promises (issue #6):
 #   * bit-identical output on every architecture: the golden hashes on x86_64, and cross-built
-#     under qemu-user on aarch64, 32-bit big-endian PowerPC and i686;
+#     under qemu-user on aarch64, 32-bit big-endian PowerPC, i686 and 32-bit ARMv7 in Thumb mode
+#     (thumbv7neon: the linear deformer's SMLAD kernels, the Cortex-M4's, run there with the
+#     runtime's unit tests, which hold them to an exact reference on random rigs);
 #   * runs on a Cortex-M4: the firmware plays every golden frame under QEMU mps2-an386 and must
 #     print exactly the golden hashes, of the positions and of their normals (a panic exits
 #     non-zero and fails), the packed JawMoCap take decoded from flash included; decoding costs
@@ -38,7 +40,8 @@ fail() { FAILED=$((FAILED + 1)); echo "FAIL: $*"; }
 figure() { echo "FIGURE: $*"; }
 section() { echo; echo "== $* ($((SECONDS - START)) s)"; }
 
-CROSS_TARGETS=(aarch64-unknown-linux-gnu powerpc-unknown-linux-gnu i686-unknown-linux-gnu)
+CROSS_TARGETS=(aarch64-unknown-linux-gnu powerpc-unknown-linux-gnu i686-unknown-linux-gnu
+    thumbv7neon-unknown-linux-gnueabihf)
 M4_TARGET=thumbv7em-none-eabihf
 NOFPU_TARGET=thumbv6m-none-eabi
 RIGS=(coefficients weights coefficients_k4)
@@ -61,7 +64,8 @@ done
 APT_PACKAGES=(qemu-user valgrind gcc
     gcc-aarch64-linux-gnu libc6-dev-arm64-cross
     gcc-powerpc-linux-gnu libc6-dev-powerpc-cross
-    gcc-i686-linux-gnu libc6-dev-i386-cross)
+    gcc-i686-linux-gnu libc6-dev-i386-cross
+    gcc-arm-linux-gnueabihf libc6-dev-armhf-cross)
 APT_UPDATED=0
 apt_install() {
     local missing=()
@@ -132,6 +136,7 @@ runtime_tests() {
     [ "$target" = "$HOST" ] || args+=(--target "$target")
     if cargo test "${args[@]}" >"$log" 2>&1 &&
         grep -q "k4_coefficients_rig_is_bit_identical_to_the_golden_hashes ... ok" "$log" &&
+        grep -q "every_implementation_matches_the_exact_formula ... ok" "$log" &&
         grep -q "round_shift_golden ... ok" "$log"; then
         pass "$target: every golden frame hash and fixed-point golden vector matches"
     else
@@ -146,6 +151,8 @@ export CARGO_TARGET_POWERPC_UNKNOWN_LINUX_GNU_LINKER=powerpc-linux-gnu-gcc
 export CARGO_TARGET_POWERPC_UNKNOWN_LINUX_GNU_RUNNER="qemu-ppc -L /usr/powerpc-linux-gnu"
 export CARGO_TARGET_I686_UNKNOWN_LINUX_GNU_LINKER=i686-linux-gnu-gcc
 export CARGO_TARGET_I686_UNKNOWN_LINUX_GNU_RUNNER="qemu-i386 -L /usr/i686-linux-gnu"
+export CARGO_TARGET_THUMBV7NEON_UNKNOWN_LINUX_GNUEABIHF_LINKER=arm-linux-gnueabihf-gcc
+export CARGO_TARGET_THUMBV7NEON_UNKNOWN_LINUX_GNUEABIHF_RUNNER="qemu-arm -L /usr/arm-linux-gnueabihf"
 runtime_tests "$HOST"
 for t in "${CROSS_TARGETS[@]}"; do runtime_tests "$t"; done
 
