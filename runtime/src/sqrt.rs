@@ -10,25 +10,58 @@
 /// Fractional bits of a unit vector returned by [`normalize3`] (Q1.30: 1.0 is 2³⁰).
 pub const UNIT_FRAC_BITS: u32 = 30;
 
-/// ⌊√x⌋, exact for every `u64`.
+/// ⌊√x⌋, exact for every `u64`, in a fixed number of steps whatever `x` is, on 32-bit
+/// arithmetic but for two 32 × 32 → 64-bit products.
 ///
-/// The digit-by-digit method: 32 iterations, each deciding one bit of the root, whatever `x` is.
+/// `x` is shifted left by an even count `s` so that `y = x·2^s` lies in [2⁶², 2⁶⁴) (its root
+/// `t = √y` in [2³¹, 2³²)), and `⌊√x⌋ = ⌊t⌋ >> s/2`. With `y = hi·2³² + lo`:
+///
+/// 1. `r = ⌊√hi⌋` by the digit-by-digit method on `u32` (16 steps, no branch), so `r ≥ 2¹⁵`,
+///    `a = r·2¹⁶ ≤ t < a + 2¹⁶` and `hi − r² ≤ 2r < 2¹⁷`.
+/// 2. One Newton step from `a`: exactly `N = a + (y − a²)/(2a) = t + (t − a)²/(2a)`, so
+///    `t ≤ N < t + 1` (`(t − a)² < 2³²`, `2a ≥ 2³²`). It is computed as
+///    `a + ⌊((hi − r²)·2¹⁵ + ⌊lo/2¹⁷⌋) / r⌋`: the numerator is below 2³² (one `u32`
+///    division), and the two floors lose less than `1 + 2⁻¹⁵`, so the result `R` lies in
+///    `(t − 1.0001, t + 1)`: `⌊t⌋ − 1 ≤ R ≤ ⌊t⌋ + 1`.
+/// 3. One step down if `R² > y`, one up if `y − R² > 2R` (that is, `(R + 1)² ≤ y`).
+///
+/// (The digit-by-digit method on all 64 bits takes 32 steps of 64-bit arithmetic and a branch
+/// each: about five times the cycles on a Cortex-M4.)
 pub fn isqrt_u64(x: u64) -> u32 {
+    if x == 0 {
+        return 0;
+    }
+    let s = x.leading_zeros() & !1;
+    let y = x << s;
+    let (hi, lo) = ((y >> 32) as u32, y as u32);
+    let r = isqrt_u32(hi);
+    // hi ≥ 2^30, so r ≥ 2^15 (never zero) and hi − r² ≤ 2r < 2^17: the numerator fits a u32.
+    let numerator = ((hi - r * r) << 15) + (lo >> 17);
+    let mut root = (u64::from(r) << 16) + u64::from(numerator / r);
+    // ⌊t⌋ ≤ 2^32 − 1, so R ≤ 2^32 and R² ≤ 2^64: clamp to 2^32 − 1 first (R would step down
+    // from 2^32 anyway) so the square fits a u64.
+    root = root.min(u64::from(u32::MAX));
+    root -= u64::from(root * root > y);
+    // Now R² ≤ y; (R + 1)² ≤ y exactly when the remainder exceeds 2R (below 2^33).
+    root += u64::from(y - root * root > 2 * root);
+    // ⌊√x⌋ = ⌊t / 2^(s/2)⌋ = ⌊⌊t⌋ / 2^(s/2)⌋; ⌊t⌋ < 2^32.
+    (root >> (s / 2)) as u32
+}
+
+/// ⌊√x⌋ for a `u32`: the digit-by-digit method, 16 steps whatever `x` is, each a comparison and
+/// two conditional updates (selects, not branches).
+fn isqrt_u32(x: u32) -> u32 {
     let mut rem = x;
-    let mut root = 0u64;
-    let mut bit = 1u64 << 62;
-    for _ in 0..32 {
+    let mut root = 0u32;
+    let mut bit = 1u32 << 30;
+    for _ in 0..16 {
         let trial = root + bit;
-        if rem >= trial {
-            rem -= trial;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
-        }
+        let take = rem >= trial;
+        rem -= if take { trial } else { 0 };
+        root = (root >> 1) + if take { bit } else { 0 };
         bit >>= 2;
     }
-    // The root of a u64 is below 2³², so this cannot truncate.
-    root as u32
+    root
 }
 
 /// The unit vector along `v` in Q1.30 ([`UNIT_FRAC_BITS`]), or `None` for the zero vector.
@@ -162,6 +195,9 @@ pub fn rsqrt_table(x: u64) -> Option<(u32, u32)> {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+    use std::vec;
+
     use super::*;
 
     #[test]
@@ -193,6 +229,52 @@ mod tests {
             );
             let root = (s >> 32) as u32;
             assert_eq!(isqrt_u64(u64::from(root) * u64::from(root)), root);
+        }
+    }
+
+    /// The 64-bit digit-by-digit method (the previous `isqrt_u64`): exact by construction.
+    fn isqrt_digits(x: u64) -> u32 {
+        let (mut rem, mut root, mut bit) = (x, 0u64, 1u64 << 62);
+        for _ in 0..32 {
+            let trial = root + bit;
+            if rem >= trial {
+                rem -= trial;
+                root = (root >> 1) + bit;
+            } else {
+                root >>= 1;
+            }
+            bit >>= 2;
+        }
+        root as u32
+    }
+
+    #[test]
+    fn isqrt_equals_the_digit_by_digit_method() {
+        // Every power of two and its neighbours, every square of a power of two's neighbours and
+        // its neighbours, and random values of every bit length.
+        let mut cases = vec![0u64, 1, 2, 3, u64::MAX, u64::MAX - 1];
+        for k in 0..64 {
+            let p = 1u64 << k;
+            cases.extend([p - 1, p, p + 1]);
+        }
+        for r in (0..32).flat_map(|k| {
+            let p = 1u64 << k;
+            [p - 1, p, p + 1]
+        }) {
+            let sq = r * r;
+            cases.extend([sq.saturating_sub(1), sq, sq + 1]);
+        }
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..400_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            cases.push(s >> (i % 64));
+            let r = (s >> 32) >> (i % 32);
+            cases.extend([(r * r).saturating_sub(1), r * r, r * r + 1, r * r + 2 * r]);
+        }
+        for x in cases {
+            assert_eq!(isqrt_u64(x), isqrt_digits(x), "isqrt({x})");
         }
     }
 
