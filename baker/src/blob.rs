@@ -1,7 +1,8 @@
 //! Writing a rig blob through the runtime crate's own format types.
 
+use facebake_runtime::deformer::Deformer;
 use facebake_runtime::format::header::header_for;
-use facebake_runtime::format::records::{Bytes, MAX_MARKERS};
+use facebake_runtime::format::records::{Bytes, HEADER_LEN, MAX_MARKERS, SECTION_ALIGN};
 use facebake_runtime::format::{self, RigData};
 use facebake_runtime::stages::retarget::{ProportionalRetarget, RbfRetarget, Retarget};
 use facebake_runtime::stages::Stages;
@@ -113,6 +114,7 @@ pub fn write(c: &BlobContents<'_>) -> Result<(Vec<u8>, BlobSizes), BlobError> {
             .map_err(|_| BlobError::Limits("too many vertices".into()))?,
         marker_names: Bytes(&names),
         marker_rest: Bytes(&marker_rest),
+        vertex_rest_align: Bytes(&[]),
         vertex_rest: Bytes(&vertex_rest),
         normals: Normals {
             index_bytes: c.normals.index_bytes,
@@ -166,6 +168,51 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
     }
 }
 
+/// The payload of `data` with its alignment sections sized so that `vertex_rest` and a linear
+/// rig's `pairs` start at a multiple of [`SECTION_ALIGN`] from the blob's first byte (the
+/// header's length is one): encoded, measured where each section landed, padded, encoded again,
+/// in the order the sections come (padding one moves every later one).
+fn aligned(data: &RigData<'_>) -> Result<Vec<u8>, BlobError> {
+    const ZEROS: [u8; SECTION_ALIGN] = [0; SECTION_ALIGN];
+    let pad = |at: usize| {
+        let n = (SECTION_ALIGN - (HEADER_LEN + at) % SECTION_ALIGN) % SECTION_ALIGN;
+        Bytes(&ZEROS[..n])
+    };
+    let mut d = *data;
+    d.vertex_rest_align = Bytes(&[]);
+    if let Deformer::Linear(l) = &mut d.deformer {
+        l.pairs_align = Bytes(&[]);
+    }
+    let payload = postcard::to_allocvec(&d)?;
+    d.vertex_rest_align = pad(offset(&payload, vertex_rest_of)?);
+    let mut payload = postcard::to_allocvec(&d)?;
+    if let Deformer::Linear(l) = &mut d.deformer {
+        l.pairs_align = pad(offset(&payload, pairs_of)?);
+        payload = postcard::to_allocvec(&d)?;
+    }
+    Ok(payload)
+}
+
+/// Where in `payload` the section that `of` picks begins.
+fn offset(payload: &[u8], of: for<'x> fn(&RigData<'x>) -> &'x [u8]) -> Result<usize, BlobError> {
+    let decoded = format::decode(payload)
+        .map_err(|e| BlobError::Limits(format!("the encoded rig does not load: {e}")))?;
+    Ok(of(&decoded).as_ptr() as usize - payload.as_ptr() as usize)
+}
+
+/// The `vertex_rest` section.
+fn vertex_rest_of<'x>(r: &RigData<'x>) -> &'x [u8] {
+    r.vertex_rest.0
+}
+
+/// A linear rig's `pairs` section (empty for the other deformers).
+fn pairs_of<'x>(r: &RigData<'x>) -> &'x [u8] {
+    match r.deformer {
+        Deformer::Linear(l) => l.pairs.0,
+        _ => &[],
+    }
+}
+
 /// A sealed blob with its capture stages replaced by `stages`: the rig is decoded through the
 /// runtime's own loader, so `blob` must be a valid rig. [`crate::bake()`] writes its blob once
 /// with the stages in it; this is for tools and tests that put other stages on a baked rig.
@@ -178,10 +225,10 @@ pub fn with_stages(blob: &[u8], stages: &StagesBytes) -> Result<Vec<u8>, BlobErr
     seal(&data, true)
 }
 
-/// Encode `data` behind its header; with `check_stages`, load the result through the runtime so
-/// the stages pass its own checks too.
+/// Encode `data` behind its header, its hot sections aligned ([`aligned`]); with
+/// `check_stages`, load the result through the runtime so the stages pass its own checks too.
 fn seal(data: &RigData<'_>, check_stages: bool) -> Result<Vec<u8>, BlobError> {
-    let payload = postcard::to_allocvec(data)?;
+    let payload = aligned(data)?;
     let header =
         header_for(&payload).map_err(|_| BlobError::Limits("payload over 4 GiB".into()))?;
     let mut blob = header.to_vec();

@@ -37,22 +37,53 @@ use core::panic::PanicInfo;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use facebake_runtime::checksum::Fnv1a64;
-use facebake_runtime::format::records::MAX_MARKERS;
+use facebake_runtime::format::records::{MAX_MARKERS, SECTION_ALIGN};
 use facebake_runtime::{PlayState, Rig, Take};
+
+/// A blob placed at a multiple of `SECTION_ALIGN` in flash (`include_bytes!` gives no
+/// alignment), so that the sections the baker aligns within it (`vertex_rest`, the linear
+/// deformer's `pairs`) are read with aligned loads.
+#[repr(C, align(4))]
+struct Aligned<B: ?Sized>(B);
+
+const _: () = assert!(core::mem::align_of::<Aligned<[u8; 1]>>() == SECTION_ALIGN);
+
+/// `include_bytes!` at a 4-byte-aligned address, as a `&[u8]`.
+macro_rules! aligned_bytes {
+    ($path:literal) => {{
+        static BLOB: &Aligned<[u8]> = &Aligned(*include_bytes!($path));
+        &BLOB.0
+    }};
+}
+
+/// The sections the baker aligns are aligned in memory here (the cycle estimate in
+/// `.ci/cross.sh` assumes aligned loads): else the firmware panics.
+fn assert_aligned(name: &str, rig: &Rig<'_>) {
+    let pairs = match rig.deformer() {
+        facebake_runtime::deformer::Deformer::Linear(l) => l.pairs.0,
+        _ => &[],
+    };
+    for (section, bytes) in [("vertex_rest", rig.data().vertex_rest.0), ("pairs", pairs)] {
+        assert!(
+            bytes.is_empty() || bytes.as_ptr() as usize % SECTION_ALIGN == 0,
+            "{name}: {section} is not {SECTION_ALIGN}-byte aligned"
+        );
+    }
+}
 
 /// The golden rigs, by the names `hashes.txt` uses.
 const RIGS: [(&str, &[u8]); 3] = [
     (
         "coefficients",
-        include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+        aligned_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
     ),
     (
         "weights",
-        include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+        aligned_bytes!("../../fixtures/golden/facecap_weights.fbk"),
     ),
     (
         "coefficients_k4",
-        include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+        aligned_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
     ),
 ];
 
@@ -61,7 +92,7 @@ const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin
 
 /// The capture golden: a rig with capture stages and actor frames (per marker a presence byte
 /// and three `i32` LE, Q8.24 actor units).
-const CAPTURE: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
+const CAPTURE: &[u8] = aligned_bytes!("../../fixtures/golden/jawmocap_capture.fbk");
 const ACTOR: &[u8] = include_bytes!("../../fixtures/golden/jawmocap_actor.bin");
 
 /// The take golden: JawMoCap packed in the capture rig's actor space.
@@ -137,6 +168,7 @@ fn play(
         v <= MAX_VERTICES,
         "{name}: {v} vertices, room for {MAX_VERTICES}"
     );
+    assert_aligned(name, &rig);
     let out = &mut out[..v];
     let normals = &mut normals[..v];
     let mut markers = [[0i32; 3]; MAX_MARKERS];
@@ -223,6 +255,7 @@ fn play_capture(out: &mut [[i32; 3]; MAX_VERTICES], normals: &mut [[i16; 3]; MAX
         Ok(rig) => rig,
         Err(e) => panic!("capture: the golden rig does not load: {e}"),
     };
+    assert_aligned("capture", &rig);
     let Some(stages) = rig.stages() else {
         panic!("capture: the golden rig has no stages")
     };

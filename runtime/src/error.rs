@@ -8,7 +8,7 @@ use crate::fixed::{
     LINEAR_WEIGHT_ABS_SUM_MAX, MAX_INFLUENCES, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS,
     MIN_ROW_SHIFT, MIN_WEIGHT_FRAC_BITS,
 };
-use crate::records::{Bytes, MAX_MARKERS, MAX_MARKER_PAIRS, MAX_TRIANGLES, VERSION};
+use crate::records::{Bytes, MAX_MARKERS, MAX_MARKER_PAIRS, MAX_TRIANGLES, SECTION_ALIGN, VERSION};
 
 /// Why a byte string is not a loadable rig. Every variant is a distinct failure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,6 +82,11 @@ pub enum LoadError {
         vertex: usize,
         /// Its influence count.
         count: u8,
+    },
+    /// An alignment section is not fewer than `SECTION_ALIGN` zero bytes.
+    BadAlignment {
+        /// The section it aligns.
+        section: Section,
     },
     /// A vertex has more influence pairs than `max_influences` needs (⌈K/2⌉).
     TooManyInfluencePairs {
@@ -269,6 +274,10 @@ impl core::fmt::Display for LoadError {
             Self::TooManyInfluences { vertex, count } => {
                 write!(f, "vertex {vertex} has {count} influences, above the rig's maximum")
             }
+            Self::BadAlignment { section } => write!(
+                f,
+                "the alignment before {section:?} is not {SECTION_ALIGN} zero bytes at most"
+            ),
             Self::TooManyInfluencePairs { vertex, count } => write!(
                 f,
                 "vertex {vertex} has {count} influence pairs, above half the rig's maximum influences"

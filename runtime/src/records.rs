@@ -51,6 +51,13 @@ pub const MAX_MARKERS: usize = 256;
 /// stack (see [`crate::Cost::scratch_bytes`]).
 pub const MAX_TRIANGLES: usize = 256;
 
+/// The sections a frame reads most (`vertex_rest`, the linear deformer's `pairs`) start at a
+/// multiple of this many bytes from the blob's first byte, each after an alignment section of
+/// fewer zero bytes: a blob placed at an aligned address (what an allocator or a linker gives)
+/// reads them with aligned loads, which a Cortex-M4 does in one bus access and an unaligned one
+/// in two.
+pub const SECTION_ALIGN: usize = 4;
+
 /// Bytes of one stored vertex rest position: 3 × `i16` LE, Q0.15.
 pub const REST_BYTES: usize = 6;
 /// Bytes of one stored position (marker rest, actor neutral, proportional rest): 3 × `i32` LE,

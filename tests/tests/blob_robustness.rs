@@ -8,7 +8,7 @@ use facebake_runtime::deformer::rbf::RbfDeformer;
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::format::header::header_for;
 use facebake_runtime::format::records::{
-    Bytes, HEADER_LEN, MAX_MARKER_PAIRS, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES,
+    Bytes, HEADER_LEN, MAX_MARKER_PAIRS, MAX_TRIANGLES, PLANAR_INFLUENCE_BYTES, SECTION_ALIGN,
 };
 use facebake_runtime::format::RigData;
 use facebake_runtime::Rig;
@@ -222,6 +222,15 @@ fn every_payload_error_is_distinct() {
     ));
 
     let mut d = good;
+    d.vertex_rest_align = Bytes(&[0, 0, 7]);
+    assert_eq!(
+        Rig::from_bytes(&seal(&d)).unwrap_err(),
+        LoadError::BadAlignment {
+            section: Section::VertexRest
+        }
+    );
+
+    let mut d = good;
     d.marker_rest = Bytes(&good.marker_rest.0[..good.marker_rest.0.len() - 12]);
     assert!(matches!(
         Rig::from_bytes(&seal(&d)).unwrap_err(),
@@ -249,7 +258,25 @@ fn every_payload_error_is_distinct() {
         let w = i16::from_le_bytes([heavy[at], heavy[at + 1]]) + delta;
         heavy[at..at + 2].copy_from_slice(&w.to_le_bytes());
     }
-    let cases: [(LinearDeformer<'_>, Option<LoadError>); 14] = [
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 16] = [
+        (
+            LinearDeformer {
+                pairs_align: Bytes(&[0; 4]),
+                ..lin
+            },
+            Some(LoadError::BadAlignment {
+                section: Section::Pairs,
+            }),
+        ),
+        (
+            LinearDeformer {
+                pairs_align: Bytes(&[1]),
+                ..lin
+            },
+            Some(LoadError::BadAlignment {
+                section: Section::Pairs,
+            }),
+        ),
         (
             LinearDeformer {
                 max_influences: 0,
@@ -802,4 +829,22 @@ fn terminal_escape_repro_is_the_golden_rig_renamed() {
         path.display()
     );
     assert!(Rig::from_bytes(&want).is_ok());
+}
+
+/// Every baked rig starts `vertex_rest` and a linear rig's `pairs` at a multiple of
+/// `SECTION_ALIGN` from the blob's first byte (what the Cortex-M4 kernel's aligned loads need).
+#[test]
+fn baked_blobs_align_their_hot_sections() {
+    for (name, blob) in all_blobs() {
+        let rig = Rig::from_bytes(blob).unwrap();
+        let at = |s: &[u8]| s.as_ptr() as usize - blob.as_ptr() as usize;
+        assert_eq!(
+            at(rig.data().vertex_rest.0) % SECTION_ALIGN,
+            0,
+            "{name}: vertex_rest"
+        );
+        if let Deformer::Linear(l) = rig.deformer() {
+            assert_eq!(at(l.pairs.0) % SECTION_ALIGN, 0, "{name}: pairs");
+        }
+    }
 }

@@ -43,6 +43,7 @@ impl LinearBytes {
                 max_influences: self.max_influences,
                 marker_pairs: Bytes(&self.marker_pairs),
                 pair_counts: Bytes(&self.counts),
+                pairs_align: Bytes(&[]),
                 pairs: Bytes(&self.pairs),
             }),
             influence_bytes: self.pairs.len(),

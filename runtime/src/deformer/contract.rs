@@ -8,7 +8,7 @@
 use crate::cost::Cost;
 use crate::fixed::{MAX_INFLUENCES, MIN_WEIGHT_FRAC_BITS};
 use crate::error::{expect_len, LoadError, Section};
-use crate::records::{read_i32, Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES};
+use crate::records::{read_i32, Bytes, COUNT_BYTES, MAX_TRIANGLES, REST_BYTES, SECTION_ALIGN};
 
 /// The rig's counts and the sections every deformer reads besides its own.
 #[derive(Clone, Copy, Debug)]
@@ -82,6 +82,15 @@ pub(crate) mod check {
             return Err(LoadError::BadWeightFormat {
                 found: weight_frac_bits,
             });
+        }
+        Ok(())
+    }
+
+    /// `align`, the alignment section before `section`, is fewer than [`SECTION_ALIGN`] zero
+    /// bytes.
+    pub(crate) fn alignment(align: Bytes<'_>, section: Section) -> Result<(), LoadError> {
+        if align.0.len() >= SECTION_ALIGN || align.0.iter().any(|&b| b != 0) {
+            return Err(LoadError::BadAlignment { section });
         }
         Ok(())
     }

@@ -84,6 +84,10 @@ pub struct LinearDeformer<'a> {
     /// Per vertex: how many influence pairs it has (`u8` each).
     #[serde(borrow)]
     pub pair_counts: Bytes<'a>,
+    /// Zero bytes (fewer than [`crate::records::SECTION_ALIGN`]) that start `pairs` at a
+    /// multiple of it from the blob's first byte.
+    #[serde(borrow)]
+    pub pairs_align: Bytes<'a>,
     /// The influence pairs, vertex after vertex ([`INFLUENCE_PAIR_BYTES`] each): a vertex with
     /// n pairs stores its n weight pairs (2 × `i16` LE), then its n marker pair indices (`u16`
     /// LE).
@@ -185,6 +189,7 @@ impl DeformerSection for LinearDeformer<'_> {
                 return Err(LoadError::PairMarkerOutOfRange { pair, marker });
             }
         }
+        check::alignment(self.pairs_align, Section::Pairs)?;
         check::counted_records(
             self.pair_counts,
             self.pairs,
@@ -609,25 +614,27 @@ pub(crate) mod portable {
 }
 
 /// The Cortex-M4/M7 kernels for rigs whose vertices all have two or four pairs (K = 4 or 8, what
-/// bakes write): the whole vertex loop in Thumb-2 assembly, computing exactly the integers of
-/// [`portable`] (the firmware's golden hashes prove it under QEMU).
+/// bakes write): the whole vertex loop in Thumb-2 assembly, four vertices a pass, computing
+/// exactly the integers of [`portable`] (tested against the exact reference on ARMv7 under
+/// qemu-arm, and by the firmware's golden hashes on the Cortex-M4 under QEMU).
 ///
 /// LLVM compiles the portable loop for four pairs into about 90 instructions a vertex with a
-/// dozen spills to the stack; it has fourteen registers to work with and the loop needs them
-/// all: three section pointers, three table bases (one per axis), three accumulators, the
-/// weight word, the pair index, two loaded words and the shift. The loop end lives on the stack.
-/// Per pair: `LDR` weights, `LDRH` index, three register-offset `LDR` (x, y, z of the pair,
-/// the index reused for z), three `SMLAD` (the first pair `SMUAD`): 8 instructions, about 10
-/// cycles by the Cortex-M4 TRM. Per vertex: three `LDRSH` rest, three `ASR` and three `ADD`
-/// (the rest widened by the shifted operand), three `STR`, the loop end's `LDR`, `CMP`, `BNE`.
+/// dozen spills to the stack. The loop needs every register: three section pointers, three
+/// table bases (one per axis), three accumulators, the weight word, two pair indices (the next
+/// pair's is loaded while this one's words are), two loaded words; the shift and the loop end
+/// live on the stack. Per pair: `LDR` weights, three register-offset `LDR` (x, y, z of the
+/// pair, the index register reused for z), `LDRH` the next pair's index, three `SMLAD` (the
+/// first pair `SMUAD`): one run of loads that the Cortex-M4 pipelines, 9 cycles a pair by its
+/// TRM. Per vertex: `LDRH` its first index, three `LDRSH` rest and the shift, three `ASR` and
+/// three `ADD` (the rest widened by the shifted operand), three `STR`; per pass the loop end's
+/// `LDR`, `CMP`, `BNE`.
 #[cfg(facebake_smlad)]
 mod m4 {
     use super::*;
 
-    /// One vertex loop with `$stride` bytes of pairs a vertex; the pair lines address the
-    /// pairs relative to the pointer already advanced past the vertex.
+    /// One vertex loop with `$stride` bytes of pairs a vertex, its lines in `$vertex`.
     macro_rules! kernel {
-        ($name:ident, $n:literal, $stride:literal, [$($pairs:expr),* $(,)?]) => {
+        ($name:ident, $n:literal, $stride:literal, [$($vertex:expr),* $(,)?]) => {
             /// Every vertex of `rig` (each with
             #[doc = stringify!($n)]
             /// pairs) from the frame's table `t`.
@@ -643,17 +650,19 @@ mod m4 {
                 let out = &mut out[..vertices];
                 let end = out.as_mut_ptr_range().end;
                 // SAFETY: the loop writes `vertices` ≥ 1 outputs, four a pass (`vertices % 4` in
-                // the first pass when that is not zero, which enters at a later copy), and for each
-                // reads REST_BYTES of `rig.rest` and `$stride` bytes of `rig.pairs`: all in bounds
-                // by the minimum above. The table reads are at the pair indices of the rig,
-                // which the loader validated below its marker pair count, itself at most
-                // MAX_MARKER_PAIRS: in bounds of each axis array. Unaligned section bytes are
-                // fine for LDR/LDRH/LDRSH on ARMv7E-M. r6, r7 and r9 (reserved by LLVM) and the
-                // loop end (in lr) are pushed and popped around the loop; every other register
-                // written is an output or clobber. The flags are clobbered (`cmp`).
+                // the first pass when that is not zero, which enters at a later copy), and for
+                // each reads REST_BYTES of `rig.rest` and `$stride` bytes of `rig.pairs`, its own
+                // (no index is read ahead past the vertex): all in bounds by the minimum above.
+                // The table reads are at the pair indices of the rig, which the loader
+                // validated below its marker pair count, itself at most MAX_MARKER_PAIRS: in
+                // bounds of each axis array. Unaligned section bytes are fine for
+                // LDR/LDRH/LDRSH on ARMv7E-M (the baker aligns them, for speed). r6, r7 and r9
+                // (reserved by LLVM), r12 (the shift, read back from the stack) and lr (the loop
+                // end) are pushed and popped around the loop; every other register written is
+                // an output or a clobber. The flags are clobbered (`cmp`).
                 unsafe {
                     core::arch::asm!(
-                        "push {{r6, r7, r9, lr}}",
+                        "push {{r6, r7, r9, r12, lr}}",
                         "cmp r8, #1",
                         "beq 5f",
                         "cmp r8, #2",
@@ -661,51 +670,97 @@ mod m4 {
                         "cmp r8, #3",
                         "beq 3f",
                         "2:",
-                        $($pairs,)*
-                        vertex_out!(),
+                        $($vertex,)*
                         "3:",
-                        $($pairs,)*
-                        vertex_out!(),
+                        $($vertex,)*
                         "4:",
-                        $($pairs,)*
-                        vertex_out!(),
+                        $($vertex,)*
                         "5:",
-                        $($pairs,)*
-                        vertex_out!(),
-                        "ldr r9, [sp, #12]",
+                        $($vertex,)*
+                        "ldr r9, [sp, #16]",
                         "cmp r2, r9",
                         "bne 2b",
-                        "pop {{r6, r7, r9, lr}}",
+                        "pop {{r6, r7, r9, r12, lr}}",
                         inout("r0") rig.rest.as_ptr() => _,
                         inout("r1") rig.pairs.as_ptr() => _,
                         inout("r2") out.as_mut_ptr() => _,
                         in("r3") t.axes[0].as_ptr(),
                         in("r4") t.axes[1].as_ptr(),
                         in("r5") t.axes[2].as_ptr(),
-                        in("r12") t.shift,
-                        in("lr") end,
                         inout("r8") vertices % 4 => _,
                         out("r10") _,
                         out("r11") _,
+                        in("r12") t.shift,
+                        in("lr") end,
                     );
                 }
             }
         };
     }
 
-    /// A vertex's last lines: its rest position (x, y, z; the pointer advanced), each axis's
-    /// sum shifted and added to it, the three outputs stored (the pointer advanced).
+    /// The first pair: its index (at `$index`), its weights (advancing the pointer past the
+    /// vertex by `$stride`), its three words, the second pair's index (at `$next`, from the
+    /// advanced pointer) into r12; the products by `SMUAD`.
+    macro_rules! first_pair {
+        ($index:literal, $stride:literal, $next:literal) => {
+            concat!(
+                "ldrh r10, [r1, #", $index, "]\n",
+                "ldr r9, [r1], #", $stride, "\n",
+                "ldr r11, [r3, r10, lsl #2]\n",
+                "ldr lr, [r4, r10, lsl #2]\n",
+                "ldr r10, [r5, r10, lsl #2]\n",
+                "ldrh r12, [r1, #", $next, "]\n",
+                "smuad r6, r9, r11\n",
+                "smuad r7, r9, lr\n",
+                "smuad r8, r9, r10",
+            )
+        };
+    }
+
+    /// A later pair whose index is in `$i`: its weights at `$w`, its three words (z into `$i`),
+    /// the next pair's index at `$next` into `$j` (none for the last pair); the products added
+    /// by `SMLAD`.
+    macro_rules! pair {
+        ($w:literal, $i:literal, $j:literal, $next:literal) => {
+            concat!(
+                "ldr r9, [r1, #", $w, "]\n",
+                "ldr r11, [r3, ", $i, ", lsl #2]\n",
+                "ldr lr, [r4, ", $i, ", lsl #2]\n",
+                "ldr ", $i, ", [r5, ", $i, ", lsl #2]\n",
+                "ldrh ", $j, ", [r1, #", $next, "]\n",
+                "smlad r6, r9, r11, r6\n",
+                "smlad r7, r9, lr, r7\n",
+                "smlad r8, r9, ", $i, ", r8",
+            )
+        };
+        ($w:literal, $i:literal) => {
+            concat!(
+                "ldr r9, [r1, #", $w, "]\n",
+                "ldr r11, [r3, ", $i, ", lsl #2]\n",
+                "ldr lr, [r4, ", $i, ", lsl #2]\n",
+                "ldr ", $i, ", [r5, ", $i, ", lsl #2]\n",
+                "smlad r6, r9, r11, r6\n",
+                "smlad r7, r9, lr, r7\n",
+                "smlad r8, r9, ", $i, ", r8",
+            )
+        };
+    }
+
+    /// A vertex's last lines: its rest position (x, y, z; the pointer advanced) and the shift
+    /// (from the stack), each axis's sum shifted and added to the widened rest, the three
+    /// outputs stored (the pointer advanced).
     macro_rules! vertex_out {
         () => {
             concat!(
                 "ldrsh r11, [r0, #2]\n",
                 "ldrsh lr, [r0, #4]\n",
                 "ldrsh r10, [r0], #6\n",
-                "asr r6, r6, r12\n",
+                "ldr r9, [sp, #12]\n",
+                "asr r6, r6, r9\n",
                 "add r6, r6, r10, lsl #9\n",
-                "asr r7, r7, r12\n",
+                "asr r7, r7, r9\n",
                 "add r7, r7, r11, lsl #9\n",
-                "asr r8, r8, r12\n",
+                "asr r8, r8, r9\n",
                 "add r8, r8, lr, lsl #9\n",
                 "str r7, [r2, #4]\n",
                 "str r8, [r2, #8]\n",
@@ -714,52 +769,30 @@ mod m4 {
         };
     }
 
-    /// The first pair's lines: its weights (advancing the pointer past the vertex by
-    /// `$stride`), its index at `$i` from the advanced pointer, the products by `SMUAD`.
-    macro_rules! first_pair {
-        ($stride:literal, $i:literal) => {
-            concat!(
-                "ldr r9, [r1], #", $stride, "\n",
-                "ldrh r10, [r1, #", $i, "]\n",
-                "ldr r11, [r3, r10, lsl #2]\n",
-                "ldr lr, [r4, r10, lsl #2]\n",
-                "ldr r10, [r5, r10, lsl #2]\n",
-                "smuad r6, r9, r11\n",
-                "smuad r7, r9, lr\n",
-                "smuad r8, r9, r10",
-            )
-        };
-    }
-    /// A later pair's lines: weights at `$w` and index at `$i` from the advanced pointer, the
-    /// products added by `SMLAD`.
-    macro_rules! next_pair {
-        ($w:literal, $i:literal) => {
-            concat!(
-                "ldr r9, [r1, #", $w, "]\n",
-                "ldrh r10, [r1, #", $i, "]\n",
-                "ldr r11, [r3, r10, lsl #2]\n",
-                "ldr lr, [r4, r10, lsl #2]\n",
-                "ldr r10, [r5, r10, lsl #2]\n",
-                "smlad r6, r9, r11, r6\n",
-                "smlad r7, r9, lr, r7\n",
-                "smlad r8, r9, r10, r8",
-            )
-        };
-    }
-
-    // Two pairs, 12 bytes: weights at 0 and 4, indices at 8 and 10.
-    kernel!(two_pairs, 2, 12, [first_pair!(12, -4), next_pair!(-8, -2)]);
-    // Four pairs, 24 bytes: weights at 0, 4, 8, 12, indices at 16, 18, 20, 22.
+    // Two pairs, 12 bytes: weights at 0 and 4, indices at 8 and 10 (−4 and −2 once advanced).
+    kernel!(
+        two_pairs,
+        2,
+        12,
+        [concat!(first_pair!(8, 12, -2), "\n", pair!(-8, "r12"), "\n", vertex_out!())]
+    );
+    // Four pairs, 24 bytes: weights at 0, 4, 8, 12, indices at 16, 18, 20, 22 (−8 … −2 once
+    // advanced); the indices alternate between r10 and r12.
     kernel!(
         four_pairs,
         4,
         24,
-        [
-            first_pair!(24, -8),
-            next_pair!(-20, -6),
-            next_pair!(-16, -4),
-            next_pair!(-12, -2),
-        ]
+        [concat!(
+            first_pair!(16, 24, -6),
+            "\n",
+            pair!(-20, "r12", "r10", -4),
+            "\n",
+            pair!(-16, "r10", "r12", -2),
+            "\n",
+            pair!(-12, "r12"),
+            "\n",
+            vertex_out!(),
+        )]
     );
 }
 
@@ -1103,6 +1136,7 @@ mod tests {
             max_influences: 10,
             marker_pairs: Bytes(&c.marker_pairs),
             pair_counts: Bytes(&c.counts),
+            pairs_align: Bytes(&[]),
             pairs: Bytes(&c.pairs),
         };
         let decoded: Vec<Vec<(u8, i32)>> = l

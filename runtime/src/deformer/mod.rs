@@ -27,7 +27,7 @@ use crate::deformer::planar::PlanarDeformer;
 use crate::deformer::rbf::RbfDeformer;
 use crate::error::LoadError;
 
-pub(crate) use contract::{DeformerSection, Shared};
+pub(crate) use contract::{check, DeformerSection, Shared};
 pub use contract::DegenerateTriangles;
 
 /// How the vertices follow the markers. Chosen at bake time; one variant per deformer module.

@@ -22,7 +22,7 @@ pub use crate::{error, records};
 
 use serde::{Deserialize, Serialize};
 
-use crate::deformer::{Deformer, Shared};
+use crate::deformer::{check, Deformer, Shared};
 use crate::error::{expect_len, LoadError, Section};
 use crate::normals::Normals;
 use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
@@ -40,6 +40,7 @@ use crate::stages::Stages;
 /// | `vertex_count` | — | varint |
 /// | `marker_names` | marker | `u8` length, then that many UTF-8 bytes |
 /// | `marker_rest` | marker | 3 × `i32` LE, Q8.24 rig units ([`POSITION_BYTES`]) |
+/// | `vertex_rest_align` | — | fewer than [`records::SECTION_ALIGN`] zero bytes: `vertex_rest` starts at a multiple of it from the blob's first byte |
 /// | `vertex_rest` | vertex | 3 × `i16` LE, Q0.15 rig units ([`REST_BYTES`]) |
 /// | `normals` | — | [`Normals`], below |
 /// | `deformer` | — | one of [`Deformer`] (a varint variant index, then its section) |
@@ -72,6 +73,7 @@ use crate::stages::Stages;
 /// | `max_influences` | — | `u8` K in [1, 64] |
 /// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b); at most [`records::MAX_MARKER_PAIRS`] |
 /// | `pair_counts` | vertex | `u8` n, at most ⌈K/2⌉ |
+/// | `pairs_align` | — | fewer than [`records::SECTION_ALIGN`] zero bytes: `pairs` starts at a multiple of it from the blob's first byte |
 /// | `pairs` | vertex | its n weight pairs (2 × `i16` LE: w_a, w_b), then its n marker pair indices (`u16` LE) |
 ///
 /// The weights of a vertex sum to exactly `2^F` (or it has no influences and never moves), and
@@ -171,6 +173,10 @@ pub struct RigData<'a> {
     /// Marker rest positions on the character: 3 × `i32` LE (Q8.24) per marker.
     #[serde(borrow)]
     pub marker_rest: Bytes<'a>,
+    /// Zero bytes (fewer than [`records::SECTION_ALIGN`]) that start `vertex_rest` at a multiple of
+    /// [`records::SECTION_ALIGN`] from the blob's first byte.
+    #[serde(borrow)]
+    pub vertex_rest_align: Bytes<'a>,
     /// Vertex rest positions: 3 × `i16` LE (Q0.15) per vertex, in the mesh's vertex order.
     #[serde(borrow)]
     pub vertex_rest: Bytes<'a>,
@@ -225,6 +231,7 @@ fn validate(d: &RigData<'_>) -> Result<(), LoadError> {
     let shared = d.shared();
     validate_names(d.marker_names, markers)?;
     expect_len(Section::MarkerRest, d.marker_rest, markers, POSITION_BYTES)?;
+    check::alignment(d.vertex_rest_align, Section::VertexRest)?;
     expect_len(
         Section::VertexRest,
         d.vertex_rest,
