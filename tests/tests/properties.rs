@@ -22,8 +22,8 @@ fn deform(rig: &Rig<'_>, m: &[[i32; 3]]) -> Vec<[i32; 3]> {
 }
 
 /// The linear form's documented bound on its 16-bit quantisation (`deformer::linear`): at most
-/// `2^(e−1) + 1` Q8.24 units (`2^15 + 1` at e = 15) for the frame's block exponent e, found
-/// from its largest displacement as the runtime finds it; 0 for the other forms.
+/// `2^e + 1` Q8.24 units for the frame's block exponent e, found from its largest displacement
+/// as the runtime finds it; 0 for the other forms.
 fn quantisation_bound(rig: &Rig<'_>, displacements: impl Iterator<Item = i64>) -> i64 {
     let Deformer::Linear(lin) = rig.deformer() else {
         return 0;
@@ -34,14 +34,8 @@ fn quantisation_bound(rig: &Rig<'_>, displacements: impl Iterator<Item = i64>) -
         .map(|d| d.clamp(-limit, limit).abs() << (15 - f))
         .max()
         .unwrap_or(0);
-    let e = (0..15)
-        .find(|&e| (largest + ((1 << e) >> 1)) >> e <= i64::from(i16::MAX))
-        .unwrap_or(15);
-    if e == 15 {
-        (1 << 15) + 1
-    } else {
-        ((1 << e) >> 1) + 1
-    }
+    let e = (64 - largest.leading_zeros()).saturating_sub(15).min(15);
+    (1 << e) + 1
 }
 
 /// A random offset within ±`range` rig units (Q8.24).
@@ -195,7 +189,7 @@ fn extremes(rig: &Rig<'_>) {
                 let limit = linear_displacement_limit(u32::from(lin.weight_frac_bits));
                 let t = limit * extreme.signum();
                 let bound = quantisation_bound(rig, [i64::from(extreme)].into_iter());
-                assert_eq!(bound, (1 << 15) + 1);
+                assert_eq!(bound, (1 << 15) + 1, "e = 15 at the clamp");
                 for (v, o) in out.iter().enumerate() {
                     let r = rig.vertex_rest(v).unwrap();
                     for c in 0..3 {

@@ -4,15 +4,15 @@
 //!
 //! ```text
 //! s[j]   = clamp(m[j] − m_rest[j], ±2^(15+F)) · 2^(15−F),  |s| ≤ 2^30             per marker, axis
-//! e      = the least e in [0, 15] with |(s + ⌊2^e/2⌋) >> e| ≤ 2^15 − 1 for every s
-//!          of the frame (15 if none)                                             per frame
+//! e      = min(15, max(0, bits − 15)), bits the bit length of the frame's largest |s|  per frame
 //! q[j]   = clamp((s[j] + ⌊2^e/2⌋) >> e, ±(2^15 − 1))                               per marker, axis
 //! out[v] = rest[v] + (Σ_k w[v,k] · q[idx[v,k]]) >> (15 − e)                        per vertex
 //! ```
 //!
 //! `s` is the clamped displacement in Q8.24 scaled so that the weights' F fractional bits and the
 //! final shift no longer depend on F; `q` is `s` in 16 bits with a block exponent `e` shared by
-//! the whole frame, the smallest that holds the frame's largest displacement.
+//! the whole frame, the smallest that holds the frame's largest displacement (|s| < 2^(15+e)):
+//! rounding can still reach ±2¹⁵ (the clamp takes it back by one).
 //!
 //! # Why it cannot overflow
 //!
@@ -21,17 +21,19 @@
 //! every multiply-add is exact in an `i32`. After the shift the
 //! sum is below 2³⁰ in magnitude and the rest position (Q0.15 widened to Q8.24) below 2²⁴: the
 //! output fits an `i32` with no saturation. The only saturations are the displacement clamp and
-//! the 16-bit clamp of `q`, which the exponent makes reachable only at e = 15 (a displacement
-//! within 2¹⁴ of the limit, far outside any face).
+//! the 16-bit clamp of `q`, which moves a rounded ±2¹⁵ (a value within half a step of the top
+//! of its exponent's range) by one step.
 //!
 //! # Precision
 //!
-//! `q · 2^e` differs from `s` by at most 2^(e−1) (2¹⁵ at e = 15, where the 16-bit clamp can
-//! bite), so the output differs from the exact sum `rest + (Σ w · s + 2¹⁴) >> 15` by at most
-//! `Σ|w| · 2^(e−1) / 2¹⁵ + 1 ≤ 2^(e−1) + 1` Q8.24 units (2¹⁵ + 1 at e = 15; the final shift
-//! truncates, for one Q8.24 unit at most: no rounding term to add per vertex), and `2^e < 2 · max|s| / (2¹⁵ − 1)`: the error is at most about `2^−15 · Σ|w|/2^F` of
-//! the frame's largest marker displacement (a 30 mm jaw: under 2 µm at Σ|w| = 2). A uniform
-//! translation of every marker moves every vertex by the same amount, within that bound.
+//! `q · 2^e` differs from `s` by at most 2^(e−1), or 2^e where the clamp moved it, so the output
+//! differs from the exact sum `rest + (Σ w · s + 2¹⁴) >> 15` by at most
+//! `Σ|w| · 2^e / 2¹⁵ + 1 ≤ 2^e + 1` Q8.24 units (the final shift truncates, for one Q8.24 unit
+//! at most: no rounding term to add per vertex). As `2^e ≤ max|s| / 2¹⁴` when e > 0, that is
+//! at most about `2^−14 · Σ|w|/2^F` of the frame's largest marker displacement, typically a
+//! quarter of it (rounding errors of both signs): on FaceCap within 4.4e-6 of the diagonal of
+//! the f64 evaluation (`demo`). A uniform translation of every marker moves every vertex by the
+//! same amount, within that bound.
 //!
 //! # Pairs
 //!
@@ -326,23 +328,25 @@ fn scaled<'m>(
 }
 
 /// The frame's 16-bit displacements (module docs): two passes over the markers, one for the
-/// largest magnitude, one to round.
+/// exponent, one to round. Neither branches on the data (the host's instruction counts are the
+/// same for every frame): the exponent comes from the bit length of all the magnitudes ORed
+/// together (the bit length of the largest), and the only rounded values past ±(2¹⁵ − 1) are
+/// ±2¹⁵, brought in by one comparison each.
 pub(crate) fn quantised(markers: &[[i32; 3]], marker_rest: &[u8], weight_frac_bits: u8) -> Quantised {
-    let largest = scaled(markers, marker_rest, weight_frac_bits)
+    let bits = scaled(markers, marker_rest, weight_frac_bits)
         .flatten()
-        .map(i32::unsigned_abs)
-        .max()
-        .unwrap_or(0);
-    // The exponents that do not hold the largest magnitude are the smallest ones (rounding is
-    // monotonic): count them, with the same 15 steps whatever the data.
-    let exponent: u32 = (0..15u32)
-        .map(|e| u32::from((largest + ((1 << e) >> 1)) >> e > Q_MAX as u32))
-        .sum();
+        .fold(0u32, |all, s| all | s.unsigned_abs());
+    // |s| ≤ 2^30: at most 31 bits, so e ≤ 16, capped at 15.
+    let exponent = (u32::BITS - bits.leading_zeros()).saturating_sub(15).min(15);
     let half = (1i32 << exponent) >> 1;
     let mut q = [[0i16; 3]; MAX_MARKERS];
     for (q, s) in q.iter_mut().zip(scaled(markers, marker_rest, weight_frac_bits)) {
-        // |s| ≤ 2^30 and half ≤ 2^14: the sum fits an i32.
-        *q = s.map(|s| ((s + half) >> exponent).clamp(-Q_MAX, Q_MAX) as i16);
+        // |s| < 2^(15+e) (or ≤ 2^30 at e = 15) and half ≤ 2^14: the sum fits an i32, and the
+        // rounded value lies in [−2^15, 2^15].
+        *q = s.map(|s| {
+            let v = (s + half) >> exponent;
+            (v + i32::from(v < -Q_MAX) - i32::from(v > Q_MAX)) as i16
+        });
     }
     Quantised { q, exponent }
 }
@@ -1016,12 +1020,9 @@ mod tests {
     /// every implementation must meet bit for bit. Also returns the exponent.
     fn reference(c: &Case, markers: &[[i32; 3]], marker_rest: &[u8]) -> (Vec<[i32; 3]>, u32) {
         let s = scaled_exact(c, markers, marker_rest);
-        let fits = |e: u32| {
-            s.iter()
-                .flatten()
-                .all(|&x| ((x.abs() + ((1 << e) >> 1)) >> e) <= i128::from(Q_MAX))
-        };
-        let e = (0..15).find(|&e| fits(e)).unwrap_or(15);
+        let largest = s.iter().flatten().map(|x| x.abs()).max().unwrap_or(0);
+        let bits = 128 - largest.leading_zeros();
+        let e = bits.saturating_sub(15).min(15);
         let q: Vec<[i128; 3]> = s
             .iter()
             .map(|v| {
@@ -1097,7 +1098,7 @@ mod tests {
             let (m, mrest) = frame(&mut rng, &c, trial % 4 != 0);
             let (got, e) = reference(&c, &m, &mrest);
             let exact = weighted(&c, &scaled_exact(&c, &m, &mrest), 15, true);
-            let bound = if e == 15 { 1 << 15 } else { (1i64 << e) >> 1 } + 1;
+            let bound = (1i64 << e) + 1;
             for (v, (g, x)) in got.iter().zip(&exact).enumerate() {
                 for a in 0..3 {
                     let error = (i64::from(g[a]) - i64::from(x[a])).abs();
@@ -1116,15 +1117,24 @@ mod tests {
         let q = of(1000);
         assert_eq!((q.exponent, q.q[0], q.q[1]), (0, [2000, 0, 0], [0, -6, 0]));
         assert_eq!(q.q[2], [0; 3]);
-        // 2 · 16383 = 32766 fits; 2 · 16384 = 32768 does not, and rounds to 16384 at e = 1.
+        // 2 · 16383 = 32766 has 15 bits; 2 · 16384 = 32768 has 16: e = 1.
         assert_eq!(of(16383).exponent, 0);
         let q = of(16384);
         assert_eq!((q.exponent, q.q[0][0], q.q[1][1]), (1, 16384, -3));
-        // At the clamp (2^29 · 2 = 2^30) e = 15, and the 16-bit clamp holds the rounded 2^15.
+        // 2 · 32767 = 65534 (16 bits) rounds to 32767 at e = 1.
+        assert_eq!(of(32767).q[0][0], 32767);
+        // At the clamp (2^29 · 2 = 2^30: 31 bits) e = 15, and the rounded ±2^15 comes back to
+        // ±(2^15 − 1).
         let q = of(i32::MAX);
         assert_eq!((q.exponent, q.q[0][0]), (15, Q_MAX as i16));
         let q = of(i32::MIN);
         assert_eq!((q.exponent, q.q[0][0]), (15, -Q_MAX as i16));
+        // Just below a power of two, rounding reaches 2^15 and the clamp takes it back by one:
+        // s = 2 · 65535 = 2^17 − 2 (17 bits, e = 2), (s + 2) >> 2 = 2^15.
+        let q = of(65535);
+        assert_eq!((q.exponent, q.q[0][0]), (2, Q_MAX as i16));
+        let q = of(-65535);
+        assert_eq!((q.exponent, q.q[0][0]), (2, -Q_MAX as i16));
     }
 
     #[test]
