@@ -67,6 +67,29 @@ pub struct TakeReader<'a> {
     /// Per marker over the current block: second-order prediction, and the residual widths.
     second_order: [bool; MAX_MARKERS],
     width: [[u8; 3]; MAX_MARKERS],
+    /// Each marker's quantisation step (from the take's `steps`, read once).
+    steps: [u32; MAX_MARKERS],
+    /// Each marker's range of quantised values whose product with its step fits `i32`.
+    bounds: [Bounds; MAX_MARKERS],
+}
+
+/// The quantised values `q` of a marker with step `s` whose sample `q · s` fits `i32`:
+/// `−⌊2³¹/s⌋ ≤ q ≤ ⌊(2³¹ − 1)/s⌋`, found once per take instead of multiplying per sample.
+#[derive(Clone, Copy, Debug, Default)]
+struct Bounds {
+    low: i32,
+    high: i32,
+}
+
+impl Bounds {
+    fn of(step: u32) -> Self {
+        // A step is at least 1 (the loader checks it); 0 would make every value fit only as 0.
+        let s = i64::from(step.max(1));
+        Self {
+            low: (-((1i64 << 31) / s)) as i32,
+            high: (i64::from(i32::MAX) / s) as i32,
+        }
+    }
 }
 
 impl<'a> TakeReader<'a> {
@@ -81,6 +104,8 @@ impl<'a> TakeReader<'a> {
             present: [false; MAX_MARKERS],
             second_order: [false; MAX_MARKERS],
             width: [[0; 3]; MAX_MARKERS],
+            steps: core::array::from_fn(|i| le_u32_at(take.steps, i)),
+            bounds: core::array::from_fn(|i| Bounds::of(le_u32_at(take.steps, i))),
         }
     }
 
@@ -116,10 +141,14 @@ impl<'a> TakeReader<'a> {
             self.next = self.take.frame_count;
             return Err(e);
         }
-        for (i, o) in out.iter_mut().enumerate() {
-            let step = le_u32_at(self.take.steps, i) as i32;
+        let state = out
+            .iter_mut()
+            .zip(&self.present)
+            .zip(&self.q)
+            .zip(&self.steps);
+        for (((o, &present), q), &step) in state {
             // `advance` checked that every present value fits: the products cannot wrap.
-            *o = self.present[i].then(|| self.q[i].map(|q| q.wrapping_mul(step)));
+            *o = present.then(|| q.map(|q| q.wrapping_mul(step as i32)));
         }
         Ok(Some(frame))
     }
@@ -144,110 +173,180 @@ impl<'a> TakeReader<'a> {
         Ok(())
     }
 
-    /// `n` ≤ 32 bits from the stream, least significant first.
-    fn bits(&mut self, n: u32) -> Result<u32, TakeFrameError> {
-        let stream = self.take.stream;
-        let end = self.pos + n as usize;
-        if end > stream.len().saturating_mul(8) {
-            return Err(TakeFrameError::StreamEnd {
-                frame: self.next as usize,
-            });
-        }
-        let at = self.pos / 8;
-        let mut word = 0u64;
-        for i in 0..5 {
-            if let Some(&b) = stream.get(at + i) {
-                word |= u64::from(b) << (8 * i);
-            }
-        }
-        let value = (word >> (self.pos % 8)) & ((1u64 << n) - 1);
-        self.pos = end;
-        Ok(value as u32)
-    }
-
-    fn bit(&mut self) -> Result<bool, TakeFrameError> {
-        Ok(self.bits(1)? == 1)
-    }
-
-    /// Marker `i`'s quantised value `q` on `axis`, after checking that `q × step` fits `i32`.
-    fn set(&mut self, i: usize, axis: usize, q: i64) -> Result<(), TakeFrameError> {
-        // q first narrowed to 32 bits, so the product is one 32 × 32 → 64-bit multiply (a
-        // 64-bit saturating one costs a Cortex-M4 several): |q| < 2³¹ and step < 2³², so it
-        // cannot overflow, and it fits 32 bits exactly when the saturating product of the wide
-        // q did.
-        let q = i32::try_from(q).ok();
-        let value = q.map(|q| i64::from(q) * i64::from(le_u32_at(self.take.steps, i)));
-        match (q, value.map(i32::try_from)) {
-            (Some(q), Some(Ok(_))) => {
-                self.q[i][axis] = q;
-                Ok(())
-            }
-            _ => Err(TakeFrameError::OutOfRange {
-                frame: self.next as usize,
-            }),
-        }
-    }
-
     /// Decode frame `self.next` into the state and move on.
     fn advance(&mut self) -> Result<(), TakeFrameError> {
-        let m = self.take.marker_count();
         let f = self.next as usize;
         let n = self.take.key_interval();
         let k = f % n;
+        let start = if k == 0 {
+            (le_u32_at(self.take.keys, f / n) as usize).saturating_mul(8)
+        } else {
+            self.pos
+        };
+        let mut bits = Bits::at(self.take.stream, start, f);
+        let decoded = self.decode(&mut bits, k);
+        // Reading past the end only loads zeros (see `Bits`): whether it happened is checked
+        // once, here, and it is this frame's error whatever else the zeros decoded to.
+        if bits.position() > self.take.stream.len().saturating_mul(8) {
+            return Err(TakeFrameError::StreamEnd { frame: f });
+        }
+        decoded?;
+        self.pos = bits.position();
+        self.next += 1;
+        Ok(())
+    }
+
+    /// The body of [`Self::advance`] for frame `k` of its key interval, reading `bits`.
+    fn decode(&mut self, bits: &mut Bits<'_>, k: usize) -> Result<(), TakeFrameError> {
+        let m = self.take.marker_count();
+        // The per-marker state in step, so that no index is checked in the loops.
         if k == 0 {
-            self.pos = (le_u32_at(self.take.keys, f / n) as usize).saturating_mul(8);
-            for i in 0..m {
-                self.present[i] = self.bit()?;
+            for present in self.present.iter_mut().take(m) {
+                *present = bits.bit();
             }
-            for i in 0..m {
-                self.q[i] = [0; 3];
-                if self.present[i] {
-                    for axis in 0..3 {
-                        let u = self.bits(u32::from(self.take.key_width[axis]))?;
-                        self.set(i, axis, i64::from(self.take.key_min[axis]) + i64::from(u))?;
+            let (key_min, key_width) = (self.take.key_min, self.take.key_width);
+            let markers = self.q.iter_mut().zip(self.q2.iter_mut()).zip(&self.present);
+            for (((q, q2), &present), &bounds) in markers.zip(&self.bounds).take(m) {
+                *q = [0; 3];
+                if present {
+                    for (axis, v) in q.iter_mut().enumerate() {
+                        let u = bits.bits(u32::from(key_width[axis]));
+                        *v = bits.fits(i64::from(key_min[axis]) + i64::from(u), bounds)?;
                     }
                 }
-                self.q2[i] = self.q[i];
+                *q2 = *q;
             }
         } else {
             if (k - 1).is_multiple_of(self.take.block_frames()) {
-                for i in 0..m {
-                    self.second_order[i] = self.bit()?;
-                    for axis in 0..3 {
-                        self.width[i][axis] = self.bits(WIDTH_BITS)? as u8;
+                let blocks = self.second_order.iter_mut().zip(self.width.iter_mut());
+                for (second, width) in blocks.take(m) {
+                    *second = bits.bit();
+                    for w in width.iter_mut() {
+                        *w = bits.bits(WIDTH_BITS) as u8;
                     }
                 }
             }
-            if self.bit()? {
-                for i in 0..m {
-                    self.present[i] = self.bit()?;
+            if bits.bit() {
+                for present in self.present.iter_mut().take(m) {
+                    *present = bits.bit();
                 }
             }
-            for i in 0..m {
-                if !self.present[i] {
+            let markers = self.q.iter_mut().zip(self.q2.iter_mut()).zip(&self.present);
+            let blocks = self.second_order.iter().zip(&self.width).zip(&self.bounds);
+            for (((q, q2), &present), ((&second, &w), &bounds)) in markers.zip(blocks).take(m) {
+                if !present {
                     continue;
                 }
-                let w = self.width[i];
-                let any = w != [0; 3] && self.bit()?;
-                for (axis, &w) in w.iter().enumerate() {
+                let any = w != [0; 3] && bits.bit();
+                for axis in 0..3 {
                     let mut r = 0;
-                    if any && w > 0 && self.bit()? {
-                        let negative = self.bit()?;
-                        let magnitude = i64::from(self.bits(u32::from(w).min(MAX_WIDTH) - 1)?) + 1;
+                    if any && w[axis] > 0 && bits.bit() {
+                        let negative = bits.bit();
+                        let width = u32::from(w[axis]).min(MAX_WIDTH) - 1;
+                        let magnitude = i64::from(bits.bits(width)) + 1;
                         r = if negative { -magnitude } else { magnitude };
                     }
-                    let last = i64::from(self.q[i][axis]);
-                    let prediction = if self.second_order[i] {
-                        2 * last - i64::from(self.q2[i][axis])
+                    let last = i64::from(q[axis]);
+                    let prediction = if second {
+                        2 * last - i64::from(q2[axis])
                     } else {
                         last
                     };
-                    self.q2[i][axis] = self.q[i][axis];
-                    self.set(i, axis, prediction + r)?;
+                    q2[axis] = q[axis];
+                    q[axis] = bits.fits(prediction + r, bounds)?;
                 }
             }
         }
-        self.next += 1;
         Ok(())
+    }
+}
+
+/// A cursor in a take's bit stream, for the frame being decoded (which its errors name).
+///
+/// Bits are read least significant first through a 32-bit buffer refilled a byte at a time, so a
+/// flag is a shift and a mask. Bytes past the end of the stream load as zeros: the caller checks
+/// [`Self::position`] against the stream's length once the frame is decoded.
+struct Bits<'s> {
+    stream: &'s [u8],
+    /// The next byte to load into `buf`.
+    next_byte: usize,
+    /// Loaded bits not yet read, the next one lowest.
+    buf: u32,
+    /// How many bits `buf` holds, at most 32.
+    held: u32,
+    frame: usize,
+}
+
+impl<'s> Bits<'s> {
+    /// A cursor at bit `pos` of `stream`, decoding frame `frame`.
+    fn at(stream: &'s [u8], pos: usize, frame: usize) -> Self {
+        let mut bits = Self {
+            stream,
+            next_byte: pos / 8,
+            buf: 0,
+            held: 0,
+            frame,
+        };
+        bits.refill();
+        let skip = (pos % 8) as u32;
+        bits.buf >>= skip;
+        bits.held -= skip;
+        bits
+    }
+
+    /// The bit position of the next read.
+    fn position(&self) -> usize {
+        self.next_byte * 8 - self.held as usize
+    }
+
+    /// Load bytes until more than 24 bits are held (at most four, each a bounded step).
+    #[inline(always)]
+    fn refill(&mut self) {
+        while self.held <= 24 {
+            let byte = self.stream.get(self.next_byte).copied().unwrap_or(0);
+            self.buf |= u32::from(byte) << self.held;
+            self.held += 8;
+            self.next_byte += 1;
+        }
+    }
+
+    /// `n` ≤ 32 bits, least significant first.
+    #[inline(always)]
+    fn bits(&mut self, n: u32) -> u32 {
+        if n > 24 {
+            let low = self.bits(16);
+            return low | self.bits(n - 16) << 16;
+        }
+        if self.held < n {
+            self.refill();
+        }
+        let value = self.buf & ((1u32 << n) - 1);
+        // n ≤ 24 < 32: the shift is defined.
+        self.buf >>= n;
+        self.held -= n;
+        value
+    }
+
+    /// One bit.
+    #[inline(always)]
+    fn bit(&mut self) -> bool {
+        if self.held == 0 {
+            self.refill();
+        }
+        let bit = self.buf & 1;
+        self.buf >>= 1;
+        self.held -= 1;
+        bit == 1
+    }
+
+    /// `q` as a marker's quantised value, after checking that its sample `q × step` fits
+    /// `i32` ([`Bounds`]).
+    #[inline(always)]
+    fn fits(&self, q: i64, bounds: Bounds) -> Result<i32, TakeFrameError> {
+        if q < i64::from(bounds.low) || q > i64::from(bounds.high) {
+            return Err(TakeFrameError::OutOfRange { frame: self.frame });
+        }
+        // Within ±2^31 by the bounds: exact.
+        Ok(q as i32)
     }
 }
