@@ -88,7 +88,7 @@ pub enum LoadError {
         /// The section it aligns.
         section: Section,
     },
-    /// A vertex has more influence pairs than `max_influences` needs (⌈K/2⌉).
+    /// A vertex has more influence pairs than `max_influences` (K).
     TooManyInfluencePairs {
         /// The vertex.
         vertex: usize,
@@ -280,7 +280,7 @@ impl core::fmt::Display for LoadError {
             ),
             Self::TooManyInfluencePairs { vertex, count } => write!(
                 f,
-                "vertex {vertex} has {count} influence pairs, above half the rig's maximum influences"
+                "vertex {vertex} has {count} influence pairs, above the rig's maximum influences"
             ),
             Self::TooManyMarkerPairs { found } => write!(
                 f,

@@ -299,9 +299,9 @@ fn every_payload_error_is_distinct() {
             Some(LoadError::BadWeightFormat { found: 23 }),
         ),
         (
-            // K = 6 allows three pairs; the vertices have four.
+            // K = 3 allows three pairs; the vertices have four.
             LinearDeformer {
-                max_influences: 6,
+                max_influences: 3,
                 ..lin
             },
             Some(LoadError::TooManyInfluencePairs {

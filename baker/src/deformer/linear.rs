@@ -65,10 +65,23 @@ struct Paired {
 /// Pairs each vertex's influences so that vertices share marker pairs: the per-frame table has
 /// one entry per distinct pair, so fewer pairs is less marker work and a smaller table. Per
 /// vertex (influences in marker order), first the pairs already in the table, then neighbours
-/// in marker order; an odd influence out joins a pair that holds its marker with a zero weight
+/// in marker order; an influence left alone joins a pair that holds its marker with a zero weight
 /// on the other side, else the pair of its marker with itself.
+///
+/// The table holds at most [`MAX_MARKER_PAIRS`]. Room for every marker's pair with itself is
+/// kept free, so when the two-marker pairs run out (dense layouts: 60 markers over a whole head
+/// at K = 8 need more), a vertex's influences that would need a new one go alone, each with a
+/// zero partner: every rig bakes, at the price of more pairs for those vertices (and, as their
+/// counts then differ, the general per-vertex loop instead of the fixed-K ones).
 fn pair_up(rows: &[Vec<u32>]) -> Result<Paired, SectionError> {
-    let mut table = PairTable::default();
+    let mut used = [false; 256];
+    for &w in rows.iter().flatten() {
+        used[usize::from(unpack_influence(w).0)] = true;
+    }
+    let mut table = PairTable {
+        selves_left: used.iter().filter(|&&u| u).count(),
+        ..PairTable::default()
+    };
     let (mut counts, mut bytes) = (Vec::with_capacity(rows.len()), Vec::new());
     for row in rows {
         let mut influences: Vec<(u8, i16)> = row
@@ -82,27 +95,32 @@ fn pair_up(rows: &[Vec<u32>]) -> Result<Paired, SectionError> {
             .collect::<Result<_, _>>()?;
         influences.sort_by_key(|&(m, _)| m);
         let mut chosen: Vec<[(u8, i16); 2]> = Vec::new();
-        let mut used = vec![false; influences.len()];
+        let mut taken = vec![false; influences.len()];
         // Pairs the table already has.
         for i in 0..influences.len() {
             for j in i + 1..influences.len() {
-                if !used[i] && !used[j] && table.get([influences[i].0, influences[j].0]).is_some() {
-                    used[i] = true;
-                    used[j] = true;
+                if !taken[i] && !taken[j] && table.get([influences[i].0, influences[j].0]).is_some()
+                {
+                    taken[i] = true;
+                    taken[j] = true;
                     chosen.push([influences[i], influences[j]]);
                 }
             }
         }
-        // Neighbours in marker order.
+        // Neighbours in marker order, while the table has room; then each alone.
         let rest: Vec<(u8, i16)> = influences
             .iter()
-            .zip(&used)
-            .filter(|(_, &u)| !u)
+            .zip(&taken)
+            .filter(|(_, &t)| !t)
             .map(|(&x, _)| x)
             .collect();
         let mut twos = rest.chunks_exact(2);
         for two in &mut twos {
-            chosen.push([two[0], two[1]]);
+            if table.has_room() {
+                chosen.push([two[0], two[1]]);
+            } else {
+                chosen.extend(two.iter().map(|&(m, w)| table.with_marker(m, w)));
+            }
         }
         if let [(m, w)] = *twos.remainder() {
             chosen.push(table.with_marker(m, w));
@@ -128,6 +146,8 @@ fn pair_up(rows: &[Vec<u32>]) -> Result<Paired, SectionError> {
 struct PairTable {
     pairs: Vec<[u8; 2]>,
     index: HashMap<[u8; 2], u16>,
+    /// Markers in use whose pair with themselves is not in the table yet: room kept for them.
+    selves_left: usize,
 }
 
 impl PairTable {
@@ -136,16 +156,24 @@ impl PairTable {
         self.index.get(&pair).copied()
     }
 
-    /// The index of `pair`, added if new.
+    /// Whether a new pair of two markers fits beside the room kept for the self pairs.
+    fn has_room(&self) -> bool {
+        self.pairs.len() + self.selves_left < MAX_MARKER_PAIRS
+    }
+
+    /// The index of `pair`, added if new (a pair of two markers only if [`Self::has_room`]).
     fn id(&mut self, pair: [u8; 2]) -> Result<u16, SectionError> {
         if let Some(id) = self.get(pair) {
             return Ok(id);
         }
-        if self.pairs.len() == MAX_MARKER_PAIRS {
+        let alone = pair[0] == pair[1];
+        if self.pairs.len() == MAX_MARKER_PAIRS || (!alone && !self.has_room()) {
             return Err(SectionError(format!(
-                "the linear rig needs more than {MAX_MARKER_PAIRS} distinct marker pairs; \
-                 use fewer influences per vertex (--k) or fewer markers"
+                "the linear rig needs more than {MAX_MARKER_PAIRS} distinct marker pairs"
             )));
+        }
+        if alone {
+            self.selves_left = self.selves_left.saturating_sub(1);
         }
         let id = self.pairs.len() as u16;
         self.pairs.push(pair);
@@ -226,5 +254,74 @@ impl LinearF64 {
                 out
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use facebake_runtime::fixed::pack_influence;
+
+    /// Rows of K = 8 influences over `markers` markers, each vertex's set drawn at random (no
+    /// locality: the worst case for sharing pairs).
+    fn random_rows(markers: u64, vertices: usize) -> Vec<Vec<u32>> {
+        let mut s = 0x1234_5678_9ABC_DEF1u64;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        };
+        (0..vertices)
+            .map(|_| {
+                let mut set: Vec<u8> = Vec::new();
+                while set.len() < 8 {
+                    let m = (next() % markers) as u8;
+                    if !set.contains(&m) {
+                        set.push(m);
+                    }
+                }
+                set.iter()
+                    .enumerate()
+                    .map(|(i, &m)| pack_influence(m, 100 + i as i32 - 3).unwrap())
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_rig_pairs_within_the_table_and_keeps_its_influences() {
+        for (markers, vertices) in [(20, 500), (200, 3000)] {
+            let rows = random_rows(markers, vertices);
+            let bytes = LinearBytes::new(11, &rows).unwrap();
+            let Deformer::Linear(l) = bytes.section().deformer else {
+                unreachable!()
+            };
+            let pairs = l.marker_pairs.0.len() / 2;
+            assert!(pairs <= MAX_MARKER_PAIRS, "{pairs} pairs");
+            let mut spilled = 0;
+            for ((row, vertex), &count) in
+                rows.iter().zip(l.vertex_influences()).zip(l.pair_counts.0)
+            {
+                let mut want: Vec<(u8, i16)> = row
+                    .iter()
+                    .map(|&w| {
+                        let (m, q) = unpack_influence(w);
+                        (m, q as i16)
+                    })
+                    .collect();
+                let mut got: Vec<(u8, i16)> = vertex.filter(|&(_, w)| w != 0).collect();
+                want.sort();
+                got.sort();
+                assert_eq!(got, want);
+                spilled += usize::from(count > 4);
+            }
+            // 20 markers fit in pairs; 200 random ones run out, and some vertices go alone.
+            assert_eq!(
+                spilled > 0,
+                markers == 200,
+                "{markers} markers: {spilled} vertices spilled"
+            );
+        }
     }
 }

@@ -77,7 +77,8 @@ use crate::records::{
 pub struct LinearDeformer<'a> {
     /// Fractional bits of the stored weights, in [8, 14].
     pub weight_frac_bits: u8,
-    /// Most influences any vertex has (K), in [1, 64]: a vertex has at most ⌈K/2⌉ pairs.
+    /// Most influences any vertex has (K), in [1, 64]: a vertex has at most K pairs (bakes
+    /// write ⌈K/2⌉ unless the rig ran out of marker pairs).
     pub max_influences: u8,
     /// The marker pairs the influence pairs name: [`MARKER_PAIR_BYTES`] each (two `u8` marker
     /// indices), at most [`MAX_MARKER_PAIRS`].
@@ -200,7 +201,9 @@ impl DeformerSection for LinearDeformer<'_> {
             [Section::PairCounts, Section::Pairs],
         )?;
         let one = 1i64 << self.weight_frac_bits;
-        let most_pairs = self.max_influences.div_ceil(2);
+        // Bakes give a vertex ⌈K/2⌉ pairs, more where a dense rig ran out of marker pairs and
+        // some influences went alone (with a zero partner): never more than K.
+        let most_pairs = self.max_influences;
         let vertices = per_vertex(self.pair_counts.0, self.pairs.0);
         for (vertex, (&count, words)) in self.pair_counts.0.iter().zip(vertices).enumerate() {
             if count > most_pairs {

@@ -72,7 +72,7 @@ use crate::stages::Stages;
 /// | `weight_frac_bits` | — | `u8` F in [8, 14] |
 /// | `max_influences` | — | `u8` K in [1, 64] |
 /// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b); at most [`records::MAX_MARKER_PAIRS`] |
-/// | `pair_counts` | vertex | `u8` n, at most ⌈K/2⌉ |
+/// | `pair_counts` | vertex | `u8` n, at most K (bakes write ⌈K/2⌉, more only where the marker pairs ran out) |
 /// | `pairs_align` | — | fewer than [`records::SECTION_ALIGN`] zero bytes: `pairs` starts at a multiple of it from the blob's first byte |
 /// | `pairs` | vertex | its n weight pairs (2 × `i16` LE: w_a, w_b), then its n marker pair indices (`u16` LE) |
 ///
