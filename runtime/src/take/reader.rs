@@ -197,6 +197,7 @@ impl<'a> TakeReader<'a> {
     }
 
     /// The body of [`Self::advance`] for frame `k` of its key interval, reading `bits`.
+    #[inline(never)]
     fn decode(&mut self, bits: &mut Bits<'_>, k: usize) -> Result<(), TakeFrameError> {
         let m = self.take.marker_count();
         // The per-marker state in step, so that no index is checked in the loops.
@@ -243,7 +244,8 @@ impl<'a> TakeReader<'a> {
                     if any && w[axis] > 0 && bits.bit() {
                         let negative = bits.bit();
                         let width = u32::from(w[axis]).min(MAX_WIDTH) - 1;
-                        let magnitude = i64::from(bits.bits(width)) + 1;
+                        // At most 30 bits, plus one: an i32.
+                        let magnitude = bits.bits(width) as i32 + 1;
                         r = if negative { -magnitude } else { magnitude };
                     }
                     let last = i64::from(q[axis]);
@@ -253,7 +255,7 @@ impl<'a> TakeReader<'a> {
                         last
                     };
                     q2[axis] = q[axis];
-                    q[axis] = bits.fits(prediction + r, bounds)?;
+                    q[axis] = bits.fits(prediction + i64::from(r), bounds)?;
                 }
             }
         }
@@ -314,9 +316,15 @@ impl<'s> Bits<'s> {
     #[inline(always)]
     fn bits(&mut self, n: u32) -> u32 {
         if n > 24 {
-            let low = self.bits(16);
-            return low | self.bits(n - 16) << 16;
+            let low = self.narrow(16);
+            return low | self.narrow(n - 16) << 16;
         }
+        self.narrow(n)
+    }
+
+    /// `n` ≤ 24 bits (not recursive, so that it inlines).
+    #[inline(always)]
+    fn narrow(&mut self, n: u32) -> u32 {
         if self.held < n {
             self.refill();
         }
