@@ -221,9 +221,12 @@ impl<'a> TakeReader<'a> {
             if (k - 1).is_multiple_of(self.take.block_frames()) {
                 let blocks = self.second_order.iter_mut().zip(self.width.iter_mut());
                 for (second, width) in blocks.take(m) {
-                    *second = bits.bit();
-                    for w in width.iter_mut() {
-                        *w = bits.bits(WIDTH_BITS) as u8;
+                    // The order bit and the three widths in one read (first bit lowest).
+                    let head = bits.bits(1 + 3 * WIDTH_BITS);
+                    *second = head & 1 == 1;
+                    for (axis, w) in width.iter_mut().enumerate() {
+                        *w = ((head >> (1 + WIDTH_BITS * axis as u32)) & ((1 << WIDTH_BITS) - 1))
+                            as u8;
                     }
                 }
             }
