@@ -435,8 +435,8 @@ impl Prepared {
         return [0, 1, 2].map(|c| self.axes[c][p]);
     }
 
-    /// The entry of marker pair `p` (see [`Self::words`]).
-    #[cfg(not(facebake_smlad))]
+    /// The entry of marker pair `p` (see [`Self::words`]), for the SSE2 path's vector loads.
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     #[inline(always)]
     fn entry(&self, p: u16) -> &Entry {
         &self.entries[usize::from(p) & (MAX_MARKER_PAIRS - 1)]

@@ -243,14 +243,11 @@ impl<'a> TakeReader<'a> {
                 }
                 let any = w != [0; 3] && bits.bit();
                 for axis in 0..3 {
-                    let mut r = 0;
-                    if any && w[axis] > 0 && bits.bit() {
-                        let negative = bits.bit();
-                        let width = u32::from(w[axis]).min(MAX_WIDTH) - 1;
-                        // At most 30 bits, plus one: an i32.
-                        let magnitude = bits.bits(width) as i32 + 1;
-                        r = if negative { -magnitude } else { magnitude };
-                    }
+                    let r = if any && w[axis] > 0 {
+                        bits.residual(u32::from(w[axis]).min(MAX_WIDTH) - 1)
+                    } else {
+                        0
+                    };
                     let last = i64::from(q[axis]);
                     let prediction = if second {
                         2 * last - i64::from(q2[axis])
@@ -336,6 +333,40 @@ impl<'s> Bits<'s> {
         self.buf >>= n;
         self.held -= n;
         value
+    }
+
+    /// A residual whose magnitude has `width` ≤ 30 bits: a flag (0: zero), then the sign and
+    /// the magnitude less one. The three reads at once when they fit the buffer (the same bits).
+    #[inline(always)]
+    fn residual(&mut self, width: u32) -> i32 {
+        let n = 2 + width;
+        if n > 24 {
+            if !self.bit() {
+                return 0;
+            }
+            let negative = self.bit();
+            // At most 30 bits, plus one: an i32.
+            let magnitude = self.bits(width) as i32 + 1;
+            return if negative { -magnitude } else { magnitude };
+        }
+        if self.held < n {
+            self.refill();
+        }
+        let v = self.buf;
+        if v & 1 == 0 {
+            self.buf >>= 1;
+            self.held -= 1;
+            return 0;
+        }
+        let magnitude = ((v >> 2) & ((1u32 << width) - 1)) as i32 + 1;
+        // n ≤ 24 < 32: the shift is defined.
+        self.buf >>= n;
+        self.held -= n;
+        if v & 2 != 0 {
+            -magnitude
+        } else {
+            magnitude
+        }
     }
 
     /// One bit.
