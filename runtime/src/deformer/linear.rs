@@ -367,7 +367,7 @@ pub(crate) struct Entry(pub(crate) [u32; 4]);
 #[cfg(not(facebake_smlad))]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Prepared {
-    /// One entry per marker pair of the rig; later ones zero.
+    /// One entry per marker pair of the rig (the slots past them are never read).
     entries: [Entry; MAX_MARKER_PAIRS],
     /// `15 − e`: the per-vertex shift, in [0, 15].
     shift: u32,
@@ -381,7 +381,8 @@ pub(crate) struct Prepared {
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(crate) struct Prepared {
-    /// Per axis x, y, z: one word per marker pair of the rig; later ones zero.
+    /// Per axis x, y, z: one word per marker pair of the rig (the slots past them are never
+    /// read).
     axes: [[u32; MAX_MARKER_PAIRS]; 3],
     /// `15 − e`: the per-vertex shift, in [0, 15].
     shift: u32,
@@ -424,22 +425,28 @@ impl Prepared {
         }
     }
 
-    /// The words x, y, z of marker pair `p`: validated below the rig's pair count at load; the
+    /// The table slot of marker pair `p`: validated below the rig's pair count at load; the
     /// mask keeps the read in the table without a branch whatever the bytes.
     #[inline(always)]
+    fn slot(p: u16) -> usize {
+        usize::from(p) & (MAX_MARKER_PAIRS - 1)
+    }
+
+    /// The words x, y, z of marker pair `p`.
+    #[inline(always)]
     fn words(&self, p: u16) -> [u32; 3] {
-        let p = usize::from(p) & (MAX_MARKER_PAIRS - 1);
+        let p = Self::slot(p);
         #[cfg(not(facebake_smlad))]
         return [0, 1, 2].map(|c| self.entries[p].0[c]);
         #[cfg(facebake_smlad)]
         return [0, 1, 2].map(|c| self.axes[c][p]);
     }
 
-    /// The entry of marker pair `p` (see [`Self::words`]), for the SSE2 path's vector loads.
+    /// The entry of marker pair `p`, for the SSE2 path's vector loads.
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     #[inline(always)]
     fn entry(&self, p: u16) -> &Entry {
-        &self.entries[usize::from(p) & (MAX_MARKER_PAIRS - 1)]
+        &self.entries[Self::slot(p)]
     }
 }
 

@@ -95,6 +95,7 @@ impl Bounds {
 impl<'a> TakeReader<'a> {
     /// A reader at frame 0 of `take`.
     pub fn new(take: Take<'a>) -> Self {
+        let steps = core::array::from_fn(|i| le_u32_at(take.steps, i));
         Self {
             take,
             next: 0,
@@ -104,8 +105,8 @@ impl<'a> TakeReader<'a> {
             present: [false; MAX_MARKERS],
             second_order: [false; MAX_MARKERS],
             width: [[0; 3]; MAX_MARKERS],
-            steps: core::array::from_fn(|i| le_u32_at(take.steps, i)),
-            bounds: core::array::from_fn(|i| Bounds::of(le_u32_at(take.steps, i))),
+            steps,
+            bounds: steps.map(Bounds::of),
         }
     }
 
