@@ -469,6 +469,7 @@ mod tests {
     extern crate std;
     use super::*;
     use crate::format::header::sealed_header;
+    use std::vec;
     use std::vec::Vec;
 
     /// Bits appended least significant first.
@@ -697,5 +698,233 @@ mod tests {
             take.reader().next_frame(&mut row),
             Err(TakeFrameError::OutOfRange { frame: 0 })
         );
+    }
+
+    /// The format's decoding as the module docs state it, bit by bit in `i64`: every frame's
+    /// samples from the start (stopping at the first error). A frame fails when a marker's
+    /// value does not fit (checked after the marker's three values), and with `StreamEnd`
+    /// instead when its reads had run past the stream by then.
+    fn reference(take: &Take<'_>) -> Vec<Result<Vec<Option<[i64; 3]>>, TakeFrameError>> {
+        let (m, n, b) = (
+            take.marker_count(),
+            take.key_interval(),
+            take.block_frames(),
+        );
+        let stream = take.stream;
+        let mut pos = 0usize;
+        let read = |pos: &mut usize, bits: u32| -> i64 {
+            let mut v = 0i64;
+            for i in 0..bits {
+                let byte = stream.get(*pos / 8).copied().unwrap_or(0);
+                v |= i64::from((byte >> (*pos % 8)) & 1) << i;
+                *pos += 1;
+            }
+            v
+        };
+        let step = |i: usize| i64::from(take.step(i).unwrap());
+        let fits = |i: usize, v: i64| v * step(i) >= -(1 << 31) && v * step(i) < (1 << 31);
+        let (mut q, mut q2) = (vec![[0i64; 3]; m], vec![[0i64; 3]; m]);
+        let (mut present, mut head) = (vec![false; m], vec![0i64; m]);
+        let mut frames = Vec::new();
+        for f in 0..take.frame_count() {
+            let k = f % n;
+            let mut bad = false;
+            if k == 0 {
+                pos = 8 * le_u32_at(take.keys, f / n) as usize;
+                for p in present.iter_mut() {
+                    *p = read(&mut pos, 1) == 1;
+                }
+                for i in 0..m {
+                    q[i] = [0; 3];
+                    if present[i] {
+                        for (a, q) in q[i].iter_mut().enumerate() {
+                            let u = read(&mut pos, u32::from(take.key_width[a]));
+                            *q = i64::from(take.key_min[a]) + u;
+                        }
+                    }
+                    q2[i] = q[i];
+                    if q[i].iter().any(|&v| !fits(i, v)) {
+                        bad = true;
+                        break;
+                    }
+                }
+            } else {
+                if (k - 1) % b == 0 {
+                    for h in head.iter_mut() {
+                        *h = read(&mut pos, 16);
+                    }
+                }
+                if read(&mut pos, 1) == 1 {
+                    for p in present.iter_mut() {
+                        *p = read(&mut pos, 1) == 1;
+                    }
+                }
+                for i in (0..m).filter(|&i| present[i]) {
+                    let mut r = [0i64; 3];
+                    if head[i] >> 1 != 0 && read(&mut pos, 1) == 1 {
+                        for (a, r) in r.iter_mut().enumerate() {
+                            let w = ((head[i] >> (1 + 5 * a)) & 31) as u32;
+                            if w > 0 && read(&mut pos, 1) == 1 {
+                                let negative = read(&mut pos, 1) == 1;
+                                let magnitude = read(&mut pos, w - 1) + 1;
+                                *r = if negative { -magnitude } else { magnitude };
+                            }
+                        }
+                    }
+                    for a in 0..3 {
+                        let slope = if head[i] & 1 == 1 {
+                            q[i][a] - q2[i][a]
+                        } else {
+                            0
+                        };
+                        q2[i][a] = q[i][a];
+                        q[i][a] += slope + r[a];
+                    }
+                    if q[i].iter().any(|&v| !fits(i, v)) {
+                        bad = true;
+                        break;
+                    }
+                }
+            }
+            if pos > 8 * stream.len() {
+                frames.push(Err(TakeFrameError::StreamEnd { frame: f }));
+                break;
+            }
+            if bad {
+                frames.push(Err(TakeFrameError::OutOfRange { frame: f }));
+                break;
+            }
+            let row = (0..m).map(|i| present[i].then(|| q[i].map(|v| v * step(i))));
+            frames.push(Ok(row.collect()));
+        }
+        frames
+    }
+
+    /// Random takes, most of them valid for a while before they fail (sparse bits: narrow
+    /// widths, few residuals), some not: the reader's every path (`i32` and `i64` values and
+    /// keys, short and long residual reads, block heads by words and near the end, the word
+    /// and byte refills) gives the reference's samples and errors, read in order and after
+    /// seeks.
+    #[test]
+    fn random_takes_decode_as_the_format_says() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut decoded_frames = 0;
+        for case in 0..600 {
+            // Every fifth take is a few bytes long: block heads near the end of the stream.
+            let tiny = case % 5 == 1;
+            let m = 1 + (next() % if tiny { 3 } else { 41 }) as usize;
+            let frame_count = 1 + (next() % if tiny { 12 } else { 200 }) as u32;
+            let key_interval = if tiny {
+                frame_count as u16
+            } else {
+                1 + (next() % 70) as u16
+            };
+            let block_frames = 1 + (next() % u64::from(key_interval)) as u16;
+            // Every fourth take has values beyond `i32` arithmetic (steps below 8) and key
+            // widths beyond a refill (one axis 25 to 32 bits, its minimum at −2^(w−1)).
+            let wide = case % 4 == 0;
+            let key_width = [0; 3].map(|_| (next() % 20) as u8);
+            let mut key_min = [0; 3].map(|_| (next() % 4096) as i32 - 2048);
+            let mut key_width = key_width;
+            if wide {
+                let axis = (next() % 3) as usize;
+                key_width[axis] = 25 + (next() % 8) as u8;
+                key_min[axis] = (-(1i64 << (key_width[axis] - 1))) as i32;
+            }
+            let fields = TakeFields {
+                marker_count: m as u16,
+                frame_count,
+                key_interval,
+                block_frames,
+                key_width,
+                key_min,
+                ..fields()
+            };
+            // One bit in 2, 8 or 32 set.
+            let sparsity = [1, 3, 5][case % 3];
+            let len = if tiny {
+                1 + (next() % 12) as usize
+            } else {
+                64 + (next() % 6000) as usize
+            };
+            let stream: Vec<u8> = (0..len)
+                .map(|_| {
+                    (0..8).fold(0u8, |byte, i| {
+                        byte | (u8::from(next() % (1 << sparsity) == 0) << i)
+                    })
+                })
+                .collect();
+            let keys = frame_count.div_ceil(u32::from(key_interval)) as usize;
+            let mut offsets: Vec<u32> = (0..keys).map(|k| (k * len / keys) as u32).collect();
+            offsets[0] = 0;
+            let mut p = fields.to_bytes().to_vec();
+            for i in 0..m {
+                let name = std::format!("M{i}");
+                p.push(name.len() as u8);
+                p.extend_from_slice(name.as_bytes());
+            }
+            for _ in 0..m {
+                let step = if wide {
+                    1 + next() % 8
+                } else {
+                    1 + next() % 4000
+                };
+                p.extend_from_slice(&(step as u32).to_le_bytes());
+            }
+            offsets.sort_unstable();
+            for o in &offsets {
+                p.extend_from_slice(&o.to_le_bytes());
+            }
+            p.extend_from_slice(&(len as u32).to_le_bytes());
+            p.extend_from_slice(&stream);
+            let bytes = seal(&p);
+            let take = Take::from_bytes(&bytes).expect("a valid header");
+            let want = reference(&take);
+            let mut reader = take.reader();
+            let mut row = vec![None; m];
+            for (f, want) in want.iter().enumerate() {
+                let got = reader.next_frame(&mut row).map(|_| row.clone());
+                let want = want.clone().map(|w| {
+                    w.into_iter()
+                        .map(|s| s.map(|s| s.map(|v| v as i32)))
+                        .collect::<Vec<_>>()
+                });
+                assert_eq!(got, want, "case {case}, frame {f}");
+                decoded_frames += usize::from(got.is_ok());
+            }
+            // Seek back to frames the reference decoded.
+            let good = want.iter().take_while(|w| w.is_ok()).count();
+            for _ in 0..4.min(good) {
+                let f = (next() % good as u64) as usize;
+                reader.seek(f).unwrap();
+                reader.next_frame(&mut row).unwrap();
+                let want: Vec<_> = want[f].clone().unwrap();
+                let want: Vec<_> = want
+                    .iter()
+                    .map(|s| s.map(|s| s.map(|v| v as i32)))
+                    .collect();
+                assert_eq!(row, want, "case {case}, seek to {f}");
+            }
+        }
+        // Enough of it decodes for the comparison to mean something.
+        assert!(decoded_frames > 5000, "{decoded_frames} frames decoded");
+    }
+
+    /// The reader's state is fixed: a 40-byte record per marker and a few words (the figure
+    /// docs/measurements.md gives for a microcontroller's RAM).
+    #[test]
+    fn the_reader_state_is_a_record_per_marker() {
+        let size = core::mem::size_of::<TakeReader<'static>>();
+        assert!(
+            (40 * MAX_MARKERS..40 * MAX_MARKERS + 256).contains(&size),
+            "{size} bytes"
+        );
+        std::println!("TakeReader: {size} bytes");
     }
 }

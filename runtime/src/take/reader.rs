@@ -1,6 +1,9 @@
 //! [`TakeReader`]: decodes a [`Take`] frame by frame into a fixed state, no allocation.
 
 use super::{le_u32_at, Take, MAX_WIDTH, WIDTH_BITS};
+
+// A width field holds every width up to the widest: no width needs clamping.
+const _: () = assert!((1 << WIDTH_BITS) - 1 == MAX_WIDTH);
 use crate::records::MAX_MARKERS;
 
 /// Why a frame could not be decoded or a seek not done.
@@ -50,8 +53,8 @@ impl core::fmt::Display for TakeFrameError {
 }
 
 /// Decodes a [`Take`]: sequentially with [`Self::next_frame`], from anywhere with
-/// [`Self::seek`]. Its whole state is fixed-size (about 7 KiB): each marker's last two quantised
-/// values, presence, prediction order and residual widths, and the position in the stream.
+/// [`Self::seek`]. Its whole state is fixed-size (10 KiB and a few bytes): a [`Marker`] record
+/// per marker and the position in the stream.
 #[derive(Clone, Debug)]
 pub struct TakeReader<'a> {
     take: Take<'a>,
@@ -59,54 +62,89 @@ pub struct TakeReader<'a> {
     next: u32,
     /// Bit position in the stream.
     pos: usize,
-    /// Each marker's last quantised value,
-    q: [[i32; 3]; MAX_MARKERS],
-    /// and the one before it (second-order prediction).
-    q2: [[i32; 3]; MAX_MARKERS],
-    present: [bool; MAX_MARKERS],
-    /// Per marker over the current block: second-order prediction, and the residual widths.
-    second_order: [bool; MAX_MARKERS],
-    width: [[u8; 3]; MAX_MARKERS],
-    /// Each marker's quantisation step (from the take's `steps`, read once).
-    steps: [u32; MAX_MARKERS],
-    /// Each marker's range of quantised values whose product with its step fits `i32`.
-    bounds: [Bounds; MAX_MARKERS],
+    /// Each marker's decoding state, in one record so that the frame loop walks one array.
+    markers: [Marker; MAX_MARKERS],
+    /// Every step is at least [`NARROW_STEP`]: then every value is within ±2²⁸, and a
+    /// prediction plus a residual (|r| ≤ 2³⁰) is at most 3 · 2²⁸ + 2³⁰ < 2³¹ in magnitude, so
+    /// frames decode in `i32` with no overflow check. Else in `i64`.
+    narrow: bool,
+    /// Every key value `key_min + u` (`u` of its key width) is within `i32`, and every key
+    /// width at most [`Bits::REFILLED`]: key frames decode in `i32` with one buffer check a
+    /// value.
+    short_keys: bool,
 }
 
-/// The quantised values `q` of a marker with step `s` whose sample `q · s` fits `i32`:
-/// `−⌊2³¹/s⌋ ≤ q ≤ ⌊(2³¹ − 1)/s⌋`, found once per take instead of multiplying per sample.
+/// The smallest step for which values decode in `i32` ([`TakeReader`]'s `narrow`). Packed
+/// takes have steps in the thousands (0.1 mm of a 0.2 m half extent is 8,389 Q8.24 units).
+const NARROW_STEP: u32 = 8;
+
+/// One marker's decoding state (40 bytes).
 #[derive(Clone, Copy, Debug, Default)]
-struct Bounds {
+struct Marker {
+    /// The last quantised value,
+    q: [i32; 3],
+    /// and the one before it (second-order prediction).
+    q2: [i32; 3],
+    /// The smallest quantised value whose sample `q · step` fits `i32`: `−⌊2³¹/step⌋`;
     low: i32,
-    high: i32,
+    /// the largest is `low + span`, `⌊(2³¹ − 1)/step⌋` (found once per take instead of
+    /// multiplying per sample).
+    span: u32,
+    /// Its quantisation step (from the take's `steps`, read once). A step is at least 1 (the
+    /// loader checks it).
+    step: u32,
+    /// Over the current block, as read at its start: bit 0 second-order prediction, then the
+    /// three residual widths, [`WIDTH_BITS`] each.
+    head: u16,
+    /// Whether the marker is present.
+    present: bool,
 }
 
-impl Bounds {
-    fn of(step: u32) -> Self {
-        // A step is at least 1 (the loader checks it); 0 would make every value fit only as 0.
+impl Marker {
+    /// A missing marker at 0 with step `step`.
+    fn new(step: u32) -> Self {
         let s = i64::from(step.max(1));
+        let low = -((1i64 << 31) / s);
+        let high = i64::from(i32::MAX) / s;
         Self {
-            low: (-((1i64 << 31) / s)) as i32,
-            high: (i64::from(i32::MAX) / s) as i32,
+            low: low as i32,
+            span: (high - low) as u32,
+            step,
+            ..Self::default()
         }
+    }
+
+    /// Whether `q` is a value whose sample fits: one unsigned comparison of its offset from
+    /// `low`.
+    #[inline(always)]
+    fn holds(&self, q: i32) -> bool {
+        (q.wrapping_sub(self.low) as u32) <= self.span
+    }
+
+    /// [`Self::holds`] for a value computed in `i64`.
+    #[inline(always)]
+    fn holds_wide(&self, q: i64) -> bool {
+        // |q − low| < 2⁶³ for every q the reader computes (below 2³⁴ in magnitude).
+        (q.wrapping_sub(i64::from(self.low)) as u64) <= u64::from(self.span)
     }
 }
 
 impl<'a> TakeReader<'a> {
     /// A reader at frame 0 of `take`.
     pub fn new(take: Take<'a>) -> Self {
-        let steps = core::array::from_fn(|i| le_u32_at(take.steps, i));
+        let m = take.marker_count();
+        let steps: [u32; MAX_MARKERS] = core::array::from_fn(|i| le_u32_at(take.steps, i));
         Self {
             take,
             next: 0,
             pos: 0,
-            q: [[0; 3]; MAX_MARKERS],
-            q2: [[0; 3]; MAX_MARKERS],
-            present: [false; MAX_MARKERS],
-            second_order: [false; MAX_MARKERS],
-            width: [[0; 3]; MAX_MARKERS],
-            steps,
-            bounds: steps.map(Bounds::of),
+            markers: steps.map(Marker::new),
+            narrow: steps.iter().take(m).all(|&s| s >= NARROW_STEP),
+            short_keys: (0..3).all(|axis| {
+                let width = u32::from(take.key_width[axis]);
+                width <= Bits::REFILLED
+                    && i64::from(take.key_min[axis]) + (1i64 << width) - 1 <= i64::from(i32::MAX)
+            }),
         }
     }
 
@@ -138,18 +176,9 @@ impl<'a> TakeReader<'a> {
             return Ok(None);
         }
         let frame = self.next as usize;
-        if let Err(e) = self.advance() {
+        if let Err(e) = self.advance(out.iter_mut().map(Some)) {
             self.next = self.take.frame_count;
             return Err(e);
-        }
-        let state = out
-            .iter_mut()
-            .zip(&self.present)
-            .zip(&self.q)
-            .zip(&self.steps);
-        for (((o, &present), q), &step) in state {
-            // `advance` checked that every present value fits: the products cannot wrap.
-            *o = present.then(|| q.map(|q| q.wrapping_mul(step as i32)));
         }
         Ok(Some(frame))
     }
@@ -165,7 +194,7 @@ impl<'a> TakeReader<'a> {
         let n = self.take.key_interval();
         self.next = (frame - frame % n) as u32;
         while (self.next as usize) < frame {
-            if let Err(e) = self.advance() {
+            if let Err(e) = self.advance(core::iter::repeat_with(|| None)) {
                 self.next = self.take.frame_count;
                 return Err(e);
             }
@@ -174,8 +203,9 @@ impl<'a> TakeReader<'a> {
         Ok(())
     }
 
-    /// Decode frame `self.next` into the state and move on.
-    fn advance(&mut self) -> Result<(), TakeFrameError> {
+    /// Decode frame `self.next` into the state and move on, writing each marker's sample to
+    /// its item of `out` that is `Some` (see [`emit`]).
+    fn advance<'o>(&mut self, out: impl Outputs<'o>) -> Result<(), TakeFrameError> {
         let f = self.next as usize;
         let n = self.take.key_interval();
         let k = f % n;
@@ -184,90 +214,225 @@ impl<'a> TakeReader<'a> {
         } else {
             self.pos
         };
-        let mut bits = Bits::at(self.take.stream, start, f);
-        let decoded = self.decode(&mut bits, k);
+        let (end, decoded) = self.decode(start, f, k, out);
         // Reading past the end only loads zeros (see `Bits`): whether it happened is checked
         // once, here, and it is this frame's error whatever else the zeros decoded to.
-        if bits.position() > self.take.stream.len().saturating_mul(8) {
+        if end > self.take.stream.len().saturating_mul(8) {
             return Err(TakeFrameError::StreamEnd { frame: f });
         }
         decoded?;
-        self.pos = bits.position();
+        self.pos = end;
         self.next += 1;
         Ok(())
     }
 
-    /// The body of [`Self::advance`] for frame `k` of its key interval, reading `bits`.
+    /// Decode frame `f`, frame `k` of its key interval, from bit `start` of the stream: the bit
+    /// position where it stopped (at the end, or at the value that failed) and the outcome.
+    /// The cursor is a local here, so that its fields live in registers.
     #[inline(never)]
-    fn decode(&mut self, bits: &mut Bits<'_>, k: usize) -> Result<(), TakeFrameError> {
-        let m = self.take.marker_count();
-        // The per-marker state in step, so that no index is checked in the loops.
-        if k == 0 {
-            for present in self.present.iter_mut().take(m) {
-                *present = bits.bit();
-            }
-            let (key_min, key_width) = (self.take.key_min, self.take.key_width);
-            let markers = self.q.iter_mut().zip(self.q2.iter_mut()).zip(&self.present);
-            for (((q, q2), &present), &bounds) in markers.zip(&self.bounds).take(m) {
-                *q = [0; 3];
-                if present {
-                    for (axis, v) in q.iter_mut().enumerate() {
-                        let u = bits.bits(u32::from(key_width[axis]));
-                        *v = bits.fits(i64::from(key_min[axis]) + i64::from(u), bounds)?;
-                    }
-                }
-                *q2 = *q;
-            }
+    fn decode<'o>(
+        &mut self,
+        start: usize,
+        f: usize,
+        k: usize,
+        out: impl Outputs<'o>,
+    ) -> (usize, Result<(), TakeFrameError>) {
+        let mut bits = Bits::at(self.take.stream, start, f);
+        let decoded = if k == 0 {
+            self.key_frame(&mut bits, out)
         } else {
-            if (k - 1).is_multiple_of(self.take.block_frames()) {
-                let blocks = self.second_order.iter_mut().zip(self.width.iter_mut());
-                for (second, width) in blocks.take(m) {
-                    // The order bit and the three widths in one read (first bit lowest).
-                    let head = bits.bits(1 + 3 * WIDTH_BITS);
-                    *second = head & 1 == 1;
-                    for (axis, w) in width.iter_mut().enumerate() {
-                        *w = ((head >> (1 + WIDTH_BITS * axis as u32)) & ((1 << WIDTH_BITS) - 1))
-                            as u8;
+            self.predicted_frame(&mut bits, k, out)
+        };
+        (bits.position(), decoded)
+    }
+
+    /// A key frame: presence, then absolute values.
+    #[inline(always)]
+    fn key_frame<'o>(
+        &mut self,
+        bits: &mut Bits<'_>,
+        out: impl Outputs<'o>,
+    ) -> Result<(), TakeFrameError> {
+        let markers = &mut self.markers[..self.take.marker_count()];
+        for marker in markers.iter_mut() {
+            marker.present = bits.bit();
+        }
+        let (key_min, key_width) = (self.take.key_min, self.take.key_width.map(u32::from));
+        let fits = if self.short_keys {
+            // Every key value is `key_min + u` within `i32`, its bits fewer than a refill's.
+            markers.iter_mut().zip(out).all(|(marker, out)| {
+                marker.q = [0; 3];
+                let mut fits = true;
+                if marker.present {
+                    let mut axis = |a: usize| {
+                        let v = key_min[a].wrapping_add(bits.narrow(key_width[a]) as i32);
+                        fits &= marker.holds(v);
+                        v
+                    };
+                    marker.q = [axis(0), axis(1), axis(2)];
+                }
+                marker.q2 = marker.q;
+                emit(out, marker);
+                fits
+            })
+        } else {
+            markers.iter_mut().zip(out).all(|(marker, out)| {
+                marker.q = [0; 3];
+                let mut fits = true;
+                if marker.present {
+                    for axis in 0..3 {
+                        let v = i64::from(key_min[axis]) + i64::from(bits.bits(key_width[axis]));
+                        fits &= marker.holds_wide(v);
+                        // Within `i32` when it fits; a value that does not fit fails the frame.
+                        marker.q[axis] = v as i32;
                     }
                 }
-            }
-            if bits.bit() {
-                for present in self.present.iter_mut().take(m) {
-                    *present = bits.bit();
-                }
-            }
-            let markers = self.q.iter_mut().zip(self.q2.iter_mut()).zip(&self.present);
-            let blocks = self.second_order.iter().zip(&self.width).zip(&self.bounds);
-            for (((q, q2), &present), ((&second, &w), &bounds)) in markers.zip(blocks).take(m) {
-                if !present {
-                    continue;
-                }
-                let any = w != [0; 3] && bits.bit();
-                for axis in 0..3 {
-                    let r = if any && w[axis] > 0 {
-                        bits.residual(u32::from(w[axis]).min(MAX_WIDTH) - 1)
-                    } else {
-                        0
-                    };
-                    let last = i64::from(q[axis]);
-                    let prediction = if second {
-                        2 * last - i64::from(q2[axis])
-                    } else {
-                        last
-                    };
-                    q2[axis] = q[axis];
-                    q[axis] = bits.fits(prediction + i64::from(r), bounds)?;
-                }
+                marker.q2 = marker.q;
+                emit(out, marker);
+                fits
+            })
+        };
+        bits.outcome(fits)
+    }
+
+    /// Frame `k` (≥ 1) of a key interval: block heads at a block's start, presence if it
+    /// changed, then each present marker's residuals over its prediction.
+    #[inline(always)]
+    fn predicted_frame<'o>(
+        &mut self,
+        bits: &mut Bits<'_>,
+        k: usize,
+        out: impl Outputs<'o>,
+    ) -> Result<(), TakeFrameError> {
+        let markers = &mut self.markers[..self.take.marker_count()];
+        if (k - 1).is_multiple_of(self.take.block_frames()) {
+            bits.heads(markers);
+        }
+        if bits.bit() {
+            for marker in markers.iter_mut() {
+                marker.present = bits.bit();
             }
         }
-        Ok(())
+        let markers = markers.iter_mut().zip(out);
+        let fits = if self.narrow {
+            markers.into_iter().all(|(marker, out)| {
+                let fits = step_narrow(marker, bits);
+                emit(out, marker);
+                fits
+            })
+        } else {
+            markers.into_iter().all(|(marker, out)| {
+                let fits = step_wide(marker, bits);
+                emit(out, marker);
+                fits
+            })
+        };
+        bits.outcome(fits)
     }
+}
+
+/// Where a frame's samples go: one item per marker, `Some` slot to write, or `None` to
+/// decode into the state only (seeking).
+trait Outputs<'o>: Iterator<Item = Option<&'o mut Option<[i32; 3]>>> {}
+
+impl<'o, I: Iterator<Item = Option<&'o mut Option<[i32; 3]>>>> Outputs<'o> for I {}
+
+/// Write `marker`'s decoded sample to `out` (if it is a slot): `q · step` per axis, `None` if
+/// the marker is missing. Written as the frame decodes, while the values are in registers.
+#[inline(always)]
+fn emit(out: Option<&mut Option<[i32; 3]>>, marker: &Marker) {
+    if let Some(out) = out {
+        // The frame checked that every present value fits (its bounds): no product wraps.
+        let step = marker.step as i32;
+        *out = marker
+            .present
+            .then(|| marker.q.map(|q| q.wrapping_mul(step)));
+    }
+}
+
+/// A marker's residuals for one predicted frame, read from `bits` (none if it is missing or
+/// every width of its block is 0; else a flag, and when it is set a [`Bits::residual`] per axis
+/// of non-zero width).
+#[inline(always)]
+fn residuals(marker: &Marker, bits: &mut Bits<'_>) -> [i32; 3] {
+    let widths = u32::from(marker.head) >> 1;
+    if !marker.present || widths == 0 {
+        return [0; 3];
+    }
+    let mask = (1 << WIDTH_BITS) - 1;
+    let (w0, w1, w2) = (
+        widths & mask,
+        (widths >> WIDTH_BITS) & mask,
+        widths >> (2 * WIDTH_BITS),
+    );
+    // A flag, and per axis a flag, a sign and w − 1 bits: at most 4 + w0 + w1 + w2.
+    if 4 + w0 + w1 + w2 <= Bits::REFILLED {
+        return bits.short_residuals([w0, w1, w2]);
+    }
+    if !bits.bit() {
+        return [0; 3];
+    }
+    // The three axes written out: a loop kept `r` in memory.
+    let mut axis = |w: u32| if w > 0 { bits.residual(w - 1) } else { 0 };
+    [axis(w0), axis(w1), axis(w2)]
+}
+
+/// One predicted frame of a present marker of a narrow take (every step ≥ [`NARROW_STEP`]): its
+/// prediction plus its residuals, in `i32`; whether every value fits. A missing marker keeps
+/// its values.
+#[inline(always)]
+fn step_narrow(marker: &mut Marker, bits: &mut Bits<'_>) -> bool {
+    let r = residuals(marker, bits);
+    if !marker.present {
+        return true;
+    }
+    // All ones for second order: the slope counts, else it is masked out.
+    let second = 0i32.wrapping_sub(i32::from(marker.head & 1));
+    // The largest offset of a value from `low` ([`Marker::holds`] of all three at once).
+    let mut offset = 0u32;
+    // Indexing the three arrays in step (an iterator over `r` made slower code on the M4).
+    #[allow(clippy::needless_range_loop)]
+    for axis in 0..3 {
+        let last = marker.q[axis];
+        // |last|, |q2| ≤ 2²⁸ and |r| ≤ 2³⁰ (see `narrow`): no sum wraps.
+        let slope = last.wrapping_sub(marker.q2[axis]) & second;
+        let v = last.wrapping_add(slope).wrapping_add(r[axis]);
+        offset = offset.max(v.wrapping_sub(marker.low) as u32);
+        marker.q2[axis] = last;
+        marker.q[axis] = v;
+    }
+    offset <= marker.span
+}
+
+/// [`step_narrow`] for any take: in `i64`.
+#[inline(always)]
+fn step_wide(marker: &mut Marker, bits: &mut Bits<'_>) -> bool {
+    let r = residuals(marker, bits);
+    if !marker.present {
+        return true;
+    }
+    let second = marker.head & 1 == 1;
+    let mut fits = true;
+    for (axis, r) in r.into_iter().enumerate() {
+        let last = i64::from(marker.q[axis]);
+        let slope = if second {
+            last - i64::from(marker.q2[axis])
+        } else {
+            0
+        };
+        let v = last + slope + i64::from(r);
+        fits &= marker.holds_wide(v);
+        marker.q2[axis] = marker.q[axis];
+        // Within `i32` when it fits; a value that does not fit fails the frame.
+        marker.q[axis] = v as i32;
+    }
+    fits
 }
 
 /// A cursor in a take's bit stream, for the frame being decoded (which its errors name).
 ///
-/// Bits are read least significant first through a 32-bit buffer refilled a byte at a time, so a
-/// flag is a shift and a mask. Bytes past the end of the stream load as zeros: the caller checks
+/// Bits are read least significant first through a 32-bit buffer refilled four bytes at a time
+/// ([`Self::refill`]), so a flag is a shift and a mask. Bytes past the end of the stream load as zeros: the caller checks
 /// [`Self::position`] against the stream's length once the frame is decoded.
 struct Bits<'s> {
     stream: &'s [u8],
@@ -302,9 +467,21 @@ impl<'s> Bits<'s> {
         self.next_byte * 8 - self.held as usize
     }
 
-    /// Load bytes until more than 24 bits are held (at most four, each a bounded step).
+    /// Load bytes until at least 24 bits are held. Called with at most 23 held. Four bytes at
+    /// once while they are in the stream: the word goes in above the held bits and only the
+    /// whole bytes that fit are counted; the bits of a partly fitting byte are the stream's own,
+    /// which the next load ORs in again. Near the end, a byte at a time.
     #[inline(always)]
     fn refill(&mut self) {
+        if let Some(word) = self.stream.get(self.next_byte..self.next_byte + 4) {
+            let word = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+            // held ≤ 23: the shift is defined, and at least one byte fits.
+            self.buf |= word << self.held;
+            let bytes = (31 - self.held) >> 3;
+            self.next_byte += bytes as usize;
+            self.held += 8 * bytes;
+            return;
+        }
         while self.held <= 24 {
             let byte = self.stream.get(self.next_byte).copied().unwrap_or(0);
             self.buf |= u32::from(byte) << self.held;
@@ -370,6 +547,88 @@ impl<'s> Bits<'s> {
         }
     }
 
+    /// Each marker's head at the start of a block: its order bit and three widths, 16 bits
+    /// ([`Marker::head`]). The heads lie at one bit offset within every pair of bytes, so
+    /// while the stream holds them whole each is a 32-bit load and a shift, and the cursor
+    /// then moves past them; near the end, one [`Self::bits`] each.
+    #[inline(always)]
+    fn heads(&mut self, markers: &mut [Marker]) {
+        const HEAD_BITS: usize = 1 + 3 * WIDTH_BITS as usize;
+        const _: () = assert!(HEAD_BITS == 16);
+        let start = self.position();
+        let first = start / 8;
+        // Head i is in bytes first + 2i ..= first + 2i + 2 (of a 4-byte load).
+        let window = self.stream.get(first..first + 2 * markers.len() + 2);
+        let Some(window) = window else {
+            for marker in markers.iter_mut() {
+                marker.head = self.bits(HEAD_BITS as u32) as u16;
+            }
+            return;
+        };
+        let shift = (start % 8) as u32;
+        for (marker, bytes) in markers.iter_mut().zip(window.windows(4).step_by(2)) {
+            let word = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+            marker.head = (word >> shift) as u16;
+        }
+        *self = Self::at(self.stream, start + HEAD_BITS * markers.len(), self.frame);
+    }
+
+    /// The frame's outcome: every value fits, or it is out of range.
+    #[inline(always)]
+    fn outcome(&self, fits: bool) -> Result<(), TakeFrameError> {
+        if fits {
+            Ok(())
+        } else {
+            Err(TakeFrameError::OutOfRange { frame: self.frame })
+        }
+    }
+
+    /// Bits held after a [`Self::refill`], at least.
+    const REFILLED: u32 = 24;
+
+    /// A marker's residuals when all of them fit the buffer (at most [`Self::REFILLED`] bits
+    /// over the axes' `widths`): one refill check, then a flag and each axis's bits taken from
+    /// the buffer without a branch.
+    #[inline(always)]
+    fn short_residuals(&mut self, widths: [u32; 3]) -> [i32; 3] {
+        if self.held < Self::REFILLED {
+            self.refill();
+        }
+        let mut v = self.buf;
+        if v & 1 == 0 {
+            self.buf = v >> 1;
+            self.held -= 1;
+            return [0; 3];
+        }
+        v >>= 1;
+        let mut used = 1;
+        let mut axis = |w: u32| {
+            if w == 0 {
+                return 0;
+            }
+            if v & 1 == 0 {
+                v >>= 1;
+                used += 1;
+                return 0;
+            }
+            // w − 1 bits of |r| − 1 after the flag and the sign.
+            let magnitude = ((v >> 2) & ((1u32 << w) >> 1).wrapping_sub(1)) as i32 + 1;
+            let negative = v & 2 != 0;
+            // w + 1 ≤ 24 bits in all (the caller checked): the shift is defined.
+            v >>= w + 1;
+            used += w + 1;
+            if negative {
+                -magnitude
+            } else {
+                magnitude
+            }
+        };
+        let r = [axis(widths[0]), axis(widths[1]), axis(widths[2])];
+        self.buf = v;
+        self.held -= used;
+        r
+    }
+
     /// One bit.
     #[inline(always)]
     fn bit(&mut self) -> bool {
@@ -380,16 +639,5 @@ impl<'s> Bits<'s> {
         self.buf >>= 1;
         self.held -= 1;
         bit == 1
-    }
-
-    /// `q` as a marker's quantised value, after checking that its sample `q × step` fits
-    /// `i32` ([`Bounds`]).
-    #[inline(always)]
-    fn fits(&self, q: i64, bounds: Bounds) -> Result<i32, TakeFrameError> {
-        if q < i64::from(bounds.low) || q > i64::from(bounds.high) {
-            return Err(TakeFrameError::OutOfRange { frame: self.frame });
-        }
-        // Within ±2^31 by the bounds: exact.
-        Ok(q as i32)
     }
 }
