@@ -59,6 +59,9 @@ pub struct SurfaceOptions {
     /// the kernel block positive semi-definite, plus [`crate::surface::RIDGE_MARGIN`] when it is
     /// not.
     pub ridge: Option<f64>,
+    /// Reshape the weights near the openings' corners so that lips and lids part as a crack
+    /// opens ([`crate::surface::corners`]; linear deformer).
+    pub corners: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -73,6 +76,7 @@ impl Default for SurfaceOptions {
             mask_decay_factor: 1.0,
             pbw_alpha: 0.5,
             ridge: None,
+            corners: true,
         }
     }
 }

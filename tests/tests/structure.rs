@@ -4,9 +4,10 @@
 //! The figures pinned here are today's, measured 2026-11-27, as regression guards: a change that
 //! makes any of them worse fails. Of the bars (static drift ≤ 0.5 mm, lips within 2 mm, eyelids
 //! within 1.5 mm, no edge over 2×, no flip), the default bake meets the static drift and the
-//! flips on JawMoCap (asserted; its largest stretch is 2.04×) and misses the rest on the truth
-//! (lips off by up to 12.5 mm, eyelids 1.7 mm, static drift 0.59 mm, whose forehead markers move
-//! 0.59 mm in the frown, 2 edges over 2× and a flip); tighten them as the bake improves. Planar
+//! flips on JawMoCap (asserted; its largest stretch is 2.04×) and the eyelids on the truth
+//! (asserted: 1.12 mm, with the corners of the lids reshaped, `surface::corners`), and misses the
+//! rest on the truth (lips off by up to 12.5 mm, static drift 0.59 mm, whose forehead markers
+//! move 0.59 mm in the frown, 2 edges over 2× and a flip); tighten them as the bake improves. Planar
 //! bones as `bake --deformer planar` bakes them (masked) keep every JawMoCap edge under 2× with no
 //! flip. Run with `-- --nocapture` to see them all.
 
@@ -275,10 +276,11 @@ fn facecap_layout_surface_aware() {
             "the default (geodesic, anchored)",
             Method::Geodesic,
             false,
+            // Eyelids 1.74 mm before the corner reshaping (surface::corners).
             Pinned {
                 drift_mm: 0.59,
                 lips_mm: 12.5,
-                eyelids_mm: 1.7,
+                eyelids_mm: 1.12,
                 stretch: 2.19,
                 over_2x: 2,
                 flipped: 1,
@@ -291,7 +293,7 @@ fn facecap_layout_surface_aware() {
             Pinned {
                 drift_mm: 0.59,
                 lips_mm: 12.5,
-                eyelids_mm: 1.7,
+                eyelids_mm: 1.2,
                 stretch: 2.05,
                 over_2x: 2,
                 flipped: 5,
@@ -306,7 +308,7 @@ fn facecap_layout_surface_aware() {
             Pinned {
                 drift_mm: 0.59,
                 lips_mm: 15.5,
-                eyelids_mm: 2.2,
+                eyelids_mm: 1.3,
                 stretch: 14.21,
                 over_2x: 418,
                 flipped: 357,
@@ -315,11 +317,14 @@ fn facecap_layout_surface_aware() {
     ];
     for (label, method, masks, pins) in &pinned {
         let baked = bake_scene(layout_scene(), &BakeOptions::for_method(*method, *masks));
+        let take = layout_take(&baked.blob);
         guard(
             &format!("FaceCap truth, JawMoCap layout, {label}"),
-            &layout_take(&baked.blob),
+            &take,
             pins,
         );
+        // The eyelid bar: closure within 1.5 mm of the truth in every frame.
+        assert!(take.eyelids_mm.unwrap().0 <= 1.5, "{label}: {take}");
     }
 }
 
@@ -397,7 +402,9 @@ fn jawmocap_through_the_demo_rig() {
         &Pinned {
             drift_mm: 0.48,
             lips_mm: 36.0,
-            eyelids_mm: 11.7,
+            // 11.7 before the lids near their corners took more of the lid markers' motion
+            // (surface::corners): the widest opening, not an error.
+            eyelids_mm: 11.9,
             stretch: 2.04,
             over_2x: 1,
             flipped: 0,

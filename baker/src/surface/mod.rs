@@ -19,6 +19,7 @@
 //! the ridge relaxes interpolation of the markers by about the same relative amount.
 
 pub mod anchoring;
+pub mod corners;
 pub mod distances;
 pub mod evaluate;
 pub mod geometry;
@@ -125,6 +126,9 @@ pub struct SurfaceFigures {
     /// Static anchoring, when applied.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub anchoring: Option<AnchoringFigures>,
+    /// The opening corners' reshaping, when applied ([`corners`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub corners: Option<corners::CornerFigures>,
 }
 
 /// What static anchoring did.
@@ -412,14 +416,25 @@ pub(crate) fn dense_weights(
     };
     let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
     // The mouth: the lowest opening, when it is below the markers' mean height.
-    let floor = geometry
+    let mouth = geometry
         .openings
         .iter()
-        .map(|o| o.centre[1])
-        .fold(None, |low: Option<f64>, y| {
-            Some(low.map_or(y, |l| l.min(y)))
-        })
-        .filter(|&y| y < mean_height);
+        .enumerate()
+        .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
+        .filter(|(_, o)| o.centre[1] < mean_height)
+        .map(|(i, _)| i);
+    let floor = mouth.map(|i| geometry.openings[i].centre[1]);
+    let mut dense = dense;
+    let corners =
+        (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
+            let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
+            let markers = corners::CornerMarkers {
+                rest: &rest,
+                names: &names,
+            };
+            let (welded, positions) = (&mesh.welded_positions, &mesh.positions);
+            corners::reshape(&mut dense, &geometry, welded, positions, &markers, mouth)
+        });
     let pieces = geometry.pieces_of(&d.fallback);
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
     let mut dense =
@@ -462,6 +477,7 @@ pub(crate) fn dense_weights(
             Vec::new()
         },
         anchoring,
+        corners,
     };
     Ok(SurfaceBake {
         between,

@@ -56,6 +56,12 @@ pub struct BakeArgs {
     /// (cranium, back of the head, ears) follows the skull markers instead of the face.
     #[arg(long)]
     pub no_anchoring: bool,
+    /// Leave the eyelids' corners as the RBF makes them: by default the lids near each corner
+    /// that has a marker open and close as a crack does (the displacement across the opening
+    /// growing as the square root of the distance from the corner), so a blink closes the eye.
+    /// Linear deformer.
+    #[arg(long)]
+    pub no_corners: bool,
     /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
     /// not move the other side. The groups are the layout's `[groups]`, else found from the
     /// mouth and eye openings (markers over an opening's span, above or below its rim). Masks
@@ -240,6 +246,10 @@ impl BakeArgs {
             } else {
                 d.anchoring.or((self.deformer == Some(DeformerKind::Planar))
                     .then_some(facebake::ANCHORING_MARGIN))
+            },
+            surface: facebake::SurfaceOptions {
+                corners: d.surface.corners && !self.no_corners,
+                ..d.surface
             },
             ..d
         }
@@ -534,6 +544,15 @@ fn print_text(s: &BakeSummary) {
                 a.anchored_vertices,
                 a.skull_markers.join(", "),
                 a.still_vertices
+            );
+        }
+        if let Some(c) = &f.corners {
+            outln!(
+                out,
+                "  corners       {} eyelid corners with a marker ({}): {} vertices reshaped",
+                c.corners,
+                c.markers.join(", "),
+                c.reshaped_vertices
             );
         }
     }
