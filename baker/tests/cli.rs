@@ -146,10 +146,15 @@ fn demo_writes_its_files() {
     let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
     assert_eq!(summary["files"].as_array().unwrap().len(), 8);
-    // The structure metrics of the ground truth: the default bake keeps the lips sealed.
+    // The structure metrics of the ground truth: the lips part, still 7.4 mm short of the truth
+    // at worst (jaw open; 12.5 before the corner reshaping), the eyelids within 1.5 mm.
     let take = &summary["structure"]["take"];
     assert_eq!(take["frames"], frames);
-    assert!(take["lips_mm"][0].as_f64().unwrap() > 10.0, "{take}");
+    assert!(
+        (5.0..10.0).contains(&take["lips_mm"][0].as_f64().unwrap()),
+        "{take}"
+    );
+    assert!(take["eyelids_mm"][0].as_f64().unwrap() <= 1.5, "{take}");
 }
 
 /// Width and height of a PNG file.

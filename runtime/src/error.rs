@@ -100,6 +100,14 @@ pub enum LoadError {
         /// How many it has.
         found: usize,
     },
+    /// A linear rig's derived marker names a marker that does not exist (or one past the
+    /// markers), or keeps no axis or an axis beyond z, or the rig has more markers and derived
+    /// markers together than `MAX_MARKERS`.
+    BadDerivedMarker {
+        /// The derived marker (0 for the first; its index among the markers is the marker
+        /// count plus this).
+        derived: usize,
+    },
     /// A marker pair names a marker that does not exist.
     PairMarkerOutOfRange {
         /// The marker pair.
@@ -216,6 +224,8 @@ pub enum Section {
     InfluenceCounts,
     /// `influences`
     Influences,
+    /// `derived_markers`
+    DerivedMarkers,
     /// `marker_pairs`
     MarkerPairs,
     /// `pair_counts`
@@ -285,6 +295,10 @@ impl core::fmt::Display for LoadError {
             Self::TooManyMarkerPairs { found } => write!(
                 f,
                 "the rig has {found} marker pairs, above the limit of {MAX_MARKER_PAIRS}"
+            ),
+            Self::BadDerivedMarker { derived } => write!(
+                f,
+                "derived marker {derived} names no marker, keeps no axis (or one beyond z), or is one past the {MAX_MARKERS} markers a rig may have"
             ),
             Self::PairMarkerOutOfRange { pair, marker } => {
                 write!(f, "marker pair {pair} names marker {marker}, which does not exist")

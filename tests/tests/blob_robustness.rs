@@ -258,7 +258,57 @@ fn every_payload_error_is_distinct() {
         let w = i16::from_le_bytes([heavy[at], heavy[at + 1]]) + delta;
         heavy[at..at + 2].copy_from_slice(&w.to_le_bytes());
     }
-    let cases: [(LinearDeformer<'_>, Option<LoadError>); 16] = [
+    // Derived markers: marker 40 is the first past the rig's 40.
+    let many_derived = [0u8, 0b010].repeat(256 - 40 + 1);
+    let mut past_derived = lin.marker_pairs.0.to_vec();
+    past_derived[1] = 41; // one derived marker (40): 41 is past it
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 22] = [
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&[40, 0b010]),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&[3, 0b010, 0, 0]),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 1 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&[3, 0b1000]),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&many_derived),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 256 - 40 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&[0, 0b010]),
+                marker_pairs: Bytes(&past_derived),
+                ..lin
+            },
+            Some(LoadError::PairMarkerOutOfRange {
+                pair: 0,
+                marker: 41,
+            }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&[0]),
+                ..lin
+            },
+            None,
+        ),
         (
             LinearDeformer {
                 pairs_align: Bytes(&[0; 4]),
@@ -403,6 +453,18 @@ fn every_payload_error_is_distinct() {
             ),
         }
     }
+    // A marker pair may name a derived marker.
+    let mut on_derived = lin.marker_pairs.0.to_vec();
+    on_derived[1] = 40;
+    let d = RigData {
+        deformer: Deformer::Linear(LinearDeformer {
+            derived_markers: Bytes(&[0, 0b010]),
+            marker_pairs: Bytes(&on_derived),
+            ..lin
+        }),
+        ..good
+    };
+    assert!(Rig::from_bytes(&seal(&d)).is_ok());
 }
 
 #[test]

@@ -34,6 +34,7 @@ pub(super) fn linear(
     let covariance = sparsify::prior_covariance(rest, options.prior_length * diagonal);
     deformer::linear::bake(
         vertices.iter().map(|v| system.weights_at(v)),
+        &[],
         options.k,
         options.refit,
         &covariance,

@@ -211,6 +211,9 @@ pub struct DenseWeights {
     pub marker_rest: Vec<[f64; 3]>,
     /// Per vertex, one weight per marker.
     pub weights: Vec<Vec<f64>>,
+    /// Per vertex, `(marker, weight)` on markers' vertical (y) displacements alone (the mouth's
+    /// corners, `surface::corners`; empty elsewhere).
+    pub vertical: Vec<Vec<(usize, f64)>>,
 }
 
 impl DenseWeights {
@@ -221,11 +224,18 @@ impl DenseWeights {
             .zip(&self.marker_rest)
             .map(|(m, r)| [0, 1, 2].map(|c| m[c] - r[c]))
             .collect();
+        let none = Vec::new();
         self.rest
             .iter()
             .zip(&self.weights)
-            .map(|(v, w)| {
-                [0, 1, 2].map(|c| v[c] + w.iter().zip(&d).map(|(w, d)| w * d[c]).sum::<f64>())
+            .enumerate()
+            .map(|(i, (v, w))| {
+                let mut p =
+                    [0, 1, 2].map(|c| v[c] + w.iter().zip(&d).map(|(w, d)| w * d[c]).sum::<f64>());
+                for &(m, w) in self.vertical.get(i).unwrap_or(&none) {
+                    p[1] += w * d.get(m).map_or(0.0, |d| d[1]);
+                }
+                p
             })
             .collect()
     }
@@ -511,6 +521,7 @@ fn bake_deformer(
             rest: mesh.positions.clone(),
             marker_rest: rest.to_vec(),
             weights: s.dense,
+            vertical: s.vertical,
         }),
         surface_markers: Some((s.marker_distances, skull)),
     })

@@ -6,7 +6,9 @@ use std::collections::HashMap;
 use facebake_runtime::deformer::linear::LinearDeformer;
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::unpack_influence;
-use facebake_runtime::format::records::{Bytes, INFLUENCE_PAIR_BYTES, MAX_MARKER_PAIRS};
+use facebake_runtime::format::records::{
+    Bytes, INFLUENCE_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS,
+};
 
 use super::{influence_counts, DeformerBytes, DeformerOutput, Section, SectionError};
 use crate::sparsify::{self, Refit};
@@ -16,19 +18,26 @@ use crate::sparsify::{self, Refit};
 pub struct LinearBytes {
     weight_frac_bits: u8,
     max_influences: u8,
+    derived: Vec<u8>,
     marker_pairs: Vec<u8>,
     counts: Vec<u8>,
     pairs: Vec<u8>,
 }
 
 impl LinearBytes {
-    /// Per vertex, its packed influences (at most 64), stored in pairs ([`pair_up`]).
-    fn new(weight_frac_bits: u8, rows: &[Vec<u32>]) -> Result<Self, SectionError> {
+    /// Per vertex, its packed influences (at most 64), stored in pairs ([`pair_up`]), over the
+    /// markers and then the `derived` markers (source, axis mask).
+    fn new(
+        weight_frac_bits: u8,
+        rows: &[Vec<u32>],
+        derived: &[(u8, u8)],
+    ) -> Result<Self, SectionError> {
         let lens = influence_counts(rows.iter().map(Vec::len))?;
         let paired = pair_up(rows)?;
         Ok(Self {
             weight_frac_bits,
             max_influences: lens.iter().copied().max().unwrap_or(0).max(1),
+            derived: derived.iter().flat_map(|&(s, m)| [s, m]).collect(),
             marker_pairs: paired.marker_pairs.concat(),
             counts: paired.counts,
             pairs: paired.bytes,
@@ -41,6 +50,7 @@ impl LinearBytes {
             deformer: Deformer::Linear(LinearDeformer {
                 weight_frac_bits: self.weight_frac_bits,
                 max_influences: self.max_influences,
+                derived_markers: Bytes(&self.derived),
                 marker_pairs: Bytes(&self.marker_pairs),
                 pair_counts: Bytes(&self.counts),
                 pairs_align: Bytes(&[]),
@@ -195,25 +205,49 @@ impl PairTable {
     }
 }
 
-/// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise.
+/// The axis mask of a derived marker that keeps the vertical (y) axis alone.
+pub const VERTICAL: u8 = 0b010;
+
+/// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise. A vertex
+/// with `vertical` weights (on markers' vertical axes alone, summing to zero; empty for most)
+/// keeps K less their count on the markers and takes them on derived markers, one per source
+/// marker, after the markers (the covariance's order).
 pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
+    vertical: &[Vec<(usize, f64)>],
     k: usize,
     refit: Refit,
     covariance: &nalgebra::DMatrix<f64>,
 ) -> Result<DeformerOutput, super::DeformerError> {
+    let markers = covariance.nrows();
+    let mut sources: Vec<usize> = vertical.iter().flatten().map(|&(m, _)| m).collect();
+    sources.sort_unstable();
+    sources.dedup();
+    if markers + sources.len() > MAX_MARKERS {
+        return Err(SectionError(format!(
+            "{markers} markers and {} derived ones: at most {MAX_MARKERS} in all",
+            sources.len()
+        ))
+        .into());
+    }
+    let derived_index = |m: usize| markers + sources.binary_search(&m).unwrap_or(0);
     let mut dropped = Vec::new();
     let rows: Vec<_> = dense_rows
-        .map(|dense| {
-            let row = sparsify::sparsify_row(&dense, k, refit, Some(covariance));
+        .enumerate()
+        .map(|(v, dense)| {
+            let extra = vertical.get(v).map_or(&[][..], Vec::as_slice);
+            let keep = k.saturating_sub(extra.len()).max(1);
+            let mut row = sparsify::sparsify_row(&dense, keep, refit, Some(covariance));
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
+            row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w)));
             row
         })
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
+    let derived: Vec<(u8, u8)> = sources.iter().map(|&m| (m as u8, VERTICAL)).collect();
     Ok(DeformerOutput {
-        bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words)?),
+        bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words, &derived)?),
         frac_bits: q.frac_bits,
         dropped,
         rounding: q.max_rounding,
@@ -221,9 +255,11 @@ pub(crate) fn bake(
     })
 }
 
-/// A loaded linear rig's section in f64: per vertex, its (marker, weight) pairs.
+/// A loaded linear rig's section in f64: per vertex, its (marker, weight) pairs, and the
+/// derived markers (source, axis mask) the indices past the markers name.
 pub(crate) struct LinearF64 {
     rows: Vec<Vec<(usize, f64)>>,
+    derived: Vec<(usize, u8)>,
 }
 
 impl LinearF64 {
@@ -237,11 +273,23 @@ impl LinearF64 {
                         .collect()
                 })
                 .collect(),
+            derived: l.derived().map(|(s, m)| (usize::from(s), m)).collect(),
         }
     }
 
-    /// Each vertex's displacement for marker displacements `d` (rig units): Σ w · d.
+    /// Each vertex's displacement for marker displacements `d` (rig units): Σ w · d, a derived
+    /// marker's `d` its source's on its axes.
     pub(crate) fn displacements(&self, d: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut d = d.to_vec();
+        let sources: Vec<[f64; 3]> = self
+            .derived
+            .iter()
+            .map(|&(s, mask)| {
+                let p = d.get(s).copied().unwrap_or([0.0; 3]);
+                [0, 1, 2].map(|c| if mask >> c & 1 == 1 { p[c] } else { 0.0 })
+            })
+            .collect();
+        d.extend(sources);
         self.rows
             .iter()
             .map(|row| {
@@ -293,7 +341,7 @@ mod tests {
     fn every_rig_pairs_within_the_table_and_keeps_its_influences() {
         for (markers, vertices) in [(20, 500), (200, 3000)] {
             let rows = random_rows(markers, vertices);
-            let bytes = LinearBytes::new(11, &rows).unwrap();
+            let bytes = LinearBytes::new(11, &rows, &[]).unwrap();
             let Deformer::Linear(l) = bytes.section().deformer else {
                 unreachable!()
             };

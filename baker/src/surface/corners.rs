@@ -1,4 +1,4 @@
-//! Opening corners: eyelids close (and lips part) the way a crack opens.
+//! Opening corners: eyelids close and lips part the way a crack opens.
 //!
 //! An interpolation between the marker at a mouth corner and the next lip marker moves the lip
 //! in proportion to the distance from the corner, so the lips stay nearly shut for a third of
@@ -9,26 +9,31 @@
 //! and 10.9 mm across from it, is 0.34, 0.48, 0.76 and 1.0 of the next lip marker's;
 //! √(r/10.9) gives 0.36, 0.51, 0.77, 1.0, and a straight line 0.13, 0.26, 0.59, 1.0).
 //!
-//! So the weights of the lids near each corner are reshaped ([`reshape`]): where a vertex's
-//! weight on the corner's marker is `w` (about `1 − r/R` between the corner and the next marker
-//! along the opening), it becomes `1 − √(1 − w)` (about `1 − √(r/R)`), and what it gives up goes
-//! to the vertex's other markers in proportion to their weights, so the weights still sum to
-//! what they did. The reshaping is full on the rim and fades out over a band of skin beside the
-//! opening ([`BAND`] of its width) and towards the outside of either corner (skin past a
-//! corner is not part of either lid), so the field stays continuous.
+//! So the weights near each corner are reshaped ([`reshape`]): where a vertex's weight on the
+//! corner's marker is `w` (about `1 − r/R` between the corner and the next marker along the
+//! opening), it becomes `1 − √(1 − w)` (about `1 − √(r/R)`), and what it gives up goes to the
+//! vertex's other markers, so the weights still sum to what they did. The reshaping is full on
+//! the rim and fades out over a band of skin beside the opening ([`BAND`] of its width) and
+//! towards the outside of either corner (skin past a corner is not part of either lid or lip),
+//! so the field stays continuous.
 //!
-//! On FaceCap's truth with the JawMoCap layout it brings the worst eyelid-closure error from
-//! 1.74 to 1.12 mm (the blink closes), with no new flipped triangle or stretched edge, and the
-//! figures do not move when the band is 0.2 to 0.5 of the width or the fade 0.05 to 0.15.
-//!
-//! **Not the mouth.** Reshaped the same way the mouth's lip-aperture error halves (12.5 to
-//! 6.6 mm; the open funnel 4.95 to 1.57 mm), but the corner triangles fold (55 flips over the
-//! take): a scalar weight moves all three axes, and the mouth's corners slide sideways against
-//! the lips (inwards when the jaw drops or the lips funnel, while the lip markers move out), so
-//! lip vertices near a corner that take more of the lip markers' motion also take their
-//! sideways motion, across the corner's. Reshaping only the vertical axis keeps the gain (lips
-//! 6.9 mm, measured by combining two bakes per axis) with no new flip: that needs per-axis
-//! weights, which the linear section does not have. The eyes' corners do not slide.
+//! * **Eyes**: the weights themselves are reshaped, the freed weight shared by the vertex's
+//!   other markers in proportion. On FaceCap's truth with the JawMoCap layout the worst
+//!   eyelid-closure error goes from 1.74 to 1.12 mm (the blink closes), with no new flipped
+//!   triangle or stretched edge, and the figures do not move when the band is 0.2 to 0.5 of the
+//!   width or the fade 0.05 to 0.15.
+//! * **Mouth: the vertical axis only.** The mouth's corners slide sideways against the lips
+//!   (inwards when the jaw drops or the lips funnel, while the lip markers move out), so
+//!   reshaping whole weights there folds the corner's triangles (55 flips over the truth) as
+//!   lip vertices near a corner take the lip markers' sideways motion across the corner's. The
+//!   freed weight moves instead between the corner marker's and the vertex's strongest other
+//!   marker's *vertical* displacement ([`Mouth::vertical`], baked as derived markers of the
+//!   linear section that keep one axis), for [`MOUTH_SHARE`] of the square-root profile and
+//!   over the corner's half of the mouth (fading out over [`MOUTH_FADE`] of the width before
+//!   the middle, so that a vertex takes one corner's correction, one influence pair of its K).
+//!   On the truth the worst lip-aperture error goes from 12.5 to 7.4 mm (jaw open 11.6 → 7.0,
+//!   the open funnel 4.95 → 2.1 mm) with no new flipped triangle or stretched edge, on the truth
+//!   or on JawMoCap; one frame of 32 gets worse (a pout, 1.3 → 2.3 mm).
 //!
 //! Corners are a rim's two ends across the face (x, the glTF convention the metrics use too);
 //! a corner's marker is the marker nearest the rim's end, when it is within [`CORNER_REACH`] of
@@ -57,6 +62,30 @@ pub struct CornerFigures {
     pub reshaped_vertices: usize,
 }
 
+/// At the mouth, the share of the square-root profile taken (the rest stays linear): the
+/// largest step of 0.1 below the share that stretches an edge past 2× that the plain bake
+/// does not. On FaceCap's truth 0.8 stretches the open funnel's corner edges to 2.3× (the
+/// truth keeps the corners shut there while the lip markers part) and JawMoCap's in 8 more
+/// frames; 0.7 none, and 0.6 keeps a step of margin. Lip error (worst over the truth): linear
+/// 12.5 mm, 0.6 7.4, 0.7 6.8, 1.0 6.3.
+pub const MOUTH_SHARE: f64 = 0.6;
+
+/// The mouth's corrections need K of at least this (they take one influence pair).
+pub const MOUTH_MIN_K: usize = 6;
+
+/// At the mouth, the share of the opening's width from its middle over which a corner's
+/// vertical correction fades out (a vertex takes one corner's).
+pub const MOUTH_FADE: f64 = 0.2;
+
+/// The mouth and where its vertical corrections go: per glTF vertex, `(marker, Δ)` on the
+/// markers' vertical axes, summing to zero (empty where there is none).
+pub struct Mouth<'a> {
+    /// The mouth's opening, an index into the geometry's.
+    pub opening: usize,
+    /// The corrections, one list per vertex; `None` leaves the mouth alone.
+    pub vertical: Option<&'a mut [Vec<(usize, f64)>]>,
+}
+
 /// The markers of a reshaping: their rest positions and names.
 pub struct CornerMarkers<'a> {
     /// Rest positions, asset units.
@@ -73,14 +102,19 @@ pub fn reshape(
     welded_positions: &[[f64; 3]],
     positions: &[[f64; 3]],
     markers: &CornerMarkers<'_>,
-    mouth: Option<usize>,
+    mouth: Option<Mouth<'_>>,
 ) -> CornerFigures {
     let rest = markers.rest;
     let mut figures = CornerFigures::default();
     let mut touched = vec![false; dense.len()];
+    let (mouth, mut vertical) = match mouth {
+        Some(m) => (Some(m.opening), m.vertical),
+        None => (None, None),
+    };
     let openings = geometry.openings.iter().zip(&geometry.opening_distance);
     for (index, (opening, from_rim)) in openings.enumerate() {
-        if Some(index) == mouth {
+        let at_mouth = Some(index) == mouth;
+        if at_mouth && vertical.is_none() {
             continue;
         }
         let rim: Vec<[f64; 3]> = opening
@@ -118,15 +152,36 @@ pub fn reshape(
                 let band = smoothstep(1.0 - from_rim[welded] / (BAND * width));
                 let along = crate::mesh::dot(&crate::mesh::sub(&positions[v], &corner), &axis)
                     / (width * width);
-                // Nothing past this corner or past the other one.
-                let strength =
-                    band * smoothstep(along / FADE_IN) * smoothstep((1.0 - along) / FADE_IN);
+                // Nothing past this corner or past the other one; at the mouth, nothing past
+                // its middle either (one corner's correction a vertex).
+                let far = if at_mouth {
+                    smoothstep((0.5 - along) / MOUTH_FADE)
+                } else {
+                    smoothstep((1.0 - along) / FADE_IN)
+                };
+                let share = if at_mouth { MOUTH_SHARE } else { 1.0 };
+                let strength = share * band * smoothstep(along / FADE_IN) * far;
                 let w = weights[marker];
                 if strength <= 0.0 || w <= 0.0 || w >= 1.0 {
                     continue;
                 }
                 let shaped = w + strength * ((1.0 - (1.0 - w).sqrt()) - w);
                 let freed = w - shaped;
+                if let (true, Some(vertical)) = (at_mouth, vertical.as_deref_mut()) {
+                    // The vertical axis only: the freed weight moves from the corner's vertical
+                    // to the vertex's strongest other marker's.
+                    let partner = weights
+                        .iter()
+                        .enumerate()
+                        .filter(|&(m, _)| m != marker)
+                        .max_by(|a, b| a.1.total_cmp(b.1))
+                        .map(|(m, _)| m);
+                    if let Some(partner) = partner {
+                        vertical[v] = vec![(marker, -freed), (partner, freed)];
+                        touched[v] = true;
+                    }
+                    continue;
+                }
                 let others: f64 = weights
                     .iter()
                     .enumerate()
@@ -268,7 +323,10 @@ mod tests {
             &mesh.welded_positions,
             &mesh.positions,
             &markers,
-            Some(0),
+            Some(Mouth {
+                opening: 0,
+                vertical: None,
+            }),
         );
         assert_eq!((figures.corners, mouth), (0, before));
     }

@@ -159,6 +159,9 @@ pub(crate) struct SurfaceBake {
     /// Per glTF vertex, its dense f64 weights on the marker displacements (masks applied): the
     /// reference the sparse rig approximates.
     pub(crate) dense: Vec<Vec<f64>>,
+    /// Per glTF vertex, weights on the markers' vertical displacements alone, summing to zero
+    /// (the mouth's corners, [`corners`]; empty elsewhere).
+    pub(crate) vertical: Vec<Vec<(usize, f64)>>,
     pub(crate) warnings: Vec<String>,
     /// Marker-to-marker distances under the method's distance, asset units (rig marker order):
     /// along the skin for the geodesic methods.
@@ -425,6 +428,7 @@ pub(crate) fn dense_weights(
         .map(|(i, _)| i);
     let floor = mouth.map(|i| geometry.openings[i].centre[1]);
     let mut dense = dense;
+    let mut vertical = vec![Vec::new(); dense.len()];
     let corners =
         (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
             let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
@@ -432,6 +436,11 @@ pub(crate) fn dense_weights(
                 rest: &rest,
                 names: &names,
             };
+            // The mouth's corrections take an influence pair of the K.
+            let mouth = mouth.map(|opening| corners::Mouth {
+                opening,
+                vertical: (config.k >= corners::MOUTH_MIN_K).then_some(vertical.as_mut_slice()),
+            });
             let (welded, positions) = (&mesh.welded_positions, &mesh.positions);
             corners::reshape(&mut dense, &geometry, welded, positions, &markers, mouth)
         });
@@ -492,6 +501,7 @@ pub(crate) fn dense_weights(
             config.radial
         },
         dense,
+        vertical,
         warnings,
         marker_distances,
         skull,
@@ -687,7 +697,13 @@ impl SurfaceBake {
         for i in 0..n {
             cov[(i, i)] += 1e-9 + lift;
         }
-        deformer::linear::bake(self.dense.iter().cloned(), options.k, options.refit, &cov)
+        deformer::linear::bake(
+            self.dense.iter().cloned(),
+            &self.vertical,
+            options.k,
+            options.refit,
+            &cov,
+        )
     }
 
     /// The RBF deformer: each vertex's radial values under the method's distances.

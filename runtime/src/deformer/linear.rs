@@ -51,8 +51,15 @@
 //! * `sse2` (x86-64): the accumulators in one 128-bit register; per pair one `pmaddwd` of the
 //!   entry by the broadcast weight word and one `paddd`.
 //!
-//! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per marker pair
-//! three packings; per influence pair three dual multiply-adds; per vertex one shift and one
+//! # Derived markers
+//!
+//! A rig may list derived markers after its M markers: marker `M + j` is a source marker's `q`
+//! with some axes zeroed (its mask), so a vertex can weigh one axis of a marker apart from the
+//! others (the baker uses it for the vertical opening of the mouth near its corners). They
+//! are made from the quantised `q`, so the bound above holds as it is.
+//!
+//! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per derived
+//! marker three masked copies; per marker pair three packings; per influence pair three dual multiply-adds; per vertex one shift and one
 //! addition per axis. There is no branch on marker data and no check that can fail: the loader
 //! has validated every index, count and bound.
 
@@ -67,8 +74,8 @@ use crate::fixed::{
     linear_displacement_limit, LINEAR_MAX_WEIGHT_FRAC_BITS, LINEAR_WEIGHT_ABS_SUM_MAX,
 };
 use crate::records::{
-    read_position, read_rest, Bytes, INFLUENCE_PAIR_BYTES, MARKER_PAIR_BYTES, MAX_MARKERS,
-    MAX_MARKER_PAIRS, POSITION_BYTES, REST_BYTES,
+    read_position, read_rest, Bytes, DERIVED_MARKER_BYTES, INFLUENCE_PAIR_BYTES,
+    MARKER_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS, POSITION_BYTES, REST_BYTES,
 };
 
 /// The linear deformer's section: every vertex moves by a fixed weighted sum of marker
@@ -80,6 +87,12 @@ pub struct LinearDeformer<'a> {
     /// Most influences any vertex has (K), in [1, 64]: a vertex has at most K pairs (bakes
     /// write ⌈K/2⌉ unless the rig ran out of marker pairs).
     pub max_influences: u8,
+    /// Derived markers ([`DERIVED_MARKER_BYTES`] each: a source marker and an axis mask), the
+    /// markers `M, M + 1, …` after the rig's M: each frame, a derived marker's displacement is
+    /// its source's on the axes its mask keeps (bits 0–2: x, y, z) and zero on the others, so
+    /// that a vertex can weigh one axis of a marker differently from the others.
+    #[serde(borrow)]
+    pub derived_markers: Bytes<'a>,
     /// The marker pairs the influence pairs name: [`MARKER_PAIR_BYTES`] each (two `u8` marker
     /// indices), at most [`MAX_MARKER_PAIRS`].
     #[serde(borrow)]
@@ -141,6 +154,18 @@ impl<'a> LinearDeformer<'a> {
     }
 }
 
+impl<'a> LinearDeformer<'a> {
+    /// The derived markers in order, as `(source marker, axis mask)`: derived marker `j` is
+    /// marker `M + j` of the influences ([`Self::vertex_influences`]).
+    #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
+    pub fn derived(&self) -> impl Iterator<Item = (u8, u8)> + 'a {
+        self.derived_markers
+            .0
+            .chunks_exact(DERIVED_MARKER_BYTES)
+            .map(|d| (d[0], d[1]))
+    }
+}
+
 /// The two markers of marker pair `p` of `table` (`[0, 0]` out of range).
 #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
 fn marker_pair(table: &[u8], p: u16) -> [u8; 2] {
@@ -174,6 +199,25 @@ impl DeformerSection for LinearDeformer<'_> {
     fn validate(&self, rig: &Shared<'_>) -> Result<(), LoadError> {
         check::max_influences(self.max_influences)?;
         check::weight_format(self.weight_frac_bits, LINEAR_MAX_WEIGHT_FRAC_BITS)?;
+        let derived = self.derived_markers.0;
+        if !derived.len().is_multiple_of(DERIVED_MARKER_BYTES) {
+            return Err(LoadError::SectionLength {
+                section: Section::DerivedMarkers,
+                expected: derived.len() / DERIVED_MARKER_BYTES * DERIVED_MARKER_BYTES,
+                found: derived.len(),
+            });
+        }
+        for (index, d) in derived.chunks_exact(DERIVED_MARKER_BYTES).enumerate() {
+            let [source, axes] = [d[0], d[1]];
+            if usize::from(source) >= rig.markers
+                || !(1..=0b111).contains(&axes)
+                || rig.markers + index >= MAX_MARKERS
+            {
+                return Err(LoadError::BadDerivedMarker { derived: index });
+            }
+        }
+        // Marker pairs name the rig's markers and the derived ones after them.
+        let all_markers = rig.markers + derived.len() / DERIVED_MARKER_BYTES;
         if !self.marker_pairs.0.len().is_multiple_of(MARKER_PAIR_BYTES) {
             return Err(LoadError::SectionLength {
                 section: Section::MarkerPairs,
@@ -188,7 +232,7 @@ impl DeformerSection for LinearDeformer<'_> {
             });
         }
         for (pair, markers) in self.marker_pairs.0.chunks_exact(MARKER_PAIR_BYTES).enumerate() {
-            if let Some(&marker) = markers.iter().find(|&&m| usize::from(m) >= rig.markers) {
+            if let Some(&marker) = markers.iter().find(|&&m| usize::from(m) >= all_markers) {
                 return Err(LoadError::PairMarkerOutOfRange { pair, marker });
             }
         }
@@ -273,10 +317,8 @@ impl LinearDeformer<'_> {
     /// marker, the caller checked) into `table`, for [`Self::deform_prepared`]. In place: the
     /// table is 6 to 8 KB, and a copy costs more than filling it.
     pub(crate) fn prepare(&self, rig: &Shared<'_>, markers: &[[i32; 3]], table: &mut Prepared) {
-        table.fill(
-            &quantised(markers, rig.marker_rest, self.weight_frac_bits),
-            self.marker_pairs.0,
-        );
+        let q = quantised(markers, rig.marker_rest, self.weight_frac_bits, self.derived_markers.0);
+        table.fill(&q, self.marker_pairs.0);
     }
 
     /// The vertices of `rig` into `out` (one entry each, the caller checked) from this frame's
@@ -335,7 +377,13 @@ fn scaled<'m>(
 /// same for every frame): the exponent comes from the bit length of all the magnitudes ORed
 /// together (the bit length of the largest), and the only rounded values past ±(2¹⁵ − 1) are
 /// ±2¹⁵, brought in by one comparison each.
-pub(crate) fn quantised(markers: &[[i32; 3]], marker_rest: &[u8], weight_frac_bits: u8) -> Quantised {
+/// `derived` (validated) are the rig's derived markers, appended after `markers` ([`Quantised::derive`]).
+pub(crate) fn quantised(
+    markers: &[[i32; 3]],
+    marker_rest: &[u8],
+    weight_frac_bits: u8,
+    derived: &[u8],
+) -> Quantised {
     let bits = scaled(markers, marker_rest, weight_frac_bits)
         .flatten()
         .fold(0u32, |all, s| all | s.unsigned_abs());
@@ -351,7 +399,22 @@ pub(crate) fn quantised(markers: &[[i32; 3]], marker_rest: &[u8], weight_frac_bi
             (v + i32::from(v < -Q_MAX) - i32::from(v > Q_MAX)) as i16
         });
     }
-    Quantised { q, exponent }
+    let mut quantised = Quantised { q, exponent };
+    quantised.derive(markers.len(), derived);
+    quantised
+}
+
+impl Quantised {
+    /// Append the `derived` markers (validated: sources below `markers`, masks in 1..=7,
+    /// `markers` + their count ≤ [`MAX_MARKERS`]) after the rig's `markers`: each its source's
+    /// `q` on the axes its mask keeps, 0 on the others. A copy and a mask per axis, no branch.
+    fn derive(&mut self, markers: usize, derived: &[u8]) {
+        let (sources, targets) = self.q.split_at_mut(markers.min(MAX_MARKERS));
+        for (target, d) in targets.iter_mut().zip(derived.chunks_exact(DERIVED_MARKER_BYTES)) {
+            let source = sources.get(usize::from(d[0])).copied().unwrap_or([0; 3]);
+            *target = [0, 1, 2].map(|c| source[c] & -(i16::from((d[1] >> c) & 1)));
+        }
+    }
 }
 
 /// One marker pair's table entry: three words x, y, z (and a zero word), each with marker a's
@@ -1068,7 +1131,7 @@ mod tests {
 
     fn prepared(c: &Case, m: &[[i32; 3]], mrest: &[u8]) -> Prepared {
         let mut t = Prepared::EMPTY;
-        t.fill(&quantised(m, mrest, c.frac), &c.marker_pairs);
+        t.fill(&quantised(m, mrest, c.frac, &[]), &c.marker_pairs);
         t
     }
 
@@ -1122,7 +1185,7 @@ mod tests {
     fn the_exponent_is_the_least_that_holds_the_largest_displacement() {
         let rest: Vec<u8> = [0i32; 6].iter().flat_map(|x| x.to_le_bytes()).collect();
         let frac = 14; // s = d · 2
-        let of = |d: i32| quantised(&[[d, 0, 0], [0, -3, 0]], &rest, frac);
+        let of = |d: i32| quantised(&[[d, 0, 0], [0, -3, 0]], &rest, frac, &[]);
         // Small displacements need no exponent and are exact.
         let q = of(1000);
         assert_eq!((q.exponent, q.q[0], q.q[1]), (0, [2000, 0, 0], [0, -6, 0]));
@@ -1147,6 +1210,26 @@ mod tests {
         assert_eq!((q.exponent, q.q[0][0]), (2, -Q_MAX as i16));
     }
 
+    /// A derived marker is its source's `q` on the axes its mask keeps, 0 on the others, and
+    /// nothing past the derived markers changes.
+    #[test]
+    fn derived_markers_keep_their_sources_masked_axes() {
+        let rest: Vec<u8> = [[0i32; 3]; 3]
+            .iter()
+            .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
+            .collect();
+        let markers = [[1 << 20, -(3 << 20), 5 << 20], [7 << 19, 3 << 19, -(1 << 22)], [0; 3]];
+        let before = quantised(&markers, &rest, 12, &[]).q;
+        let q = quantised(&markers, &rest, 12, &[1, 0b010, 0, 0b101, 1, 0b111]);
+        let [a, b] = [before[0], before[1]];
+        assert_eq!(q.q[3], [0, b[1], 0]);
+        assert_eq!(q.q[4], [a[0], 0, a[2]]);
+        assert_eq!(q.q[5], b);
+        assert_eq!(q.q[..3], before[..3]);
+        assert!(q.q[6..].iter().all(|v| *v == [0; 3]));
+        assert!(a.iter().chain(&b).all(|&v| v != 0));
+    }
+
     #[test]
     fn the_pairs_decode_to_the_influences_they_encode() {
         let mut rng = Rng(77);
@@ -1154,6 +1237,7 @@ mod tests {
         let l = LinearDeformer {
             weight_frac_bits: c.frac,
             max_influences: 10,
+            derived_markers: Bytes(&[]),
             marker_pairs: Bytes(&c.marker_pairs),
             pair_counts: Bytes(&c.counts),
             pairs_align: Bytes(&[]),

@@ -29,7 +29,7 @@ use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 4): every section, in encoding order.
+/// The payload of a rig blob (format version 6): every section, in encoding order.
 ///
 /// # Shared sections
 ///
@@ -71,7 +71,8 @@ use crate::stages::Stages;
 /// |---|---|---|
 /// | `weight_frac_bits` | — | `u8` F in [8, 14] |
 /// | `max_influences` | — | `u8` K in [1, 64] |
-/// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b); at most [`records::MAX_MARKER_PAIRS`] |
+/// | `derived_markers` | derived marker | `u8` source marker (below the marker count M), `u8` axis mask in 1..=7 (bits x, y, z): marker M + j is the source's displacement on those axes, 0 on the others; M plus their count at most [`MAX_MARKERS`] |
+/// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b) below M plus the derived markers; at most [`records::MAX_MARKER_PAIRS`] |
 /// | `pair_counts` | vertex | `u8` n, at most K (bakes write ⌈K/2⌉, more only where the marker pairs ran out) |
 /// | `pairs_align` | — | fewer than [`records::SECTION_ALIGN`] zero bytes: `pairs` starts at a multiple of it from the blob's first byte |
 /// | `pairs` | vertex | its n weight pairs (2 × `i16` LE: w_a, w_b), then its n marker pair indices (`u16` LE) |

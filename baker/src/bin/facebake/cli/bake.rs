@@ -56,10 +56,11 @@ pub struct BakeArgs {
     /// (cranium, back of the head, ears) follows the skull markers instead of the face.
     #[arg(long)]
     pub no_anchoring: bool,
-    /// Leave the eyelids' corners as the RBF makes them: by default the lids near each corner
-    /// that has a marker open and close as a crack does (the displacement across the opening
-    /// growing as the square root of the distance from the corner), so a blink closes the eye.
-    /// Linear deformer.
+    /// Leave the corners of the eyes and the mouth as the RBF makes them: by default the lids
+    /// and lips near each corner that has a marker open and close as a crack does (the
+    /// displacement across the opening growing as the square root of the distance from the
+    /// corner; at the mouth 60 % of it, on the vertical axis alone), so a blink closes the eye
+    /// and the lips part near their corners. Linear deformer; the mouth's part needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
     /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
@@ -549,7 +550,7 @@ fn print_text(s: &BakeSummary) {
         if let Some(c) = &f.corners {
             outln!(
                 out,
-                "  corners       {} eyelid corners with a marker ({}): {} vertices reshaped",
+                "  corners       {} corners of the eyes and mouth with a marker ({}): {} vertices reshaped",
                 c.corners,
                 c.markers.join(", "),
                 c.reshaped_vertices
