@@ -36,6 +36,26 @@ pub fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     norm(&sub(a, b))
 }
 
+/// The corners of an opening's rim (welded ids into `welded`): the positions in `rim` of its
+/// lowest and its highest x (the last of equals), the ends of the mouth and of the eyes across
+/// the face (glTF's x).
+pub fn x_extremes(rim: &[u32], welded: &[[f64; 3]]) -> (usize, usize) {
+    let x = |i: usize| welded[rim[i] as usize][0];
+    let extreme = |max: bool| {
+        (0..rim.len())
+            .max_by(|&a, &b| {
+                let o = x(a).total_cmp(&x(b));
+                if max {
+                    o
+                } else {
+                    o.reverse()
+                }
+            })
+            .unwrap_or(0)
+    };
+    (extreme(false), extreme(true))
+}
+
 /// Mean position of `vertices` (the origin when there are none).
 ///
 /// # Panics

@@ -291,19 +291,7 @@ fn mouth_and_eyes(openings: &[Opening]) -> (Option<&Opening>, Vec<&Opening>) {
 /// the lower vertex nearest in x.
 fn rim_pairs(rim: &[u32], welded: &[[f64; 3]]) -> Vec<[u32; 2]> {
     let x = |v: u32| welded[v as usize][0];
-    let corner = |max: bool| {
-        (0..rim.len())
-            .max_by(|&a, &b| {
-                let o = x(rim[a]).total_cmp(&x(rim[b]));
-                if max {
-                    o
-                } else {
-                    o.reverse()
-                }
-            })
-            .unwrap_or(0)
-    };
-    let (lo, hi) = (corner(false), corner(true));
+    let (lo, hi) = crate::mesh::x_extremes(rim, welded);
     let n = rim.len();
     let chain = |from: usize, to: usize| -> Vec<u32> {
         let mut out = Vec::new();

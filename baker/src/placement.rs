@@ -240,20 +240,8 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
 /// and the lower chain, corners excluded. The upper chain is the one whose skin neighbours off
 /// the rim lie higher: a closed mouth's two rims can be at the same height.
 fn rim_sides(rim: &[u32], p: &[[f64; 3]], neighbours: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
-    let extreme = |max: bool| {
-        (0..rim.len())
-            .max_by(|&a, &b| {
-                let o = p[rim[a] as usize][0].total_cmp(&p[rim[b] as usize][0]);
-                if max {
-                    o
-                } else {
-                    o.reverse()
-                }
-            })
-            .unwrap_or(0)
-    };
     let (a, b) = {
-        let (i, j) = (extreme(false), extreme(true));
+        let (i, j) = crate::mesh::x_extremes(rim, p);
         (i.min(j), i.max(j))
     };
     let first: Vec<u32> = rim[a + 1..b].to_vec();

@@ -39,6 +39,7 @@
 //! a corner's marker is the marker nearest the rim's end, when it is within [`CORNER_REACH`] of
 //! the opening's width. An opening without a marker at a corner is left as it is there.
 
+use crate::mesh::x_extremes;
 use crate::surface::anchoring::smoothstep;
 use crate::surface::geometry::SurfaceGeometry;
 
@@ -117,17 +118,11 @@ pub fn reshape(
         if at_mouth && vertical.is_none() {
             continue;
         }
-        let rim: Vec<[f64; 3]> = opening
-            .vertices
-            .iter()
-            .map(|&v| welded_positions[v as usize])
-            .collect();
-        let (Some(low), Some(high)) = (
-            rim.iter().copied().min_by(|a, b| a[0].total_cmp(&b[0])),
-            rim.iter().copied().max_by(|a, b| a[0].total_cmp(&b[0])),
-        ) else {
+        if opening.vertices.is_empty() {
             continue;
-        };
+        }
+        let (low, high) = x_extremes(&opening.vertices, welded_positions);
+        let [low, high] = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
         let width = crate::mesh::distance(&low, &high);
         if width <= 0.0 {
             continue;
@@ -167,42 +162,53 @@ pub fn reshape(
                 }
                 let shaped = w + strength * ((1.0 - (1.0 - w).sqrt()) - w);
                 let freed = w - shaped;
-                if let (true, Some(vertical)) = (at_mouth, vertical.as_deref_mut()) {
+                if at_mouth {
                     // The vertical axis only: the freed weight moves from the corner's vertical
                     // to the vertex's strongest other marker's.
-                    let partner = weights
-                        .iter()
-                        .enumerate()
-                        .filter(|&(m, _)| m != marker)
-                        .max_by(|a, b| a.1.total_cmp(b.1))
-                        .map(|(m, _)| m);
-                    if let Some(partner) = partner {
+                    let partner = strongest_other(weights, marker);
+                    if let (Some(vertical), Some(partner)) = (vertical.as_deref_mut(), partner) {
                         vertical[v] = vec![(marker, -freed), (partner, freed)];
                         touched[v] = true;
                     }
-                    continue;
+                } else if give_to_others(weights, marker, freed) {
+                    weights[marker] = shaped;
+                    touched[v] = true;
                 }
-                let others: f64 = weights
-                    .iter()
-                    .enumerate()
-                    .filter(|&(m, &x)| m != marker && x > 0.0)
-                    .map(|(_, &x)| x)
-                    .sum();
-                if others <= 0.0 {
-                    continue;
-                }
-                for (m, x) in weights.iter_mut().enumerate() {
-                    if m != marker && *x > 0.0 {
-                        *x += freed * *x / others;
-                    }
-                }
-                weights[marker] = shaped;
-                touched[v] = true;
             }
         }
     }
     figures.reshaped_vertices = touched.iter().filter(|&&t| t).count();
     figures
+}
+
+/// The marker other than `marker` with the largest weight.
+fn strongest_other(weights: &[f64], marker: usize) -> Option<usize> {
+    weights
+        .iter()
+        .enumerate()
+        .filter(|&(m, _)| m != marker)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(m, _)| m)
+}
+
+/// Share `freed` among the positive weights other than `marker`'s, in proportion to them;
+/// false (and nothing changed) when there are none.
+fn give_to_others(weights: &mut [f64], marker: usize, freed: f64) -> bool {
+    let others: f64 = weights
+        .iter()
+        .enumerate()
+        .filter(|&(m, &x)| m != marker && x > 0.0)
+        .map(|(_, &x)| x)
+        .sum();
+    if others <= 0.0 {
+        return false;
+    }
+    for (m, x) in weights.iter_mut().enumerate() {
+        if m != marker && *x > 0.0 {
+            *x += freed * *x / others;
+        }
+    }
+    true
 }
 
 #[cfg(test)]

@@ -51,17 +51,17 @@
 //! * `sse2` (x86-64): the accumulators in one 128-bit register; per pair one `pmaddwd` of the
 //!   entry by the broadcast weight word and one `paddd`.
 //!
+//! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per derived
+//! marker three masked copies; per marker pair three packings; per influence pair three dual
+//! multiply-adds; per vertex one shift and one addition per axis. There is no branch on marker
+//! data and no check that can fail: the loader has validated every index, count and bound.
+//!
 //! # Derived markers
 //!
 //! A rig may list derived markers after its M markers: marker `M + j` is a source marker's `q`
 //! with some axes zeroed (its mask), so a vertex can weigh one axis of a marker apart from the
 //! others (the baker uses it for the vertical opening of the mouth near its corners). They
 //! are made from the quantised `q`, so the bound above holds as it is.
-//!
-//! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per derived
-//! marker three masked copies; per marker pair three packings; per influence pair three dual multiply-adds; per vertex one shift and one
-//! addition per axis. There is no branch on marker data and no check that can fail: the loader
-//! has validated every index, count and bound.
 
 use serde::{Deserialize, Serialize};
 
@@ -152,9 +152,7 @@ impl<'a> LinearDeformer<'a> {
                 })
         })
     }
-}
 
-impl<'a> LinearDeformer<'a> {
     /// The derived markers in order, as `(source marker, axis mask)`: derived marker `j` is
     /// marker `M + j` of the influences ([`Self::vertex_influences`]).
     #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
@@ -377,7 +375,8 @@ fn scaled<'m>(
 /// same for every frame): the exponent comes from the bit length of all the magnitudes ORed
 /// together (the bit length of the largest), and the only rounded values past ±(2¹⁵ − 1) are
 /// ±2¹⁵, brought in by one comparison each.
-/// `derived` (validated) are the rig's derived markers, appended after `markers` ([`Quantised::derive`]).
+/// `derived` (validated) are the rig's derived markers, appended after `markers`
+/// ([`Quantised::derive`]).
 pub(crate) fn quantised(
     markers: &[[i32; 3]],
     marker_rest: &[u8],
