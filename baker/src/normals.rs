@@ -7,8 +7,9 @@
 //! its fixed-point bounds are documented in `facebake-runtime`'s `normals` module.
 //!
 //! * [`bake`]: the section. Each welded vertex's fan (the other two corners of every triangle
-//!   around it, in winding order, as welded vertices) goes to its canonical vertex, the first
-//!   glTF vertex of its weld group; the group's other vertices copy its normal; triangles that
+//!   around it, in winding order, as welded vertices), chained so that consecutive corners are
+//!   one triangle's ([`chain`]), goes to its canonical vertex, the first glTF vertex of its weld
+//!   group; the group's other vertices copy its normal; triangles that
 //!   collapse under the weld are left out; the rest normals are the reference's at rest.
 //! * [`vertex_normals`]: the reference, one triangle pass in f64, independent of the fans.
 
@@ -21,13 +22,13 @@ use crate::model::FaceMesh;
 #[derive(Debug, thiserror::Error)]
 pub enum NormalsError {
     /// A welded vertex sits in more triangles than a fan holds.
-    #[error("vertex {vertex} of mesh \"{mesh}\" is a corner of {count} triangles; a rig's normals allow at most 255")]
+    #[error("vertex {vertex} of mesh \"{mesh}\" has a fan of {count} corners (its triangles' other corners, chained); a rig's normals allow at most 255")]
     FanTooLarge {
         /// The mesh's name.
         mesh: String,
         /// The glTF vertex (the first of its weld group).
         vertex: u32,
-        /// Triangles around it.
+        /// Corners in its chained fan.
         count: usize,
     },
 }
@@ -39,9 +40,9 @@ pub struct NormalsBytes {
     pub index_bytes: u8,
     /// Rest normals, 3 × `i16` LE Q1.14 per vertex.
     pub rest: Vec<u8>,
-    /// Fan corner counts, `u8` per vertex.
+    /// Corners in each vertex's chained fan, `u8` per vertex.
     pub fan_counts: Vec<u8>,
-    /// Fan corners, two indices each.
+    /// The chained fans' corners, one index each.
     pub corners: Vec<u8>,
     /// (welded vertex, canonical vertex) index pairs.
     pub welds: Vec<u8>,
@@ -104,23 +105,27 @@ pub fn bake(mesh: &FaceMesh) -> Result<NormalsBytes, NormalsError> {
             fans[t[i] as usize].push([canonical[a as usize], canonical[b as usize]]);
         }
     }
+    let chains: Vec<Vec<u32>> = fans
+        .iter()
+        .enumerate()
+        .map(|(w, fan)| chain(fan, canonical[w]))
+        .collect();
     let mut fan_counts = vec![0u8; vertices];
     let mut corners = Vec::new();
-    for (w, fan) in fans.iter().enumerate() {
+    for (w, chain) in chains.iter().enumerate() {
         let owner = canonical[w];
         fan_counts[owner as usize] =
-            u8::try_from(fan.len()).map_err(|_| NormalsError::FanTooLarge {
+            u8::try_from(chain.len()).map_err(|_| NormalsError::FanTooLarge {
                 mesh: mesh.mesh_name.clone(),
                 vertex: owner,
-                count: fan.len(),
+                count: chain.len(),
             })?;
     }
     for v in 0..vertices {
         let w = mesh.weld[v] as usize;
         if canonical[w] as usize == v {
-            for &[a, b] in &fans[w] {
-                index(a, &mut corners);
-                index(b, &mut corners);
+            for &c in &chains[w] {
+                index(c, &mut corners);
             }
         }
     }
@@ -159,6 +164,35 @@ pub fn bake(mesh: &FaceMesh) -> Result<NormalsBytes, NormalsError> {
     })
 }
 
+/// A fan's corner pairs (each triangle's other two corners, in winding order) as one **chain**
+/// of corners in which every two consecutive corners are one pair: around an inside vertex the
+/// pairs link up (`b` of one triangle is `a` of the next) and n triangles take n + 1 corners
+/// instead of 2n. Runs of linked pairs are chained from a pair no other pair leads to (a
+/// boundary) where there is one; two runs are separated by `owner` itself, whose edge is zero,
+/// so its two cross products add nothing. Every pair is consecutive exactly once, so the
+/// runtime's sum over consecutive corners is the sum over the fan's triangles.
+fn chain(pairs: &[[u32; 2]], owner: u32) -> Vec<u32> {
+    let mut used = vec![false; pairs.len()];
+    let mut out = Vec::with_capacity(pairs.len() + 1);
+    while let Some(start) = (0..pairs.len()).filter(|&i| !used[i]).min_by_key(|&i| {
+        let led_to = (0..pairs.len()).any(|j| !used[j] && j != i && pairs[j][1] == pairs[i][0]);
+        (led_to, i)
+    }) {
+        if !out.is_empty() {
+            out.push(owner);
+        }
+        used[start] = true;
+        out.extend_from_slice(&pairs[start]);
+        let mut last = pairs[start][1];
+        while let Some(next) = (0..pairs.len()).find(|&j| !used[j] && pairs[j][0] == last) {
+            used[next] = true;
+            last = pairs[next][1];
+            out.push(last);
+        }
+    }
+    out
+}
+
 /// Angle between two vectors, in degrees (0 when either is zero).
 pub fn angle_degrees(a: [f64; 3], b: [f64; 3]) -> f64 {
     if norm(&a) == 0.0 || norm(&b) == 0.0 {
@@ -195,7 +229,8 @@ mod tests {
         let mesh = seam_square();
         let b = bake(&mesh).unwrap();
         assert_eq!(b.index_bytes, 2);
-        assert_eq!(b.fan_counts, vec![2, 1, 2, 0, 0, 1]);
+        // Chained: vertex 0's two triangles share the corner 2, vertex 2's share 0.
+        assert_eq!(b.fan_counts, vec![3, 2, 3, 0, 0, 2]);
         // Vertex 3 copies 0, vertex 4 copies 2.
         assert_eq!(b.welds, vec![3, 0, 0, 0, 4, 0, 2, 0]);
         // The fan of vertex 5 is the second triangle's other corners, as canonical vertices.
@@ -204,6 +239,40 @@ mod tests {
         assert_eq!(n[0], n[3]);
         assert_eq!(n[2], n[4]);
         assert_eq!(n[1], [0.0, 0.0, 1.0]);
+    }
+
+    /// The consecutive pairs of a chain that do not include the owner.
+    fn links(chain: &[u32], owner: u32) -> Vec<[u32; 2]> {
+        let mut l: Vec<[u32; 2]> = chain
+            .windows(2)
+            .filter(|w| w[0] != owner && w[1] != owner)
+            .map(|w| [w[0], w[1]])
+            .collect();
+        l.sort_unstable();
+        l
+    }
+
+    #[test]
+    fn a_chain_holds_every_triangle_once_in_n_plus_one_corners_per_run() {
+        // Inside: a closed ring of five triangles.
+        let ring = [[1, 2], [3, 4], [2, 3], [5, 1], [4, 5]];
+        let c = chain(&ring, 9);
+        assert_eq!(c.len(), 6);
+        assert_eq!(c.first(), c.last());
+        let mut sorted = ring.to_vec();
+        sorted.sort_unstable();
+        assert_eq!(links(&c, 9), sorted);
+        // A boundary vertex starts where no triangle leads in.
+        assert_eq!(chain(&[[2, 3], [1, 2]], 9), vec![1, 2, 3]);
+        // Two runs that do not link (a non-manifold vertex): split by the owner, whose edge is
+        // zero, so the two cross products it takes part in add nothing.
+        let bowtie = [[1, 2], [5, 6], [2, 3], [6, 7]];
+        let c = chain(&bowtie, 9);
+        assert_eq!(c, vec![1, 2, 3, 9, 5, 6, 7]);
+        let mut sorted = bowtie.to_vec();
+        sorted.sort_unstable();
+        assert_eq!(links(&c, 9), sorted);
+        assert!(chain(&[], 9).is_empty());
     }
 
     #[test]

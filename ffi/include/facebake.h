@@ -307,7 +307,7 @@ typedef struct FbNormalsCost {
    */
   uint64_t vertices;
   /**
-   * Triangle corners evaluated (an edge pair and a cross product each).
+   * Fan corners evaluated (an edge each, and but for a fan's first a cross product).
    */
   uint64_t corners;
   /**

@@ -84,7 +84,7 @@ pub struct FbCost {
 pub struct FbNormalsCost {
     /// Normals written (one per vertex).
     pub vertices: u64,
-    /// Triangle corners evaluated (an edge pair and a cross product each).
+    /// Fan corners evaluated (an edge each, and but for a fan's first a cross product).
     pub corners: u64,
     /// Widening multiplies.
     pub multiplies: u64,

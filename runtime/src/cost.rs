@@ -71,10 +71,11 @@ impl core::fmt::Display for Cost {
 pub struct NormalsCost {
     /// Normals written (one per vertex).
     pub vertices: usize,
-    /// Triangle corners evaluated: each an edge pair and a cross product.
+    /// Fan corners evaluated: each an edge and (but a fan's first) a cross product with the
+    /// edge before it.
     pub corners: usize,
-    /// Widening multiplies: 6 per corner (the cross product), 3 per normalisation (the squared
-    /// length) and 3 more per normalisation (scaling by the root).
+    /// Widening multiplies: 6 per cross product, 3 per normalisation (the squared length) and 3
+    /// more per normalisation (scaling by the root).
     pub multiplies: usize,
     /// Normalisations through the integer 1/√ (a table look-up and one Newton step each): one per vertex with a
     /// fan.
@@ -87,7 +88,7 @@ impl core::fmt::Display for NormalsCost {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(
             f,
-            "{} normals: {} triangle corners, {} multiplies, {} normalisations, {} welded copies",
+            "{} normals: {} fan corners, {} multiplies, {} normalisations, {} welded copies",
             self.vertices, self.corners, self.multiplies, self.normalisations, self.welds
         )
     }

@@ -196,7 +196,7 @@ pub enum LoadError {
         /// The vertex.
         vertex: usize,
     },
-    /// A triangle corner of a vertex's fan names a vertex that does not exist.
+    /// A corner of a vertex's fan names a vertex that does not exist.
     CornerOutOfRange {
         /// The vertex whose fan holds the corner.
         vertex: usize,
@@ -350,7 +350,7 @@ impl core::fmt::Display for LoadError {
             }
             Self::CornerOutOfRange { vertex, corner } => write!(
                 f,
-                "a triangle at vertex {vertex} names vertex {corner}, which does not exist"
+                "the fan of vertex {vertex} names vertex {corner}, which does not exist"
             ),
             Self::BadWeld { entry } => write!(
                 f,

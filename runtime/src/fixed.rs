@@ -10,8 +10,8 @@
 //! | linear weight (stored) | `i24` in a `u32`, Σ\|w\| ≤ [`LINEAR_WEIGHT_ABS_SUM_MAX`] per vertex | Q(15−F).F, F ∈ [8, [`LINEAR_MAX_WEIGHT_FRAC_BITS`]] | the finest F whose weights meet the bound |
 //! | accumulator | `i64` | Q(39−F).(24+F) | Σ weight × value over at most [`MAX_INFLUENCES`] terms |
 //! | unit normal (out, and the stored rest normal) | `i16` | Q1.14 ([`NORMAL_FRAC_BITS`]) | 1.0 is 2¹⁴, each component within ±2¹⁴ |
-//! | triangle edge (normals) | `i64` | Q8.24 | a difference of two positions, saturated to ±[`NORMAL_EDGE_LIMIT`] per axis |
-//! | normal accumulator | `i64` | Q16.48 | Σ of edge × edge cross products over at most 255 triangle corners |
+//! | triangle edge (normals) | `i64` (`i32` on 32-bit targets) | Q8.24 | a difference of two positions, saturated to ±[`NORMAL_EDGE_LIMIT`] per axis |
+//! | normal accumulator | `i64` | Q16.48 | Σ of edge × edge cross products over a fan of at most 255 corners (254 products) |
 //!
 //! # Overflow by design
 //!
@@ -27,7 +27,7 @@
 pub const NORMAL_FRAC_BITS: u32 = 14;
 /// Largest magnitude of one axis of a triangle edge in the normals' cross products: 2²⁶, four
 /// rig units (twice the mesh's whole extent). A longer edge saturates to it, so one cross
-/// component is below 2⁵³ and a sum over at most 255 triangle corners below 2⁶¹: the `i64`
+/// component is below 2⁵³ and a sum over a fan of at most 255 corners (254 products) below 2⁶¹: the `i64`
 /// accumulator cannot overflow, whatever the positions.
 pub const NORMAL_EDGE_LIMIT: i64 = 1 << 26;
 /// Fractional bits of a position (Q8.24).

@@ -4,21 +4,27 @@
 //! # Method
 //!
 //! Area-weighted vertex normals recomputed from the deformed positions, over the mesh's
-//! triangles baked as per-vertex **fans**: for each vertex that owns its normal, the other two
-//! corners (a, b) of every triangle around it, in the triangle's winding order, so that
+//! triangles baked as per-vertex **fans**: for each vertex that owns its normal, the other
+//! corners of the triangles around it as one **chain** c₀, c₁, …, cₙ in which every two
+//! consecutive corners (cᵢ₋₁, cᵢ) are one triangle's other two corners in winding order (around
+//! an inside vertex the triangles link up, so n triangles take n + 1 corners; runs that do not
+//! link are separated by the vertex itself, whose edge is zero), so that
 //!
 //! ```text
-//! e₁ = clamp(p[a] − p[v], ±2²⁶)    e₂ = clamp(p[b] − p[v], ±2²⁶)        Q8.24, i64
-//! s  = Σ_fan e₁ × e₂                                                   i64, exact
+//! eᵢ = clamp(p[cᵢ] − p[v], ±2²⁶)                                       Q8.24, i64
+//! s  = Σᵢ₌₁..ₙ eᵢ₋₁ × eᵢ                                                i64, exact
 //! n[v] = s / |s|                                                       Q1.14, via 1/√
 //! ```
 //!
-//! `e₁ × e₂` is twice the triangle's area along its normal, so `s` weights each triangle by its
-//! area (as the baker's f64 reference does). The cross products are exact integers: every
+//! `eᵢ₋₁ × eᵢ` is twice the triangle's area along its normal, so `s` weights each triangle by
+//! its area (as the baker's f64 reference does). The cross products are exact integers: every
 //! corner of a triangle gives bit for bit the same vector, so computing it once per corner
 //! instead of once per triangle costs multiplies but needs no scratch buffer (the runtime has
 //! no heap) and no scattered writes, and each vertex's normal depends on its own fan only.
-//!
+//! Chained, each corner's edge is taken once (a fan of triangle pairs took two per triangle).
+//! The fans of 16 vertices are summed before they are normalised (384 bytes of stack), so the
+//! processor overlaps the normalisations' multiply chains.
+
 //! **Seams** (vertices split for UVs or hard edges but sharing a rest position) are welded: the
 //! baker gives the fan to one vertex of each group, the canonical one, over the canonical
 //! vertices of its neighbours; every other vertex of the group is listed in `welds` and gets a
@@ -38,8 +44,8 @@
 //! **Degenerate fans**: a vertex whose fan sums to the zero vector (its triangles collapsed to
 //! lines or points), and a vertex in no triangle, gets its baked rest normal.
 //!
-//! Cost per call ([`NormalsCost`]): per fan corner two edge subtractions and clamps per axis and
-//! one cross product (6 multiplies); per vertex with a fan one normalisation (a table look-up,
+//! Cost per call ([`NormalsCost`]): per fan corner one edge subtraction and clamp per axis and
+//! (but for the first) one cross product (6 multiplies); per vertex with a fan one normalisation (a table look-up,
 //! one Newton step and six multiplies); per weld one copy. The cost is bounded, not constant:
 //! it branches on the positions twice, once per call (the clamp-free loop when every position
 //! is within ±2 rig units) and once per vertex (the degenerate-fan fallback).
@@ -62,12 +68,13 @@ pub struct Normals<'a> {
     /// without area.
     #[serde(borrow)]
     pub rest: Bytes<'a>,
-    /// Per vertex, how many triangle corners its fan has (`u8`); 0 for a welded vertex and a
+    /// Per vertex, how many corners its chained fan has (`u8`); 0 for a welded vertex and a
     /// vertex in no triangle.
     #[serde(borrow)]
     pub fan_counts: Bytes<'a>,
-    /// The fans, vertex after vertex: per corner two vertex indices, the triangle's other two
-    /// corners in winding order.
+    /// The fans, vertex after vertex, one vertex index per corner: each two consecutive corners
+    /// of a fan are one triangle's other two corners in winding order, or include the vertex
+    /// itself (a break between runs of linked triangles, which adds nothing).
     #[serde(borrow)]
     pub corners: Bytes<'a>,
     /// Per welded vertex, two vertex indices: the vertex (strictly ascending) and the vertex
@@ -94,10 +101,10 @@ impl Normals<'_> {
         }
         expect_len(Section::FanCounts, self.fan_counts, vertices, COUNT_BYTES)?;
         let corners: usize = self.fan_counts.0.iter().map(|&c| usize::from(c)).sum();
-        expect_len(Section::Corners, self.corners, corners, 2 * width)?;
+        expect_len(Section::Corners, self.corners, corners, width)?;
         let mut fan = self.corners.0.chunks_exact(width);
         for (vertex, &count) in self.fan_counts.0.iter().enumerate() {
-            for corner in fan.by_ref().take(2 * usize::from(count)) {
+            for corner in fan.by_ref().take(usize::from(count)) {
                 let corner = read_index(corner);
                 if corner as usize >= vertices {
                     return Err(LoadError::CornerOutOfRange { vertex, corner });
@@ -129,12 +136,13 @@ impl Normals<'_> {
     /// The work of [`Self::compute`].
     pub(crate) fn cost(&self) -> NormalsCost {
         let width = usize::from(self.index_bytes).max(1);
-        let corners = self.corners.0.len() / (2 * width);
+        let corners = self.corners.0.len() / width;
         let normalisations = self.fan_counts.0.iter().filter(|&&c| c > 0).count();
         NormalsCost {
             vertices: self.fan_counts.0.len(),
             corners,
-            multiplies: 6 * corners + 6 * normalisations,
+            // A fan of c corners has c − 1 cross products (6 each) and one normalisation (6).
+            multiplies: 6 * corners,
             normalisations,
             welds: self.welds.0.len() / (2 * width),
         }
@@ -167,22 +175,43 @@ impl Normals<'_> {
         out: &mut [[i16; 3]],
     ) {
         let at = |i: u32| positions.get(i as usize).copied().unwrap_or_default();
-        let mut corners = self.corners.0.chunks_exact(2 * W);
-        let rest = self.rest.0.chunks_exact(NORMAL_BYTES);
-        for (((n, &count), p), rest) in out
-            .iter_mut()
-            .zip(self.fan_counts.0)
-            .zip(positions)
-            .zip(rest)
+        let mut corners = self.corners.0;
+        // Sums for a block of vertices, then their normalisations: each normalisation is one
+        // long chain of dependent multiplies, and a block's are independent of each other, so
+        // the processor overlaps them (a third less time than normalising after each fan).
+        for (((out, counts), positions_), rest) in out
+            .chunks_mut(NORMALS_BLOCK)
+            .zip(self.fan_counts.0.chunks(NORMALS_BLOCK))
+            .zip(positions.chunks(NORMALS_BLOCK))
+            .zip(self.rest.0.chunks(NORMALS_BLOCK * NORMAL_BYTES))
         {
-            let mut sum = [0i64; 3];
-            for pair in corners.by_ref().take(usize::from(count)) {
-                let a = at(read_index(&pair[..W]));
-                let b = at(read_index(&pair[W..]));
-                let c = cross(edge::<CLAMP>(a, *p), edge::<CLAMP>(b, *p));
-                sum = [sum[0] + c[0], sum[1] + c[1], sum[2] + c[2]];
+            let mut sums = [[0i64; 3]; NORMALS_BLOCK];
+            for ((total, &count), p) in sums.iter_mut().zip(counts).zip(positions_) {
+                let (fan, others) = corners
+                    .split_at_checked(W * usize::from(count))
+                    .unwrap_or_default();
+                corners = others;
+                let Some((first, fan)) = fan.split_at_checked(W) else {
+                    continue;
+                };
+                // Each corner's edge is taken once and crossed with the one before it.
+                let mut previous = edge::<CLAMP>(at(read_index(first)), *p);
+                let mut sum = [0i64; 3];
+                for corner in fan.chunks_exact(W) {
+                    let e = edge::<CLAMP>(at(read_index(corner)), *p);
+                    let c = cross(previous, e);
+                    sum = [sum[0] + c[0], sum[1] + c[1], sum[2] + c[2]];
+                    previous = e;
+                }
+                *total = sum;
             }
-            *n = unit_q14(sum).unwrap_or_else(|| read_normal(rest));
+            for ((n, sum), rest) in out
+                .iter_mut()
+                .zip(&sums)
+                .zip(rest.chunks_exact(NORMAL_BYTES))
+            {
+                *n = unit_q14(*sum).unwrap_or_else(|| read_normal(rest));
+            }
         }
         for pair in self.welds.0.chunks_exact(2 * W) {
             let (vertex, canonical) = (read_index(&pair[..W]), read_index(&pair[W..]));
@@ -200,28 +229,46 @@ impl Normals<'_> {
     }
 }
 
-/// `b − a` per axis in `i64`, saturated to ±[`NORMAL_EDGE_LIMIT`] when `CLAMP` (the caller
+/// Vertices whose fan sums [`Normals::compute`] takes before it normalises them.
+const NORMALS_BLOCK: usize = 16;
+
+/// `b − a` per axis, saturated to ±[`NORMAL_EDGE_LIMIT`] when `CLAMP` (the caller
 /// leaves it out only where it cannot bind).
 #[inline(always)]
-fn edge<const CLAMP: bool>(b: [i32; 3], a: [i32; 3]) -> [i64; 3] {
+#[allow(clippy::useless_conversion)] // the identity where `Edge` is `i32`
+fn edge<const CLAMP: bool>(b: [i32; 3], a: [i32; 3]) -> [Edge; 3] {
     [0, 1, 2].map(|c| {
-        let d = i64::from(b[c]) - i64::from(a[c]);
         if CLAMP {
-            d.clamp(-NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT)
+            let d = i64::from(b[c]) - i64::from(a[c]);
+            // Within ±2^26: exact in an `Edge`.
+            d.clamp(-NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT) as Edge
         } else {
-            d
+            // Both within ±2^25 (the caller checked): the difference is within ±2^26.
+            Edge::from(b[c]).wrapping_sub(Edge::from(a[c]))
         }
     })
 }
 
-/// `u × v`, exact for edges within ±[`NORMAL_EDGE_LIMIT`] (each product below 2⁵², each
-/// component below 2⁵³).
+/// One axis of an edge, within ±[`NORMAL_EDGE_LIMIT`]: `i64` on 64-bit targets (x86-64 and
+/// AArch64 multiply 64-bit registers as fast as 32-bit ones, and skip the sign extensions),
+/// `i32` on 32-bit ones (each product one widening `SMULL` on a Cortex-M4: a quarter fewer
+/// instructions there). The same values either way, so the same normals.
+#[cfg(target_pointer_width = "64")]
+type Edge = i64;
+/// See the 64-bit definition.
+#[cfg(not(target_pointer_width = "64"))]
+type Edge = i32;
+
+/// `u × v` in `i64`, exact for edges within ±[`NORMAL_EDGE_LIMIT`] (each product below 2⁵²,
+/// each component below 2⁵³).
 #[inline(always)]
-fn cross(u: [i64; 3], v: [i64; 3]) -> [i64; 3] {
+#[allow(clippy::useless_conversion)] // the identity where `Edge` is `i64`
+fn cross(u: [Edge; 3], v: [Edge; 3]) -> [i64; 3] {
+    let m = |a: Edge, b: Edge| i64::from(a) * i64::from(b);
     [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
+        m(u[1], v[2]) - m(u[2], v[1]),
+        m(u[2], v[0]) - m(u[0], v[2]),
+        m(u[0], v[1]) - m(u[1], v[0]),
     ]
 }
 
@@ -297,17 +344,14 @@ mod tests {
     #[test]
     fn edges_saturate_and_cross_products_stay_in_range() {
         let far = edge::<true>([i32::MAX; 3], [i32::MIN; 3]);
-        assert_eq!(far, [NORMAL_EDGE_LIMIT; 3]);
-        let c = cross(
-            [NORMAL_EDGE_LIMIT, -NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT],
-            [-NORMAL_EDGE_LIMIT, -NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT],
-        );
+        const L: Edge = NORMAL_EDGE_LIMIT as Edge;
+        assert_eq!(far, [L; 3]);
+        let near = edge::<false>([1 << 25; 3], [-(1 << 25); 3]);
+        assert_eq!(near, [L; 3]);
+        let c = cross([L, -L, L], [-L, -L, L]);
         assert!(c.iter().all(|x| x.unsigned_abs() <= 1 << 53));
         // A full fan of 255 such corners sums without overflow.
-        let worst = cross(
-            [NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT, 0],
-            [-NORMAL_EDGE_LIMIT, NORMAL_EDGE_LIMIT, 0],
-        )[2];
+        let worst = cross([L, L, 0], [-L, L, 0])[2];
         assert_eq!(worst, 1 << 53);
         let fan = (0..u8::MAX).try_fold(0i64, |acc, _| acc.checked_add(worst));
         assert!(fan.is_some_and(|s| s < 1 << 61));

@@ -29,7 +29,7 @@ use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 6): every section, in encoding order.
+/// The payload of a rig blob (format version 7): every section, in encoding order.
 ///
 /// # Shared sections
 ///
@@ -58,8 +58,8 @@ use crate::stages::Stages;
 /// |---|---|---|
 /// | `index_bytes` | — | `u8` W, 2 or 4: the width of a vertex index below |
 /// | `rest` | vertex | 3 × `i16` LE, Q1.14 unit rest normal, each component within ±2¹⁴ ([`records::NORMAL_BYTES`]) |
-/// | `fan_counts` | vertex | `u8`: triangle corners around the vertex; 0 for a welded vertex or one in no triangle |
-/// | `corners` | fan corner | 2 × W-byte LE vertex indices: the triangle's other two corners, in winding order |
+/// | `fan_counts` | vertex | `u8`: corners of the vertex's chained fan; 0 for a welded vertex or one in no triangle |
+/// | `corners` | fan corner | W-byte LE vertex index; each two consecutive corners of a fan are a triangle's other two corners in winding order, or include the vertex itself (a break) |
 /// | `welds` | welded vertex | 2 × W-byte LE vertex indices: the vertex (strictly ascending, fan count 0) and the vertex whose normal it copies (fan count > 0) |
 ///
 /// # Deformer sections
