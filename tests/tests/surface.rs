@@ -215,6 +215,7 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         markers: &s.markers,
         groups: &s.groups,
         sides,
+        head_fit: false,
     };
     let c = BakeOptions::for_method(Method::Euclidean, true);
     let auto = mask_sides(&input(&SideRule::Auto), &c.surface).expect("automatic sides");

@@ -99,6 +99,7 @@ impl<'a> Scene<'a> {
             markers: &self.markers,
             groups: &self.groups,
             sides: &self.sides,
+            head_fit: self.capture.is_some(),
         }
     }
 }

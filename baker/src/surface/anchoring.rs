@@ -99,6 +99,63 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
     chosen
 }
 
+/// The markers anchored skin follows: the `skull` markers and, unless the rig fits the head
+/// itself (`head_fit`), each eye's inner-corner marker.
+///
+/// With a head fit (a bake with a capture) the stages fit the head to the skull markers every
+/// frame, which leaves their mean displacement at zero, so skin that follows it stays still.
+/// Without one the markers arrive as they are, and the skull markers are skin too: FaceCap's
+/// frown moves its left forehead marker 1.48 mm and the three forehead markers' mean 0.59 mm.
+/// The inner corners of the eyes (the medial canthi, tied to the bone by their tendons) move
+/// least of all the face's markers: 0.03 mm in that frown, at most 0.68 mm over its 32 truth
+/// frames (the forehead's: 1.48). An eye's inner-corner marker is the marker nearest the end of
+/// its rim closer to the face's middle (the markers' median x), within `reach` × the rim's
+/// width (the corners' own reach, `surface::corners::CORNER_REACH`). Ascending indices.
+pub fn anchor_markers(
+    markers: &[[f64; 3]],
+    skull: &[usize],
+    eye_rims: &[&[[f64; 3]]],
+    head_fit: bool,
+    reach: f64,
+) -> Vec<usize> {
+    let mut chosen = skull.to_vec();
+    if head_fit || markers.is_empty() {
+        return chosen;
+    }
+    let middle = {
+        let mut xs: Vec<f64> = markers.iter().map(|p| p[0]).collect();
+        xs.sort_by(f64::total_cmp);
+        xs[xs.len() / 2]
+    };
+    for rim in eye_rims {
+        let ends = [
+            rim.iter().min_by(|a, b| a[0].total_cmp(&b[0])),
+            rim.iter().max_by(|a, b| a[0].total_cmp(&b[0])),
+        ];
+        let [Some(low), Some(high)] = ends else {
+            continue;
+        };
+        let inner = if (low[0] - middle).abs() <= (high[0] - middle).abs() {
+            low
+        } else {
+            high
+        };
+        let width = distance(low, high);
+        let nearest = markers
+            .iter()
+            .map(|m| distance(m, inner))
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((m, distance_to_corner)) = nearest {
+            if distance_to_corner <= reach * width && !chosen.contains(&m) {
+                chosen.push(m);
+            }
+        }
+    }
+    chosen.sort_unstable();
+    chosen
+}
+
 /// How far from every opening a skull marker sits, at least: × the mean marker spacing.
 pub const SKULL_CLEARANCE: f64 = 2.0;
 /// How far from every opening a skull marker sits, at least: × the clearance of the marker
@@ -263,6 +320,35 @@ mod tests {
         assert_eq!(skull_markers(&markers, &rim, 1.0), vec![1, 2, 3]);
         // Too few clear markers: the three above that are farthest from the rim.
         assert_eq!(skull_markers(&markers[..3], &rim, 1.0), vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn without_a_head_fit_the_inner_corners_of_the_eyes_anchor_too() {
+        // Two eyes 20 wide either side of the middle (x = 0), a forehead above them.
+        let left: Vec<[f64; 3]> = (0..=10)
+            .map(|i| [10.0 + 2.0 * f64::from(i), 0.0, 0.0])
+            .collect();
+        let right: Vec<[f64; 3]> = left.iter().map(|p| [-p[0], p[1], p[2]]).collect();
+        let markers = [
+            [0.0, 40.0, 0.0],  // 0: forehead
+            [9.0, 0.5, 0.0],   // 1: left inner corner (1.1 from the rim's inner end)
+            [31.0, 0.5, 0.0],  // 2: left outer corner
+            [-12.0, 0.0, 0.0], // 3: right inner corner, 2 from the rim's end
+            [20.0, 3.0, 0.0],  // 4: left upper lid
+            [0.0, -40.0, 0.0], // 5: chin
+        ];
+        let eyes = [left.as_slice(), right.as_slice()];
+        assert_eq!(
+            anchor_markers(&markers, &[0], &eyes, false, 0.2),
+            vec![0, 1, 3]
+        );
+        // With the rig's own head fit, the skull markers alone.
+        assert_eq!(anchor_markers(&markers, &[0], &eyes, true, 0.2), vec![0]);
+        // A corner marker beyond the reach (2 > 0.05 × 20) is not an eye's corner.
+        assert_eq!(
+            anchor_markers(&markers, &[0], &eyes, false, 0.06),
+            vec![0, 1]
+        );
     }
 
     #[test]

@@ -81,6 +81,9 @@ pub struct SurfaceInput<'a> {
     pub groups: &'a [MarkerGroups],
     /// How vertex sides are found.
     pub sides: &'a SideRule,
+    /// The rig fits the head to the skull markers every frame (a bake with a capture): the skin
+    /// beyond the markers then follows the skull markers alone, whose mean the fit keeps still.
+    pub head_fit: bool,
 }
 
 /// A surface-aware bake failed.
@@ -134,8 +137,9 @@ pub struct SurfaceFigures {
 /// What static anchoring did.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AnchoringFigures {
-    /// The skull markers anchored skin follows.
-    pub skull_markers: Vec<String>,
+    /// The markers anchored skin follows: the skull markers, and without the rig's own head fit
+    /// the inner corners of the eyes ([`anchoring::anchor_markers`]).
+    pub markers: Vec<String>,
     /// glTF vertices with some anchoring.
     pub anchored_vertices: usize,
     /// glTF vertices that follow the skull markers alone.
@@ -448,19 +452,30 @@ pub(crate) fn dense_weights(
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
     let mut dense =
         follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref(), spacing);
-    let skull = anchoring::skull_markers(&rest, &rims_of(&geometry, mesh), spacing);
+    let rims = rims_of(&geometry, mesh);
+    let skull = anchoring::skull_markers(&rest, &rims, spacing);
+    // Without the rig's own head fit the skin beyond the markers also follows the inner corners
+    // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
+    let eyes: Vec<&[[f64; 3]]> = rims
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| Some(i) != mouth)
+        .map(|(_, r)| r.as_slice())
+        .collect();
+    let anchors =
+        anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear) => {
             let a = anchoring::static_anchoring(
                 &mesh.positions,
                 &rest,
-                &skull,
+                &anchors,
                 floor,
                 factor * spacing,
             );
             a.apply(&mut dense);
             Some(AnchoringFigures {
-                skull_markers: skull
+                markers: anchors
                     .iter()
                     .map(|&h| input.markers[h].name.clone())
                     .collect(),

@@ -541,9 +541,9 @@ fn print_text(s: &BakeSummary) {
         if let Some(a) = &f.anchoring {
             outln!(
                 out,
-                "  anchoring     {} vertices follow the skull markers {} ({} of them alone)",
+                "  anchoring     {} vertices follow the markers {} ({} of them alone)",
                 a.anchored_vertices,
-                a.skull_markers.join(", "),
+                a.markers.join(", "),
                 a.still_vertices
             );
         }

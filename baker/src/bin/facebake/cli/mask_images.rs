@@ -74,6 +74,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
             markers: &markers,
             groups,
             sides: &SideRule::Auto,
+            head_fit: false,
         },
         &SurfaceOptions::default(),
     )
