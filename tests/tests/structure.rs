@@ -210,7 +210,7 @@ fn facecap_layout_default_and_planar() {
         // Anchored to a bone of skull markers (before: drift 33.58 mm, stretch 7.77×, 82 edges
         // over 2×, 81 flips).
         &Pinned {
-            drift_mm: 10.66,
+            drift_mm: 1.50,
             lips_mm: 47.0,
             eyelids_mm: 4.7,
             stretch: 3.98,
@@ -222,7 +222,7 @@ fn facecap_layout_default_and_planar() {
         "FaceCap truth, JawMoCap layout, --deformer planar (masked by the layout's groups)",
         &layout_take(&bake_layout_scene(&facebake_tests::planar_product(8))),
         &Pinned {
-            drift_mm: 10.66,
+            drift_mm: 1.50,
             lips_mm: 16.8,
             eyelids_mm: 1.7,
             stretch: 2.28,
