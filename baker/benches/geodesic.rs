@@ -24,15 +24,7 @@ fn bumpy_grid(n: usize) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
             [x, y, z]
         })
         .collect();
-    let mut tris = Vec::with_capacity(2 * (n - 1) * (n - 1));
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let v = (y * n + x) as u32;
-            let n = n as u32;
-            tris.push([v, v + 1, v + n + 1]);
-            tris.push([v, v + n + 1, v + n]);
-        }
-    }
+    let tris = facebake::mesh::grid_triangles(n);
     (pos, tris)
 }
 

@@ -70,6 +70,21 @@ pub fn centroid(positions: &[[f64; 3]], vertices: &[u32]) -> [f64; 3] {
     sum.map(|x| x / n)
 }
 
+/// The triangles of an `n` × `n` grid of vertices numbered row by row: two per cell, each cell
+/// split along the diagonal from its first vertex (for tests and benches on sheets).
+pub fn grid_triangles(n: usize) -> Vec<[u32; 3]> {
+    let mut triangles = Vec::with_capacity(2 * n.saturating_sub(1).pow(2));
+    for y in 0..n.saturating_sub(1) {
+        for x in 0..n - 1 {
+            let v = (y * n + x) as u32;
+            let n = n as u32;
+            triangles.push([v, v + 1, v + n + 1]);
+            triangles.push([v, v + n + 1, v + n]);
+        }
+    }
+    triangles
+}
+
 /// Errors from the mesh utilities (bad arguments, not bad files).
 #[derive(Debug, Error, PartialEq)]
 pub enum MeshError {

@@ -174,15 +174,7 @@ fn flat_grid_dijkstra_never_shorter_than_straight_line() {
     let pos: Vec<[f64; 3]> = (0..n * n)
         .map(|i| [(i % n) as f64 * 0.1, (i / n) as f64 * 0.1, 0.0])
         .collect();
-    let mut tris = Vec::new();
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let v = (y * n + x) as u32;
-            let n = n as u32;
-            tris.push([v, v + 1, v + n + 1]);
-            tris.push([v, v + n + 1, v + n]);
-        }
-    }
+    let tris = crate::mesh::grid_triangles(n);
     let source = Source::Vertex((15 * n + 12) as u32);
     for method in [GeodesicMethod::EdgeDijkstra, GeodesicMethod::Heat] {
         let g = Geodesics::new(&pos, &tris, method).unwrap();
