@@ -306,6 +306,15 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             let mut config = options.stages.clone();
             config.marker_distances.get_or_insert(distances);
             config.head_candidates.get_or_insert(skull);
+            if config.retarget == crate::stages::RetargetKind::Geodesic {
+                config.character_surface.get_or_insert_with(|| {
+                    crate::stages::geodesic_retarget::CharacterSurface {
+                        positions: scene.mesh.welded_positions.clone(),
+                        triangles: scene.mesh.welded_triangles.clone(),
+                        sources: scene.markers.iter().map(|m| m.source).collect(),
+                    }
+                });
+            }
             Some(bake_stages(capture, &names, &rest, &space, &config)?)
         }
         None => None,

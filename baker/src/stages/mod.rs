@@ -22,6 +22,7 @@ use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
 use facebake_runtime::stages::smoothing::Smoothing;
 use facebake_runtime::Space;
 
+pub mod geodesic_retarget;
 pub mod reference;
 pub mod retarget;
 pub mod rigid;
@@ -30,6 +31,7 @@ use crate::mesh::distance;
 use crate::model::Capture;
 use crate::rbf::SolveError;
 use crate::space::{space_for, to_rig_units};
+use geodesic_retarget::{CharacterSurface, GeodesicRetarget};
 use reference::StagesF64;
 use retarget::{Proportional, RetargetMap};
 use rigid::{kabsch, most_rigid_subset, RigidError};
@@ -63,6 +65,11 @@ pub enum RetargetKind {
     /// for the upper and the lower face. 9 multiply-adds per marker at run time.
     #[default]
     Proportional,
+    /// Paper 002 §2.1's RBF map with distances along the skin ([`geodesic_retarget`]): the
+    /// character's mesh warped onto the actor, an inverse-multiquadric map with geodesic
+    /// distances on it, linearised at the neutral into per-marker matrices that the runtime
+    /// plays as proportional retargeting. Needs [`StagesConfig::character_surface`].
+    Geodesic,
 }
 
 /// Whether the head's pose is smoothed (the runtime's head smoothing: the fit's motion filtered
@@ -126,6 +133,10 @@ pub struct StagesConfig {
     pub smoothing: Option<temporal::SmoothingConfig>,
     /// The head pose's smoothing filter: when to use it.
     pub head_smoothing: HeadSmoothing,
+    /// The character's skin and the rig markers' places on it, for
+    /// [`RetargetKind::Geodesic`] (positions in asset units); [`crate::bake()`] fills it from
+    /// the scene when that retargeting is asked for.
+    pub character_surface: Option<CharacterSurface>,
 }
 
 impl Default for StagesConfig {
@@ -143,6 +154,7 @@ impl Default for StagesConfig {
             max_step: None,
             smoothing: Some(temporal::SmoothingConfig::default()),
             head_smoothing: HeadSmoothing::Auto(temporal::SmoothingConfig::HEAD),
+            character_surface: None,
         }
     }
 }
@@ -229,6 +241,12 @@ pub enum StagesError {
     /// The retargeting system could not be solved.
     #[error("retargeting map: {0}")]
     Retarget(#[from] SolveError),
+    /// Geodesic retargeting: distances along the warped character skin failed.
+    #[error("geodesic retargeting: {0}")]
+    Geodesic(#[from] crate::geodesic::GeodesicError),
+    /// Geodesic retargeting was asked for without the character's skin.
+    #[error("geodesic retargeting needs the character's mesh and the markers' places on it")]
+    NoCharacterSurface,
     /// A value does not fit the runtime's formats.
     #[error("{0}")]
     OutOfRange(String),
@@ -260,6 +278,9 @@ pub struct StagesReport {
     pub retarget: RetargetKind,
     /// 1-norm condition estimate of the retargeting system (the RBF map's).
     pub retarget_condition: f64,
+    /// With [`RetargetKind::Geodesic`]: 1-norm condition estimate of the geodesic system.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub geodesic_condition: Option<f64>,
     /// Largest rounding of a retarget coefficient, character rig units.
     pub max_alpha_rounding: f64,
     /// Head-marker distance tolerance, metres.
@@ -543,9 +564,28 @@ pub fn bake_stages(
 
     let character_rig: Vec<[f64; 3]> = character.iter().map(|p| to_rig_units(space, p)).collect();
     let map = RetargetMap::new(&neutral, &character_rig)?;
+    let mut geodesic_condition = None;
     let proportional = match config.retarget {
         RetargetKind::Rbf => None,
         RetargetKind::Proportional => Some(Proportional::new(&neutral, &character_rig)?),
+        RetargetKind::Geodesic => {
+            let surface = config
+                .character_surface
+                .as_ref()
+                .ok_or(StagesError::NoCharacterSurface)?;
+            let surface = CharacterSurface {
+                positions: surface
+                    .positions
+                    .iter()
+                    .map(|p| to_rig_units(space, p))
+                    .collect(),
+                triangles: surface.triangles.clone(),
+                sources: surface.sources.clone(),
+            };
+            let geodesic = GeodesicRetarget::new(&neutral, &character_rig, &surface)?;
+            geodesic_condition = Some(geodesic.condition());
+            Some(geodesic.proportional(&character_rig))
+        }
     };
 
     let mut bytes = encode(
@@ -670,6 +710,7 @@ pub fn bake_stages(
         units: original_units.symbol().to_string(),
         retarget: config.retarget,
         retarget_condition: reference.map.condition(),
+        geodesic_condition,
         max_alpha_rounding,
         head_tolerance: head_tolerance * half_extent,
         max_step: max_step * half_extent,

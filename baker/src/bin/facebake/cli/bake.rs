@@ -166,8 +166,10 @@ pub struct BakeArgs {
     pub head_smoothing: HeadSmoothing,
     /// How the actor's markers become the character's: per-region proportional scaling (paper
     /// 003 §4; the default: it keeps the actor's jaw opening, where the RBF map of a layout
-    /// whose lip markers sit closer on the character than on the actor exaggerates it) or the
-    /// RBF map (inverse multiquadric + affine, paper 000).
+    /// whose lip markers sit closer on the character than on the actor exaggerates it), the
+    /// RBF map (inverse multiquadric + affine, paper 000) or the geodesic map (paper 002 §2.1:
+    /// the same map with distances along the character's skin warped onto the actor,
+    /// linearised per marker and played as proportional retargeting).
     #[arg(long, value_enum, default_value_t = RetargetArg::Proportional, requires = "capture")]
     pub retarget: RetargetArg,
     /// Planar deformer: bone radius as a multiple of the closest connected-marker distance.
@@ -645,12 +647,16 @@ fn print_text(s: &BakeSummary) {
         );
         outln!(
             out,
-            "  retargeting   {}; RBF condition {:.3e}, largest coefficient rounding {:.2e}",
+            "  retargeting   {}; RBF condition {:.3e}{}, largest coefficient rounding {:.2e}",
             match st.retarget {
                 RetargetKind::Rbf => "IMQ + affine RBF map (paper 000)",
                 RetargetKind::Proportional => "per-region proportional scaling (paper 003)",
+                RetargetKind::Geodesic =>
+                    "geodesic IMQ + affine map, linearised per marker (paper 002)",
             },
             st.retarget_condition,
+            st.geodesic_condition
+                .map_or(String::new(), |c| format!(", geodesic condition {c:.3e}")),
             st.max_alpha_rounding
         );
         outln!(

@@ -312,6 +312,7 @@ pub fn text(s: &MocapSummary) -> String {
         match s.retarget {
             facebake::RetargetKind::Proportional => "proportional (paper 003)",
             facebake::RetargetKind::Rbf => "IMQ + affine RBF map (paper 000)",
+            facebake::RetargetKind::Geodesic => "geodesic, linearised (paper 002)",
         },
         s.blob_bytes
     );

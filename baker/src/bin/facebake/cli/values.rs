@@ -91,6 +91,8 @@ pub enum RetargetArg {
     Rbf,
     /// Paper 003 §4's per-region proportional scaling.
     Proportional,
+    /// Paper 002 §2.1's RBF map with distances along the skin, linearised per marker.
+    Geodesic,
 }
 
 impl From<RetargetArg> for facebake::RetargetKind {
@@ -98,6 +100,7 @@ impl From<RetargetArg> for facebake::RetargetKind {
         match a {
             RetargetArg::Rbf => Self::Rbf,
             RetargetArg::Proportional => Self::Proportional,
+            RetargetArg::Geodesic => Self::Geodesic,
         }
     }
 }
