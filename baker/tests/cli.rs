@@ -618,6 +618,41 @@ fn bake_with_a_capture_then_play_a_take_with_gaps() {
 }
 
 #[test]
+fn bake_with_geodesic_retargeting_then_play() {
+    let dir = temp_dir("geodesic_retarget");
+    let rig = dir.join("jaw.fbk");
+    let trc = fixture("JawMoCap.trc");
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &rig,
+        &[
+            "--mesh-name",
+            "head",
+            "--capture",
+            s(&trc),
+            "--retarget",
+            "geodesic",
+            "--json",
+        ],
+    );
+    let summary = json_ok(&out);
+    let stages = &summary["report"]["stages"];
+    assert_eq!(stages["retarget"], "Geodesic", "{summary}");
+    assert!(stages["geodesic_condition"].as_f64().is_some(), "{summary}");
+    let out = facebake(&[
+        "play",
+        s(&rig),
+        "--markers",
+        s(&trc),
+        "-o",
+        s(&dir.join("frames.npy")),
+        "--json",
+    ]);
+    assert_eq!(json_ok(&out)["frames"], 1590);
+}
+
+#[test]
 fn compensate_writes_a_head_stabilised_capture() {
     let dir = temp_dir("compensate");
     let out_csv = dir.join("still.csv");

@@ -33,6 +33,16 @@ fn proportional_rig() -> &'static JawMoCapRig {
     })
 }
 
+fn geodesic_rig() -> &'static JawMoCapRig {
+    static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        jawmocap_rig(&StagesConfig {
+            retarget: facebake::stages::RetargetKind::Geodesic,
+            ..unsmoothed()
+        })
+    })
+}
+
 /// The static anchors the anchor tests declare: the jaw-side markers.
 const ANCHORS: [&str; 2] = ["Chin_L2", "Chin_R2"];
 
@@ -74,6 +84,34 @@ fn runtime_matches_the_f64_pipeline_on_jawmocap() {
 #[test]
 fn proportional_runtime_matches_the_f64_pipeline_on_jawmocap() {
     matches_the_f64_pipeline(proportional_rig());
+}
+
+/// The same with paper 002's geodesic retargeting, linearised into proportional matrices by the
+/// bake (the character's skin warped onto the actor).
+#[test]
+fn geodesic_runtime_matches_the_f64_pipeline_on_jawmocap() {
+    let j = geodesic_rig();
+    let report = j.stages_report();
+    assert_eq!(report.retarget, facebake::stages::RetargetKind::Geodesic);
+    assert!(report.geodesic_condition.is_some_and(f64::is_finite));
+    assert!(j.stages().proportional.is_some());
+    matches_the_f64_pipeline(j);
+}
+
+/// Geodesic retargeting without the character's skin is an error, not a panic.
+#[test]
+fn geodesic_retargeting_without_the_skin_is_an_error() {
+    use facebake::stages::{bake_stages, StagesError};
+    let j = rig();
+    let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
+    let names: Vec<String> = rig.marker_names().map(str::to_string).collect();
+    let character: Vec<[f64; 3]> = j.placed.iter().map(|m| m.position).collect();
+    let config = StagesConfig {
+        retarget: facebake::stages::RetargetKind::Geodesic,
+        ..unsmoothed()
+    };
+    let err = bake_stages(&j.capture, &names, &character, &rig.space(), &config);
+    assert!(matches!(err, Err(StagesError::NoCharacterSurface)));
 }
 
 /// The same with static anchors, whose samples (present in JawMoCap) both must ignore.
