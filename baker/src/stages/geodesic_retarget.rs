@@ -56,6 +56,9 @@ struct WarpedSkin {
     fields: Vec<Vec<f64>>,
     /// The markers' points on the warped mesh, w_j.
     centres: Vec<[f64; 3]>,
+    /// Per marker, the triangles holding its point: its own, or every one sharing its edge or
+    /// vertex when it lies on one.
+    holders: Vec<Vec<usize>>,
 }
 
 impl GeodesicRetarget {
@@ -86,8 +89,10 @@ impl GeodesicRetarget {
             sources: surface.sources.clone(),
             fields,
             centres: Vec::new(),
+            holders: Vec::new(),
         };
         skin.centres = skin.sources.iter().map(|s| skin.position(s)).collect();
+        skin.holders = skin.sources.iter().map(|s| skin.holders_of(s)).collect();
         let between = DMatrix::from_fn(n, n, |j, i| skin.distance_at(i, &skin.sources[j]));
         let radii = (0..n)
             .map(|i| {
@@ -270,19 +275,27 @@ impl WarpedSkin {
         }
     }
 
+    /// The triangles holding a place: those with every corner of nonzero weight.
+    fn holders_of(&self, place: &Source) -> Vec<usize> {
+        let corners: Vec<usize> = self.corners(place).iter().map(|c| c.0).collect();
+        (0..self.triangles.len())
+            .filter(|&t| {
+                corners
+                    .iter()
+                    .all(|&v| self.triangles[t].contains(&(v as u32)))
+            })
+            .collect()
+    }
+
     /// ∇g_i at marker `j`: the area-weighted mean gradient of the piecewise-linear field over
     /// the warped triangles holding marker `j`'s point (one, or those sharing its edge or
     /// vertex); the straight line's gradient where the field does not reach them.
     fn gradient(&self, i: usize, j: usize) -> [f64; 3] {
-        let corners: Vec<usize> = self.corners(&self.sources[j]).iter().map(|c| c.0).collect();
         let field = &self.fields[i];
         let mut sum = [0.0; 3];
         let mut area = 0.0;
-        for t in &self.triangles {
-            let t = t.map(|v| v as usize);
-            if !corners.iter().all(|v| t.contains(v)) {
-                continue;
-            }
+        for &t in &self.holders[j] {
+            let t = self.triangles[t].map(|v| v as usize);
             let f = t.map(|v| field[v]);
             if f.iter().any(|x| !x.is_finite()) {
                 continue;
