@@ -17,8 +17,8 @@ pub enum Method {
     Geodesic,
     /// Geodesic near the mouth and eyes, Euclidean elsewhere.
     Hybrid,
-    /// Proximity-based weighting on geodesics blended with a global multiquadric RBF
-    /// (paper 002 §2.2; linear deformer only).
+    /// Proximity-based weighting on geodesics blended with the geodesic RBF (paper 002 §2.2,
+    /// whose global RBF is a Euclidean multiquadric, see `surface::pbw`; linear deformer only).
     Pbw,
 }
 
@@ -53,7 +53,7 @@ pub struct SurfaceOptions {
     /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
     pub mask_decay_factor: f64,
     /// PBW: α of paper 002's eq 11, the share of the local (proximity) weights; the rest is the
-    /// global multiquadric RBF.
+    /// global RBF (on geodesic distances).
     pub pbw_alpha: f64,
     /// Ridge on the kernel diagonal as a fraction of the mean |φ|; `None`: just enough to make
     /// the kernel block positive semi-definite, plus [`crate::surface::RIDGE_MARGIN`] when it is

@@ -743,7 +743,8 @@ fn surface_aware_bakes_report_their_method_and_masks() {
         &dir.join("pbw.fbk"),
         &["--method", "pbw", "--json"],
     );
-    assert_eq!(json_ok(&out)["report"]["radial"], "multiquadric");
+    // Its global part is the geodesic RBF with the bake's radial function.
+    assert_eq!(json_ok(&out)["report"]["radial"], "exponential");
 
     // Masks with the RBF deformer, or without groups: bad input naming the layout.
     let out = bake(

@@ -328,31 +328,18 @@ pub(crate) fn dense_weights(
         .iter()
         .map(|r| r.iter().map(|x| x / h).collect())
         .collect();
-    // PBW's local weights use the geodesic rows; its RBF part is paper 002's global
-    // multiquadric on Euclidean distances.
+    // PBW's local weights use the geodesic rows, and so does its global RBF part: paper 002's
+    // is a multiquadric on Euclidean distances, which across the closed mouth interpolates the
+    // jaw's 43 mm between lip markers 3.6 mm apart and throws the nose out by 80 mm (FaceCap's
+    // truth, JawMoCap layout: max error 115 mm, 471 flipped triangles); on the skin's distances
+    // with the bake's radial function, 12.5 mm and 12 (see `surface::pbw`).
     let geodesic_rows = (config.method == Method::Pbw).then(|| rows.clone());
-    let (between, rows, kernel) = if config.method == Method::Pbw {
-        let e = DMatrix::from_fn(n, n, |j, i| crate::mesh::distance(&centres[j], &centres[i]));
-        let r: Vec<Vec<f64>> = points
-            .iter()
-            .map(|p| {
-                centres
-                    .iter()
-                    .map(|c| crate::mesh::distance(p, c))
-                    .collect()
-            })
-            .collect();
-        let k = RadialFunction::Multiquadric.resolve(&centres, None, config.width_factor);
-        (e, r, k)
-    } else {
-        let k = resolve_kernel(config, &centres, &between, h);
-        (between, rows, k)
-    };
+    let kernel = resolve_kernel(config, &centres, &between, h);
     let (min_eig, mean_phi) = kernel_spectrum(&kernel, &between);
     let min_eigenvalue = min_eig / mean_phi;
     // Euclidean kernels are (conditionally) positive definite by theory, with the affine term
     // for the multiquadric and thin-plate kernels, whose blocks have negative eigenvalues.
-    let euclidean = matches!(config.method, Method::Euclidean | Method::Pbw);
+    let euclidean = config.method == Method::Euclidean;
     let ridge = config
         .surface
         .ridge
@@ -510,11 +497,7 @@ pub(crate) fn dense_weights(
         system,
         figures,
         condition,
-        radial: if config.method == Method::Pbw {
-            RadialFunction::Multiquadric
-        } else {
-            config.radial
-        },
+        radial: config.radial,
         dense,
         vertical,
         warnings,

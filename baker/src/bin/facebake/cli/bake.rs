@@ -47,7 +47,7 @@ pub struct BakeArgs {
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
-    /// half with a global multiquadric RBF; linear deformer). Default: geodesic, on the linear
+    /// half with the geodesic RBF; linear deformer). Default: geodesic, on the linear
     /// deformer with static anchoring and the exponential radial function, width factor 1.5
     /// (euclidean with `--deformer planar`, whose bones blend triangle frames, not distances).
     #[arg(long, value_enum)]

@@ -24,7 +24,7 @@ pub enum MethodArg {
     Geodesic,
     /// Geodesic near the mouth and eyes, Euclidean elsewhere.
     Hybrid,
-    /// Proximity-based weighting on geodesics blended with a global multiquadric RBF.
+    /// Proximity-based weighting on geodesics blended with the geodesic RBF.
     Pbw,
 }
 
