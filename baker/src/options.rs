@@ -146,37 +146,23 @@ impl Default for BakeOptions {
 }
 
 impl BakeOptions {
-    /// The defaults of `method`, with or without `masks`: Euclidean as [`Default`] (the
-    /// papers' Euclidean RBF, which the golden rigs pin); geodesic, hybrid and PBW in the linear
-    /// deformer with static anchoring over 0.8 × the mean marker spacing and the exponential
-    /// radial function `exp(−r/c)` (thesis eq 2.3a; its geodesic kernel matrix stays positive
-    /// definite on FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing.
-    /// `for_method(Method::Geodesic, false)` is what `facebake bake` uses when given no method:
-    /// the rig that keeps the skull still and lets the lips part (see the README's figures).
+    /// The defaults of `method`, with or without `masks`: every method in the linear deformer
+    /// with static anchoring over 0.8 × the mean marker spacing and the exponential radial
+    /// function `exp(−r/c)` (thesis eq 2.3a; its geodesic kernel matrix stays positive definite
+    /// on FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing; the method
+    /// picks the distance. (The papers' bare Euclidean RBF, which the golden rigs pin, is
+    /// [`Default`].) `for_method(Method::Geodesic, false)` is what `facebake bake` uses when
+    /// given no method: the rig that keeps the skull still and lets the lips part (see the
+    /// README's figures); `for_method(Method::Euclidean, true)` is `bake --method euclidean`.
     pub fn for_method(method: Method, masks: bool) -> Self {
-        let base = Self {
+        Self {
             method,
             masks,
+            deformer: DeformerKind::Linear,
+            radial: RadialFunction::Exponential,
+            width_factor: 1.5,
+            anchoring: Some(ANCHORING_MARGIN),
             ..Self::default()
-        };
-        let base = if method == Method::Euclidean {
-            base
-        } else {
-            Self {
-                deformer: DeformerKind::Linear,
-                radial: RadialFunction::Exponential,
-                width_factor: 1.5,
-                anchoring: Some(ANCHORING_MARGIN),
-                ..base
-            }
-        };
-        if masks {
-            Self {
-                deformer: DeformerKind::Linear,
-                ..base
-            }
-        } else {
-            base
         }
     }
 }

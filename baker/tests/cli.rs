@@ -687,6 +687,57 @@ fn compensate_writes_a_head_stabilised_capture() {
     );
 }
 
+/// `--method euclidean` keeps the default's anchoring and kernel and masks the openings; the
+/// papers' bare Euclidean RBF is still there with the flags that undo each.
+#[test]
+fn euclidean_is_masked_and_anchored_unless_told_otherwise() {
+    let dir = temp_dir("euclidean");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("euclidean.fbk"),
+        &["--method", "euclidean", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["method"], "euclidean");
+    assert_eq!(j["report"]["radial"], "exponential");
+    assert_eq!(j["report"]["deformer"], "linear");
+    assert!(j["report"]["surface"]["masked_vertices"].as_u64().unwrap() > 0);
+    assert!(j["report"]["surface"]["anchoring"]["anchored_vertices"]
+        .as_u64()
+        .is_some_and(|n| n > 0));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("papers.fbk"),
+        &[
+            "--method",
+            "euclidean",
+            "--no-masks",
+            "--no-anchoring",
+            "--deformer",
+            "rbf",
+            "--radial",
+            "gaussian",
+            "--width-factor",
+            "0.75",
+            "--json",
+        ],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["radial"], "gaussian");
+    assert_eq!(j["report"]["deformer"], "rbf");
+    // The RBF deformer takes no masks, so `--deformer rbf` alone does not mask either.
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("rbf.fbk"),
+        &["--method", "euclidean", "--deformer", "rbf", "--json"],
+    );
+    assert_eq!(json_ok(&out)["report"]["deformer"], "rbf");
+}
+
 #[test]
 fn surface_aware_bakes_report_their_method_and_masks() {
     let dir = temp_dir("surface");

@@ -193,7 +193,8 @@ fn layout_take(blob: &[u8]) -> TakeMetrics {
 #[test]
 fn facecap_layout_default_and_planar() {
     guard(
-        "FaceCap truth, JawMoCap layout, --method euclidean (the papers' RBF)",
+        "FaceCap truth, JawMoCap layout, the papers' Euclidean RBF (--method euclidean --no-masks \
+         --no-anchoring --deformer rbf --radial gaussian --width-factor 0.75)",
         &layout_take(&bake_layout_scene(&BakeOptions::default())),
         &Pinned {
             drift_mm: 26.45,
@@ -202,6 +203,21 @@ fn facecap_layout_default_and_planar() {
             stretch: 12.59,
             over_2x: 479,
             flipped: 246,
+        },
+    );
+    guard(
+        "FaceCap truth, JawMoCap layout, --method euclidean (masked, anchored, exponential)",
+        &layout_take(&bake_layout_scene(&BakeOptions::for_method(
+            Method::Euclidean,
+            true,
+        ))),
+        &Pinned {
+            drift_mm: 0.62,
+            lips_mm: 8.0,
+            eyelids_mm: 1.2,
+            stretch: 2.45,
+            over_2x: 3,
+            flipped: 4,
         },
     );
     guard(

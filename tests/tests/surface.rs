@@ -53,9 +53,19 @@ fn run(label: &str, config: &BakeOptions) -> (Scores, BakeReport) {
     (s, baked.report)
 }
 
-/// Euclidean RBF in the default configuration of `bake` (Gaussian 0.75, RBF deformer).
+/// The papers' Euclidean RBF, the library's default configuration (Gaussian 0.75, RBF
+/// deformer, no anchoring).
 fn euclidean() -> BakeOptions {
     BakeOptions::default()
+}
+
+/// The papers' Euclidean RBF with masks, in the linear deformer.
+fn masked_euclidean() -> BakeOptions {
+    BakeOptions {
+        masks: true,
+        deformer: DeformerKind::Linear,
+        ..euclidean()
+    }
 }
 
 /// The command line's default: geodesic, exponential at 1.5 spacings, linear deformer, static
@@ -182,7 +192,7 @@ fn masks_from_given_vertex_sets_match_the_automatic_sides() {
             )
         })
         .collect();
-    let c = BakeOptions::for_method(Method::Euclidean, true);
+    let c = masked_euclidean();
     let baked = bake_with_sides(&c, SideRule::VertexSets(sets)).expect("bake with vertex sets");
     let s = scene().score(&baked.blob);
     println!(
@@ -218,7 +228,7 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         sides,
         head_fit: false,
     };
-    let c = BakeOptions::for_method(Method::Euclidean, true);
+    let c = masked_euclidean();
     let auto = mask_sides(&input(&SideRule::Auto), &c.surface).expect("automatic sides");
     let dir = std::env::temp_dir().join(format!("facebake-mask-images-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

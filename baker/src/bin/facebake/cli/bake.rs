@@ -47,9 +47,12 @@ pub struct BakeArgs {
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
-    /// half with the geodesic RBF; linear deformer). Default: geodesic, on the linear
-    /// deformer with static anchoring and the exponential radial function, width factor 1.5
-    /// (euclidean with `--deformer planar`, whose bones blend triangle frames, not distances).
+    /// half with the geodesic RBF). Default: geodesic (euclidean with `--deformer planar`,
+    /// whose bones blend triangle frames, not distances). Every method bakes the linear deformer
+    /// with static anchoring and the exponential radial function, width factor 1.5; euclidean is
+    /// masked too, since straight lines tie the lips together across the closed mouth (the
+    /// papers' bare Euclidean RBF: `--method euclidean --no-masks --no-anchoring --deformer rbf
+    /// --radial gaussian --width-factor 0.75`).
     #[arg(long, value_enum)]
     pub method: Option<MethodArg>,
     /// Leave out static anchoring: by default the skin beyond the markers' hull above the mouth
@@ -66,11 +69,12 @@ pub struct BakeArgs {
     /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
     /// not move the other side. The groups are the layout's `[groups]`, else found from the
     /// mouth and eye openings (markers over an opening's span, above or below its rim). Masks
-    /// need the linear or planar deformer (linear is the default with --masks); planar bones
-    /// are masked by default.
+    /// need the linear or planar deformer (linear is the default); planar bones and
+    /// `--method euclidean` are masked by default.
     #[arg(long)]
     pub masks: bool,
-    /// Planar bones without masks (a vertex then may ride a bone across the lips or eyelids).
+    /// No masks for planar bones (a vertex then may ride a bone across the lips or eyelids) or
+    /// `--method euclidean` (the lips then stay tied together).
     #[arg(long, conflicts_with = "masks")]
     pub no_masks: bool,
     /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
@@ -213,9 +217,12 @@ impl BakeArgs {
         }
     }
 
-    /// Whether to mask: asked for, or planar bones unless `--no-masks`.
+    /// Whether to mask: asked for, or unless `--no-masks` planar bones and the Euclidean method
+    /// on a deformer that takes masks.
     fn masks(&self) -> bool {
-        self.masks || (self.deformer == Some(DeformerKind::Planar) && !self.no_masks)
+        let euclidean = self.method == Some(MethodArg::Euclidean)
+            && matches!(self.deformer, None | Some(DeformerKind::Linear));
+        self.masks || (!self.no_masks && (self.deformer == Some(DeformerKind::Planar) || euclidean))
     }
 
     pub fn options(&self) -> BakeOptions {
