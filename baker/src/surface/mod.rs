@@ -142,7 +142,7 @@ pub struct AnchoringFigures {
     pub markers: Vec<String>,
     /// glTF vertices with some anchoring.
     pub anchored_vertices: usize,
-    /// glTF vertices that follow the skull markers alone.
+    /// glTF vertices that follow the anchor markers alone.
     pub still_vertices: usize,
 }
 
