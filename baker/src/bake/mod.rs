@@ -415,7 +415,7 @@ fn planar_anchor(
     let spacing = crate::metrics::mean_spacing(rest);
     let skull = crate::surface::anchoring::skull_markers(rest, &rims, spacing);
     let eyes: Vec<&[[f64; 3]]> = rims.iter().skip(1).map(Vec::as_slice).collect();
-    let skull = crate::surface::anchoring::anchor_markers(
+    let anchors = crate::surface::anchoring::anchor_markers(
         rest,
         &skull,
         &eyes,
@@ -428,9 +428,9 @@ fn planar_anchor(
         norm(&cross(&sub(&b, &a), &sub(&c, &a)))
     };
     let mut best: Option<([usize; 3], f64)> = None;
-    for (i, &a) in skull.iter().enumerate() {
-        for (j, &b) in skull.iter().enumerate().skip(i + 1) {
-            for &c in &skull[j + 1..] {
+    for (i, &a) in anchors.iter().enumerate() {
+        for (j, &b) in anchors.iter().enumerate().skip(i + 1) {
+            for &c in &anchors[j + 1..] {
                 let t = [a, b, c];
                 let s = area(&t);
                 if best.is_none_or(|(_, x)| s > x) {
@@ -444,7 +444,7 @@ fn planar_anchor(
     let strength = crate::surface::anchoring::static_anchoring(
         &mesh.positions,
         rest,
-        &skull,
+        &anchors,
         Some(mouth),
         factor * spacing,
     )

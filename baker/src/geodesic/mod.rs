@@ -51,6 +51,28 @@ pub enum Source {
     },
 }
 
+impl Source {
+    /// Its corners on the mesh of `triangles` with their weights, normalised to sum to 1;
+    /// corners of zero weight left out. The source must be valid for that mesh (as
+    /// [`Geodesics`] checks it).
+    pub fn corners(&self, triangles: &[[u32; 3]]) -> Vec<(u32, f64)> {
+        match *self {
+            Source::Vertex(v) => vec![(v, 1.0)],
+            Source::Point {
+                triangle,
+                barycentric,
+            } => {
+                let total: f64 = barycentric.iter().sum();
+                let t = triangles[triangle];
+                (0..3)
+                    .filter(|&k| barycentric[k] > 0.0)
+                    .map(|k| (t[k], barycentric[k] / total))
+                    .collect()
+            }
+        }
+    }
+}
+
 /// What is wrong with a mesh or a source.
 #[derive(Debug, Clone, Error, PartialEq)]
 pub enum GeodesicError {

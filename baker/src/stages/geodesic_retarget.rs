@@ -233,20 +233,11 @@ impl GeodesicRetarget {
 impl WarpedSkin {
     /// A place's corners on the welded mesh with normalised weights.
     fn corners(&self, place: &Source) -> Vec<(usize, f64)> {
-        match *place {
-            Source::Vertex(v) => vec![(v as usize, 1.0)],
-            Source::Point {
-                triangle,
-                barycentric,
-            } => {
-                let total: f64 = barycentric.iter().sum();
-                let t = self.triangles[triangle];
-                (0..3)
-                    .filter(|&k| barycentric[k] > 0.0)
-                    .map(|k| (t[k] as usize, barycentric[k] / total))
-                    .collect()
-            }
-        }
+        place
+            .corners(&self.triangles)
+            .into_iter()
+            .map(|(v, w)| (v as usize, w))
+            .collect()
     }
 
     /// A place's position on the warped mesh.

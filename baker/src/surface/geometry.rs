@@ -56,20 +56,11 @@ impl SurfaceGeometry {
 
     /// A per-welded-vertex field's value at marker `m` (barycentric over its triangle).
     pub fn at_marker(&self, field: &[f64], m: usize) -> f64 {
-        match self.sources[m] {
-            Source::Vertex(v) => field[v as usize],
-            Source::Point {
-                triangle,
-                barycentric,
-            } => {
-                let total: f64 = barycentric.iter().sum();
-                let t = self.welded_triangles[triangle];
-                (0..3)
-                    .filter(|&k| barycentric[k] > 0.0)
-                    .map(|k| barycentric[k] / total * field[t[k] as usize])
-                    .sum()
-            }
-        }
+        self.sources[m]
+            .corners(&self.welded_triangles)
+            .iter()
+            .map(|&(v, w)| w * field[v as usize])
+            .sum()
     }
 
     /// Largest relative asymmetry |d(i,j) − d(j,i)| / mean of the two, over marker pairs.
