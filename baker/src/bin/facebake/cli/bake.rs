@@ -62,7 +62,7 @@ pub struct BakeArgs {
     /// Leave the corners of the eyes and the mouth as the RBF makes them: by default the lids
     /// and lips near each corner that has a marker open and close as a crack does (the
     /// displacement across the opening growing as the square root of the distance from the
-    /// corner; at the mouth 60 % of it, on the vertical axis alone), so a blink closes the eye
+    /// corner; at the mouth 70 % of it, on the vertical axis alone), so a blink closes the eye
     /// and the lips part near their corners. Linear deformer; the mouth's part needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
