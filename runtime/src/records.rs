@@ -41,7 +41,7 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate reads and writes.
-pub const VERSION: u16 = 7;
+pub const VERSION: u16 = 8;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 

@@ -372,6 +372,20 @@ pub fn bless_or_check(files: &[(&str, Vec<u8>)]) {
     );
 }
 
+/// `p` turned by `angle` (radians) about `axis` (any length) through the origin (Rodrigues).
+pub fn rotate(axis: [f64; 3], angle: f64, p: [f64; 3]) -> [f64; 3] {
+    let n = axis.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let k = axis.map(|a| a / n);
+    let (s, c) = angle.sin_cos();
+    let dot: f64 = (0..3).map(|i| k[i] * p[i]).sum();
+    let cross = [
+        k[1] * p[2] - k[2] * p[1],
+        k[2] * p[0] - k[0] * p[2],
+        k[0] * p[1] - k[1] * p[0],
+    ];
+    [0, 1, 2].map(|i| p[i] * c + cross[i] * s + k[i] * dot * (1.0 - c))
+}
+
 /// Median of `x` (which it sorts), for the benches' same-run tables.
 pub fn median(x: &mut [f64]) -> f64 {
     x.sort_by(f64::total_cmp);

@@ -6,7 +6,7 @@ use facebake::deformer::SparseF64;
 use facebake::stages::reference::StateF64;
 use facebake::StagesConfig;
 use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{jawmocap_rig, JawMoCapRig};
+use facebake_tests::{jawmocap_rig, rotate, JawMoCapRig};
 
 /// The stages without smoothing: the f64 reference has none (`tests/tests/noise.rs` and the
 /// runtime's own tests cover it).
@@ -192,19 +192,6 @@ fn play_all(
         .unzip()
 }
 
-fn rotate(axis: [f64; 3], angle: f64, p: [f64; 3]) -> [f64; 3] {
-    let n = dist(&axis, &[0.0; 3]);
-    let k = axis.map(|a| a / n);
-    let (s, c) = angle.sin_cos();
-    let dot: f64 = (0..3).map(|i| k[i] * p[i]).sum();
-    let cross = [
-        k[1] * p[2] - k[2] * p[1],
-        k[2] * p[0] - k[0] * p[2],
-        k[0] * p[1] - k[1] * p[0],
-    ];
-    [0, 1, 2].map(|i| p[i] * c + cross[i] * s + k[i] * dot * (1.0 - c))
-}
-
 /// Moving the whole capture rigidly (a known rotation and translation per frame, up to 40° and
 /// 30 cm) changes the deformed face by no more than fixed-point rounding: compensation recovers
 /// the motion.
@@ -364,10 +351,12 @@ fn knocked_out_markers_are_rebuilt() {
     sorted.sort_by(f64::total_cmp);
     let p99 = sorted[sorted.len() * 99 / 100];
     println!("knock-out: {missing} missing samples; vertex error vs complete mean {mean:.3} p99 {p99:.3} max {max:.3} mm");
-    // Pinned (measured 2026-11-27 on the default bake: mean 0.596, p99 4.89, max 40.0 mm; the
-    // lip markers on the lip rims, rebuilt from neighbours along the same lip, miss the rim's
-    // own motion when the mouth is widest).
-    assert!(mean < 0.7 && p99 < 5.5 && max < 45.0, "{mean} {p99} {max}");
+    // Pinned (measured 2026-11-27 on the default bake: mean 0.461, p99 4.59, max 23.2 mm, since
+    // the head markers hold still: a head marker knocked out no longer moves by its neighbours'
+    // fill, which moved the forehead and the far skin with it, 0.596 / 4.89 / 40.0 mm before;
+    // the lip markers on the lip rims, rebuilt from neighbours along the same lip, miss the
+    // rim's own motion when the mouth is widest).
+    assert!(mean < 0.55 && p99 < 5.0 && max < 28.0, "{mean} {p99} {max}");
 }
 
 /// Retargeting the actor onto himself is the identity, and onto a copy scaled by 1.5 scales the
@@ -410,8 +399,14 @@ fn retargeting_onto_the_actor_is_the_identity_and_onto_a_scaled_copy_scales() {
             let to: Vec<[f64; 3]> = head_idx.iter().map(|&h| current[h]).collect();
             let fit = kabsch(&from, &to).expect("fits");
             stages.solve(&mut PlayState::new(), &to_actor(&rig, frame), &mut out);
-            for (q, p) in out.iter().zip(&current) {
-                let want = fit.apply_inverse(p).map(|c| c * scale);
+            for (m, (q, p)) in out.iter().zip(&current).enumerate() {
+                // The head markers hold still: at neutral, whatever their fit residual.
+                let compensated = if head_idx.contains(&m) {
+                    neutral[m]
+                } else {
+                    fit.apply_inverse(p)
+                };
+                let want = compensated.map(|c| c * scale);
                 worst = worst.max(dist(&space.to_asset_f64(*q), &want));
             }
         }

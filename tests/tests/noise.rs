@@ -176,3 +176,50 @@ fn smoothing_quarters_the_jitter() {
         );
     }
 }
+
+/// What a held-out take may bring at once: ±0.5 mm jitter, the head turning (up to 20° either
+/// way about the head's centre, up to 45°/s) and moving (up to 3 cm), and 5 % of the samples
+/// dropped (seeded). The default rig baked from that take holds the static region within the
+/// issue's 0.5 mm in every frame, with no flipped triangle: the head markers hold still once
+/// the head's motion is taken out (runtime `stages`, step 3). Measured 2026-11-27: 0.49 mm;
+/// with the head markers moving by their fit residuals (before blob format 8) the jitter alone
+/// moved the forehead beside a head marker 1.08 mm (±0.2 mm jitter: 0.56 mm).
+#[test]
+fn the_static_region_holds_under_jitter_head_motion_and_dropouts() {
+    let bake = product_default();
+    let j = jawmocap_rig_with(&bake, &StagesConfig::default());
+    let mut capture = jittered(&j.capture);
+    let first: Vec<[f64; 3]> = capture.frames[0].iter().flatten().copied().collect();
+    let centre = [0, 1, 2].map(|c| first.iter().map(|p| p[c]).sum::<f64>() / first.len() as f64);
+    let mut rng = SplitMix64(0x0D20_9F5E);
+    let count = capture.frames.len();
+    for (i, frame) in capture.frames.iter_mut().enumerate() {
+        let t = i as f64 / count as f64;
+        let angle = 20f64.to_radians() * (60.0 * t).sin();
+        let shift = [
+            0.03 * (2.0 * t).sin(),
+            -0.01 * t,
+            0.02 * (3.0 * t).cos() - 0.02,
+        ];
+        for sample in frame.iter_mut() {
+            if i > 0 && rng.unit() < 0.05 {
+                *sample = None;
+            }
+            if let Some(p) = sample {
+                let local = [0, 1, 2].map(|c| p[c] - centre[c]);
+                let r = facebake_tests::rotate([0.2, 1.0, 0.3], angle, local);
+                *p = [0, 1, 2].map(|c| r[c] + centre[c] + shift[c]);
+            }
+        }
+    }
+    let mut scene = Scene::placed(&j.mesh, &j.placed);
+    scene.capture = Some(&capture);
+    let baked = facebake::bake(&scene, &bake).expect("bakes from the take");
+    let rig = Rig::from_bytes(&baked.blob).expect("rig loads");
+    let (played, _) = play_take(&rig, &take(&j, &capture));
+    let regions = facebake::metrics::Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
+    let (_, worst) = regions.measure_take(&played, None, false);
+    println!("jitter, head motion and dropouts: {worst}");
+    assert!(worst.static_drift_mm.0 <= 0.5, "{worst}");
+    assert_eq!(worst.flipped.0, 0, "{worst}");
+}

@@ -396,7 +396,7 @@ fn check(options: &BakeOptions) -> Result<(), BakeError> {
 /// on a mesh whose openings are not a mouth and two eyes, or with fewer than three such markers.
 /// On the truth the bone of a forehead marker and the two canthi turns less in the frown than
 /// the forehead's three (static drift 1.50 mm, against 10.66); a capture rig keeps the
-/// forehead's, which its head fit holds (JawMoCap with the canthi: 1.98 → 6.10 mm).
+/// forehead's, the head markers, which hold still (JawMoCap 0.33 mm; with the canthi 6.10).
 fn planar_anchor(
     mesh: &crate::model::FaceMesh,
     rest: &[[f64; 3]],

@@ -7,9 +7,9 @@
 //! 2. `fit_head`: Kabsch on the present head markers, dropping those beyond
 //!    `max_displacement` and fitting once more; the last good fit held when none is possible;
 //! 3. `plausibility`: a compensated marker further than `max_displacement` from
-//!    neutral is rejected;
+//!    neutral is rejected; the head markers hold still (zero displacement);
 //! 4. `fill`: a missing marker moves with its present neighbours' weighted mean
-//!    displacement, else holds its last one (zero if never seen);
+//!    displacement, else holds its last one (zero if never seen); a head marker stays at zero;
 //! 5. `retarget`: the unquantised RBF map (or proportional scaling) to the
 //!    character's rig units.
 
@@ -171,7 +171,8 @@ impl StagesF64 {
     }
 
     /// Step 3: each present marker's compensated displacement from neutral; those further than
-    /// `max_displacement` are rejected.
+    /// `max_displacement` are rejected. A head marker's is zero: once the head's rigid motion
+    /// is taken out, what is left of it is the fit's residual, not expression.
     fn plausibility(
         &self,
         fit: &RigidTransform,
@@ -186,7 +187,7 @@ impl StagesF64 {
                 report.rejected.push(j);
                 *slot = None;
             } else {
-                disp[j] = Some(d);
+                disp[j] = Some(if self.head.contains(&j) { [0.0; 3] } else { d });
             }
         }
         disp
@@ -213,12 +214,17 @@ impl StagesF64 {
                         (0..3).for_each(|c| acc[c] += w * d[c]);
                     }
                 }
-                if total > 0.0 {
+                let d = if total > 0.0 {
                     report.rebuilt.push(j);
                     acc.map(|a| a / total)
                 } else {
                     report.held.push(j);
                     state.last[j].unwrap_or([0.0; 3])
+                };
+                if self.head.contains(&j) {
+                    [0.0; 3]
+                } else {
+                    d
                 }
             })
             .collect()

@@ -29,7 +29,7 @@ use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 7): every section, in encoding order.
+/// The payload of a rig blob (format version 8): every section, in encoding order.
 ///
 /// # Shared sections
 ///

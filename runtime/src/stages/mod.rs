@@ -18,7 +18,11 @@
 //!    position is rejected (a ghost marker), and so is one that moved further than
 //!    `max_step` × the frames since its last good displacement (a swap or a jump: reported in
 //!    [`FrameReport::jumped`] too). The growing bound lets a marker that really moved that far
-//!    back in after a few frames.
+//!    back in after a few frames. **The head markers hold still**: what is left of a head
+//!    marker's motion once the head's rigid motion is taken out is the fit's residual (noise,
+//!    skin sliding over the skull), not expression, so its displacement is zero from here on,
+//!    present or not. Otherwise the skin around it would carry its noise: JawMoCap with ±0.5 mm
+//!    jitter moved the forehead beside a head marker 1.08 mm, against 0.46 mm held still.
 //! 4. **Fill** ([`fill`]): a missing or rejected marker moves with the weighted mean displacement
 //!    of its present baked neighbours; with none present it holds its last good displacement
 //!    (zero if it was never seen).
@@ -277,6 +281,7 @@ impl<'a> Stages<'a> {
                 *slot = d.map(|v| v as i32);
             }
         }
+        self.hold_head_markers(&mut displacement[..markers]);
 
         for j in 0..markers {
             if present.contains(j) {
@@ -303,6 +308,8 @@ impl<'a> Stages<'a> {
                 report.held.insert(j);
             }
         }
+        // A missing head marker too (fill may have rebuilt it from its neighbours).
+        self.hold_head_markers(&mut displacement[..markers]);
 
         if let Some(smoothing) = &self.smoothing {
             let alpha_d = smoothing.derivative_alpha();
@@ -322,6 +329,16 @@ impl<'a> Stages<'a> {
             *o = self.retarget.map(self.actor_neutral.0, j, u, *d);
         }
         report
+    }
+
+    /// Step 3's last part: every head marker's displacement is zero (they hold still once the
+    /// head's motion is taken out).
+    fn hold_head_markers(&self, displacement: &mut [[i32; 3]]) {
+        for &h in self.head_markers.0 {
+            if let Some(d) = displacement.get_mut(usize::from(h)) {
+                *d = [0; 3];
+            }
+        }
     }
 
     /// Step 2 of the module docs: the head fit of this frame, or the one held. Head markers that

@@ -139,7 +139,9 @@ pub struct BakeArgs {
     #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames, requires = "capture")]
     pub neutral: Range<usize>,
     /// Head markers for compensation: comma-separated names, `auto` (the 4 most rigid over
-    /// the capture), `auto:N`, or `none` (the capture is already head-stabilised).
+    /// the capture), `auto:N`, or `none` (the capture is already head-stabilised). Once the
+    /// head's motion is taken out, the head markers hold still: the rig does not deform the
+    /// skin around them by their fit residuals (noise, skin sliding over the skull).
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head, requires = "capture")]
     pub head_markers: HeadMarkers,
     /// A compensated marker further than this from its neutral position is rejected and
