@@ -350,6 +350,20 @@ fn facecap_layout_surface_aware() {
             assert!(take.eyelids_mm.unwrap().0 <= 1.5, "{label}: {take}");
             assert!(take.static_drift_mm.0 <= 0.5, "{label}: {take}");
         }
+        // The issue's error bars on this marker set (the 41 layout markers alone): face mean
+        // ≤ 0.6 mm and max ≤ 12 mm, met by the default (0.579 and 9.07 mm); lip band (8 mm
+        // from the mouth) p99 ≤ 4 mm, missed (4.19 mm; pinned).
+        if (*method, *masks) == (Method::Geodesic, false) {
+            let scores = layout_scene().score(&baked.blob);
+            let (face, lips) = (scores.whole, scores.bands[0]);
+            println!(
+                "FaceCap truth, JawMoCap layout, {label}: face mean / p99 / max {:.3} / {:.2} / \
+                 {:.2} mm, lip band p99 {:.2} mm",
+                face.mean_mm, face.p99_mm, face.max_mm, lips.p99_mm
+            );
+            assert!(face.mean_mm <= 0.6 && face.max_mm <= 12.0, "{face:?}");
+            assert!(lips.p99_mm <= 4.25, "{lips:?}");
+        }
     }
 }
 
@@ -438,4 +452,84 @@ fn jawmocap_through_the_demo_rig() {
             flipped: 0,
         },
     );
+}
+
+/// The best linear rig these markers allow, fitted to the truth itself: per vertex, the weights
+/// on the 41 layout markers' displacements that best reproduce the vertex's own displacement
+/// over `frames` (least squares, ridge `lambda` × the mean diagonal), used on `predict`.
+fn fitted_linear_rig(
+    s: &Benchmark,
+    truth: &[Vec<[f64; 3]>],
+    frames: &[usize],
+    predict: &[usize],
+    lambda: f64,
+    out: &mut [Vec<[f64; 3]>],
+) {
+    use nalgebra::{DMatrix, DVector};
+    let rest = &s.truth.mesh.positions;
+    let at_rest = s.markers_of(rest);
+    let moved: Vec<Vec<[f64; 3]>> = truth
+        .iter()
+        .map(|t| {
+            let m = s.markers_of(t);
+            m.iter()
+                .zip(&at_rest)
+                .map(|(a, b)| [0, 1, 2].map(|c| a[c] - b[c]))
+                .collect()
+        })
+        .collect();
+    let n = at_rest.len();
+    let a = DMatrix::from_fn(3 * frames.len(), n, |row, i| {
+        moved[frames[row / 3]][i][row % 3]
+    });
+    let mut normal = a.transpose() * &a;
+    let ridge = lambda * normal.trace() / n as f64;
+    for i in 0..n {
+        normal[(i, i)] += ridge;
+    }
+    let solver = normal.cholesky().expect("ridge makes it positive definite");
+    for (v, p) in rest.iter().enumerate() {
+        let b = DVector::from_fn(3 * frames.len(), |row, _| {
+            truth[frames[row / 3]][v][row % 3] - p[row % 3]
+        });
+        let w = solver.solve(&(a.transpose() * b));
+        for &f in predict {
+            out[f][v] =
+                [0, 1, 2].map(|c| p[c] + (0..n).map(|i| w[i] * moved[f][i][c]).sum::<f64>());
+        }
+    }
+}
+
+/// Why the lip bar (within 2 mm of the truth's aperture in every frame) is out of reach of a
+/// rig that gives each vertex one fixed weight per marker (the linear deformer's form, its few
+/// per-axis mouth corrections aside), on these 41 markers:
+/// fitted to all 32 truth frames themselves, the best such weights still miss a lip pair by
+/// more than 2 mm (measured 2026-11-27: 2.4 mm, with 4 flipped triangles), and fitted to 31
+/// frames to predict the 32nd (the honest figure for an expression the fit did not see) they
+/// miss by 6.4 mm, face mean 0.48 mm (ridge 1e-4; ridge 1e-2: 4.5 mm, 3.0× stretch and 6
+/// flips), against the default bake's 6.8 mm and 0.58 mm. The bar needs more markers on the
+/// lips or a deformation that is not linear in the markers (a jaw, a lip model).
+#[test]
+fn a_fixed_weight_rig_cannot_meet_the_lip_bar_with_these_markers() {
+    let s = layout_scene();
+    let truth = truths(&s.truth);
+    let all: Vec<usize> = (0..truth.len()).collect();
+    let mut fitted = truth.clone();
+    fitted_linear_rig(s, &truth, &all, &all, 1e-4, &mut fitted);
+    let (_, best) = regions().measure_take(&fitted, Some(&truth), false);
+    println!("the best fixed weights, fitted to every frame: {best}");
+    let mut unseen = truth.clone();
+    for &f in &all {
+        let others: Vec<usize> = all.iter().copied().filter(|&g| g != f).collect();
+        fitted_linear_rig(s, &truth, &others, &[f], 1e-4, &mut unseen);
+    }
+    let (_, predicted) = regions().measure_take(&unseen, Some(&truth), false);
+    let face = s.score_positions(&unseen).whole;
+    println!(
+        "fitted to the other 31 frames: {predicted}; face mean {:.2} mm",
+        face.mean_mm
+    );
+    let lips = best.lips_mm.unwrap().0;
+    assert!(lips > 2.0, "{best}");
+    assert!(predicted.lips_mm.unwrap().0 > 4.0, "{predicted}");
 }
