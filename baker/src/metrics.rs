@@ -20,7 +20,7 @@
 //! The regions are found once per mesh ([`Regions`]) and reused for every frame.
 //!
 //! Openings are the skin's boundary loops less the longest (see
-//! [`find_openings`](crate::surface::openings::find_openings)). With y up: the mouth is the
+//! [`find_openings`]). With y up: the mouth is the
 //! lowest opening, the eyes the two highest above it; with exactly two openings side by side
 //! (centres further apart across than up and down) they are eyes and the mouth is closed.
 //! Openings of fewer than [`MIN_OPENING_VERTICES`] vertices are ignored. A rim is split at its

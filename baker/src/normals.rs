@@ -8,7 +8,7 @@
 //!
 //! * [`bake`]: the section. Each welded vertex's fan (the other two corners of every triangle
 //!   around it, in winding order, as welded vertices), chained so that consecutive corners are
-//!   one triangle's ([`chain`]), goes to its canonical vertex, the first glTF vertex of its weld
+//!   one triangle's (`chain`), goes to its canonical vertex, the first glTF vertex of its weld
 //!   group; the group's other vertices copy its normal; triangles that
 //!   collapse under the weld are left out; the rest normals are the reference's at rest.
 //! * [`vertex_normals`]: the reference, one triangle pass in f64, independent of the fans.

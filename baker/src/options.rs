@@ -115,9 +115,10 @@ pub struct BakeOptions {
     pub surface: SurfaceOptions,
     /// The capture stages, baked when the scene has a capture.
     pub stages: StagesConfig,
-    /// Static anchoring (linear deformer, surface-aware methods): the skin beyond the markers'
-    /// hull above the mouth follows the skull markers, fading in over this distance × the mean
-    /// marker spacing ([`crate::surface::anchoring`]); `None`: off.
+    /// Static anchoring (the linear deformer, on any method, and planar bones): the skin beyond
+    /// the markers' hull above the mouth follows the skull markers, fading in over this
+    /// distance × the mean marker spacing ([`crate::surface::anchoring`]); `None`: off. The RBF
+    /// deformer cannot anchor: [`crate::bake()`] refuses it there.
     pub anchoring: Option<f64>,
 }
 

@@ -36,7 +36,7 @@
 //!
 //! **Normalisation**: `s` is shifted (exactly, by a power of two) so that its largest component
 //! lies in [2³⁰, 2³¹), its squared length (below 3 · 2⁶², a `u64`) goes through a table-seeded
-//! integer 1/√ ([`crate::sqrt::rsqrt_table`]: 384 values and one Newton step, relative error
+//! integer 1/√ (`sqrt::rsqrt_table`: 384 values and one Newton step, relative error
 //! below 2⁻¹⁷; the capture stages' five-step `rsqrt_u64` cost twice the whole normals pass for
 //! precision Q1.14 cannot hold) and each component is multiplied by the root, rounded half up
 //! to Q1.14 and clamped to ±1: within ⅝ LSB of the exact unit vector. No division, no loop.

@@ -157,6 +157,7 @@ fn every_deformer_stays_within_the_jitter_bar() {
         "rbf",
         &BakeOptions {
             deformer: facebake::DeformerKind::Rbf,
+            anchoring: None,
             ..product_default()
         },
     );

@@ -533,3 +533,61 @@ fn a_fixed_weight_rig_cannot_meet_the_lip_bar_with_these_markers() {
     assert!(lips > 2.0, "{best}");
     assert!(predicted.lips_mm.unwrap().0 > 4.0, "{predicted}");
 }
+
+/// The forms and methods `bake` accepts that the other tests do not measure, pinned so that
+/// their figures are reported too. The RBF deformer (`bake --deformer rbf`) cannot anchor the
+/// skin beyond the markers and has no corner reshaping (its help and the bake's warnings say
+/// so; the bake refuses anchoring on it rather than drop it): the truth's skull and JawMoCap's
+/// follow the RBF's far field. `--method euclidean --no-masks` keeps the default's anchoring
+/// (the bake used to drop it on this path: static drift 20.3 mm, 45 flips) but ties the lips
+/// together.
+#[test]
+fn the_rbf_deformer_and_unmasked_euclidean() {
+    let rbf = BakeOptions {
+        deformer: facebake::DeformerKind::Rbf,
+        anchoring: None,
+        ..BakeOptions::for_method(Method::Geodesic, false)
+    };
+    guard(
+        "FaceCap truth, JawMoCap layout, --deformer rbf",
+        &layout_take(&bake_layout_scene(&rbf)),
+        &Pinned {
+            drift_mm: 33.24,
+            lips_mm: 11.3,
+            eyelids_mm: 2.1,
+            stretch: 3.51,
+            over_2x: 34,
+            flipped: 61,
+        },
+    );
+    guard(
+        "JawMoCap, bake --capture --deformer rbf",
+        &jawmocap_take(&rbf).1,
+        &Pinned {
+            drift_mm: 32.03,
+            lips_mm: 41.5,
+            eyelids_mm: 12.5,
+            stretch: 5.19,
+            over_2x: 82,
+            flipped: 16,
+        },
+    );
+    let euclidean = BakeOptions {
+        masks: false,
+        ..BakeOptions::for_method(Method::Euclidean, false)
+    };
+    guard(
+        "FaceCap truth, JawMoCap layout, --method euclidean --no-masks (anchored)",
+        &layout_take(&bake_layout_scene(&euclidean)),
+        // Anchored since the bake no longer drops the anchoring on this path; straight lines
+        // still tie the lips together across the closed mouth.
+        &Pinned {
+            drift_mm: 0.62,
+            lips_mm: 46.4,
+            eyelids_mm: 3.0,
+            stretch: 8.13,
+            over_2x: 107,
+            flipped: 56,
+        },
+    );
+}

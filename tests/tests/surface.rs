@@ -138,17 +138,43 @@ fn gaussian_geodesic_kernel_is_indefinite_and_is_reported() {
         .any(|w| w.contains("indefinite")));
 }
 
+/// Masks and static anchoring need the linear deformer: asked for with the RBF deformer, the
+/// bake refuses rather than drop them; without them, the bake says what the rig lacks.
 #[test]
-fn masks_need_the_linear_deformer() {
-    let c = BakeOptions {
-        masks: true,
+fn masks_and_anchoring_need_the_linear_deformer() {
+    let rbf = BakeOptions {
         deformer: DeformerKind::Rbf,
         ..geodesic()
     };
-    let err = bake_with_sides(&c, SideRule::Auto)
-        .err()
-        .expect("masks with the RBF deformer are refused");
-    assert!(err.to_string().contains("linear deformer"), "{err}");
+    for (options, refusal) in [
+        (
+            BakeOptions {
+                masks: true,
+                ..rbf.clone()
+            },
+            "linear deformer",
+        ),
+        (rbf.clone(), "static anchoring"),
+    ] {
+        let err = bake_with_sides(&options, SideRule::Auto)
+            .err()
+            .expect("refused with the RBF deformer");
+        assert!(err.to_string().contains(refusal), "{err}");
+    }
+    let bare = BakeOptions {
+        anchoring: None,
+        ..rbf
+    };
+    let baked = bake_with_sides(&bare, SideRule::Auto).expect("bakes without anchoring");
+    assert!(
+        baked
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("no static anchoring")),
+        "{:?}",
+        baked.report.warnings
+    );
 }
 
 #[test]

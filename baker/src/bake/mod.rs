@@ -330,12 +330,19 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         stages: stages.as_ref().map(|s| &s.bytes),
     })?;
     let dropped = &d.output.dropped;
+    let mut warnings = d.warnings;
+    if options.deformer == DeformerKind::Rbf {
+        warnings.push(
+            "the RBF deformer has no static anchoring or corner reshaping: the skin beyond the markers follows the RBF's far field (the linear deformer anchors it)"
+                .into(),
+        );
+    }
     let report = BakeReport {
         deformer: options.deformer,
         method: options.method,
         radial: d.radial,
         condition: d.condition,
-        warnings: d.warnings,
+        warnings,
         k: options.k.min(rest.len()),
         weight_frac_bits: d.output.frac_bits,
         mean_dropped_mass: dropped.iter().sum::<f64>() / dropped.len().max(1) as f64,
@@ -373,6 +380,12 @@ fn check(options: &BakeOptions) -> Result<(), BakeError> {
         if options.method == Method::Pbw {
             return Err(BakeError::Input(
                 "PBW weights are not an RBF: it needs the linear deformer (--deformer linear)"
+                    .into(),
+            ));
+        }
+        if options.anchoring.is_some() {
+            return Err(BakeError::Input(
+                "static anchoring needs the linear deformer (or planar bones): the RBF deformer's skin beyond the markers follows the one RBF's far field (on FaceCap's truth the skull moves 33 mm); bake it with --no-anchoring"
                     .into(),
             ));
         }
@@ -498,7 +511,9 @@ fn bake_deformer(
         });
     }
     let stiffness: Vec<f64> = scene.markers.iter().map(|m| m.stiffness).collect();
-    if options.method == Method::Euclidean && !options.masks {
+    // The straight-line RBF as the papers bake it; with static anchoring (linear deformer) the
+    // surface path, which anchors.
+    if options.method == Method::Euclidean && !options.masks && options.anchoring.is_none() {
         let system = euclidean::dense_system(rest, &stiffness, options)?;
         let condition = system.condition();
         let output = match options.deformer {

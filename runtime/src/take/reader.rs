@@ -53,7 +53,7 @@ impl core::fmt::Display for TakeFrameError {
 }
 
 /// Decodes a [`Take`]: sequentially with [`Self::next_frame`], from anywhere with
-/// [`Self::seek`]. Its whole state is fixed-size (10 KiB and a few bytes): a [`Marker`] record
+/// [`Self::seek`]. Its whole state is fixed-size (10 KiB and a few bytes): a `Marker` record
 /// per marker and the position in the stream.
 #[derive(Clone, Debug)]
 pub struct TakeReader<'a> {
