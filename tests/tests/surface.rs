@@ -138,10 +138,11 @@ fn gaussian_geodesic_kernel_is_indefinite_and_is_reported() {
         .any(|w| w.contains("indefinite")));
 }
 
-/// Masks and static anchoring need the linear deformer: asked for with the RBF deformer, the
-/// bake refuses rather than drop them; without them, the bake says what the rig lacks.
+/// Masks need the linear deformer, and the RBF deformer anchors through its affine part, so
+/// asked for without the affine term, the bake refuses rather than drop either. Anchored, the
+/// bake says what the RBF deformer still lacks.
 #[test]
-fn masks_and_anchoring_need_the_linear_deformer() {
+fn the_rbf_deformer_refuses_masks_and_anchoring_without_its_affine_part() {
     let rbf = BakeOptions {
         deformer: DeformerKind::Rbf,
         ..geodesic()
@@ -154,24 +155,26 @@ fn masks_and_anchoring_need_the_linear_deformer() {
             },
             "linear deformer",
         ),
-        (rbf.clone(), "static anchoring"),
+        (
+            BakeOptions {
+                affine: false,
+                ..rbf.clone()
+            },
+            "needs the affine term",
+        ),
     ] {
         let err = bake_with_sides(&options, SideRule::Auto)
             .err()
             .expect("refused with the RBF deformer");
         assert!(err.to_string().contains(refusal), "{err}");
     }
-    let bare = BakeOptions {
-        anchoring: None,
-        ..rbf
-    };
-    let baked = bake_with_sides(&bare, SideRule::Auto).expect("bakes without anchoring");
+    let baked = bake_with_sides(&rbf, SideRule::Auto).expect("bakes anchored");
     assert!(
         baked
             .report
             .warnings
             .iter()
-            .any(|w| w.contains("no static anchoring")),
+            .any(|w| w.contains("no corner reshaping")),
         "{:?}",
         baked.report.warnings
     );

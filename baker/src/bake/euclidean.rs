@@ -72,7 +72,12 @@ pub(super) fn rbf(
             })
             .collect()
     });
-    deformer::rbf::bake(phi_rows, options.k.min(n), &system)
+    deformer::rbf::bake(
+        phi_rows,
+        options.k.min(n),
+        &system,
+        &system.coefficient_map(),
+    )
 }
 
 /// The papers' dense reference over `vertices`.

@@ -333,8 +333,12 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let mut warnings = d.warnings;
     if options.deformer == DeformerKind::Rbf {
         warnings.push(
-            "the RBF deformer has no static anchoring or corner reshaping: the skin beyond the markers follows the RBF's far field (the linear deformer anchors it)"
-                .into(),
+            if options.anchoring.is_some() {
+                "the RBF deformer has no corner reshaping, and anchors the skin beyond the markers only through its affine part (the anchor markers' mean translation), not by the linear deformer's blend"
+            } else {
+                "the RBF deformer without static anchoring: the skin beyond the markers follows the RBF's far field (the skull moves 33 mm on FaceCap's truth)"
+            }
+            .into(),
         );
     }
     let report = BakeReport {
@@ -380,12 +384,6 @@ fn check(options: &BakeOptions) -> Result<(), BakeError> {
         if options.method == Method::Pbw {
             return Err(BakeError::Input(
                 "PBW weights are not an RBF: it needs the linear deformer (--deformer linear)"
-                    .into(),
-            ));
-        }
-        if options.anchoring.is_some() {
-            return Err(BakeError::Input(
-                "static anchoring needs the linear deformer (or planar bones): the RBF deformer's skin beyond the markers follows the one RBF's far field (on FaceCap's truth the skull moves 33 mm); bake it with --no-anchoring"
                     .into(),
             ));
         }

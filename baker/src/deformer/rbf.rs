@@ -66,12 +66,14 @@ impl RbfBytes {
     }
 }
 
-/// The RBF deformer from each vertex's radial values (in rig units) and the system solved in rig
-/// units: keep the K largest terms, quantise them and the coefficient map.
+/// The RBF deformer from each vertex's radial values (in rig units), the system solved in rig
+/// units and its coefficient `map` (the system's own, or anchored): keep the K largest terms,
+/// quantise them and the map.
 pub(crate) fn bake(
     phi_rows: impl Iterator<Item = Vec<f64>>,
     k: usize,
     system: &RbfSystem,
+    map: &nalgebra::DMatrix<f64>,
 ) -> Result<DeformerOutput, super::DeformerError> {
     let n = system.len();
     let mut dropped = Vec::new();
@@ -90,7 +92,7 @@ pub(crate) fn bake(
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::KernelValues)?;
     let affine = system.affine();
-    let m = sparsify::quantise_matrix(&system.coefficient_map(), affine.then_some(n));
+    let m = sparsify::quantise_matrix(map, affine.then_some(n));
     Ok(DeformerOutput {
         bytes: DeformerBytes::Rbf(RbfBytes::new(
             q.frac_bits,

@@ -31,6 +31,12 @@ pub enum SolveError {
     /// The thin-plate kernel without the affine term.
     #[error("the {0} kernel needs the affine term")]
     NeedsAffine(&'static str),
+    /// Static anchoring of the RBF deformer without the affine term it prescribes.
+    #[error("static anchoring of the RBF deformer needs the affine term (drop --no-affine, or bake with --no-anchoring)")]
+    AnchoringNeedsAffine,
+    /// Static anchoring of the RBF deformer with no marker to anchor on.
+    #[error("static anchoring of the RBF deformer found no marker clear of the mouth and eyes to anchor on (bake with --no-anchoring)")]
+    NoAnchors,
 }
 
 /// A factored RBF system over fixed centres (the markers' rest positions on the character).
@@ -147,6 +153,47 @@ impl RbfSystem {
     /// A⁻¹, one row per coefficient (`n` kernel rows, then β₀, βx, βy, βz with the affine term).
     pub fn coefficient_map(&self) -> DMatrix<f64> {
         self.inverse.columns(0, self.len()).into_owned()
+    }
+
+    /// The coefficient map with the affine part prescribed instead of fitted: β₀ the mean
+    /// displacement of the `anchors` (centre indices), βx = βy = βz = 0, and the radial
+    /// coefficients interpolating the rest, α = Φ⁻¹ (D − P β) (Φ the kernel block with its
+    /// diagonal terms, P the centres' `[1, x]` rows). The interpolant still reproduces every
+    /// centre (Φ α + P β = D), and far from the centres, where the radial terms have decayed, it
+    /// is the anchors' mean translation: static anchoring for the RBF deformer. Needs the affine
+    /// block and at least one anchor.
+    pub fn anchored_coefficient_map(&self, anchors: &[usize]) -> Result<DMatrix<f64>, SolveError> {
+        let n = self.len();
+        if !self.affine {
+            return Err(SolveError::AnchoringNeedsAffine);
+        }
+        if anchors.is_empty() || anchors.iter().any(|&a| a >= n) {
+            return Err(SolveError::NoAnchors);
+        }
+        let phi = self.matrix.view((0, 0), (n, n)).into_owned();
+        let p = self.matrix.view((0, n), (n, 4)).into_owned();
+        let mut beta = DMatrix::<f64>::zeros(4, n);
+        for &a in anchors {
+            beta[(0, a)] += 1.0 / anchors.len() as f64;
+        }
+        let alpha = phi
+            .lu()
+            .solve(&(DMatrix::<f64>::identity(n, n) - &p * &beta))
+            .ok_or(SolveError::Singular)?;
+        if alpha.iter().any(|x| !x.is_finite()) {
+            return Err(SolveError::Singular);
+        }
+        let mut map = DMatrix::<f64>::zeros(n + 4, n);
+        map.view_mut((0, 0), (n, n)).copy_from(&alpha);
+        map.view_mut((n, 0), (4, n)).copy_from(&beta);
+        Ok(map)
+    }
+
+    /// The dense weights of point `v` (distances `d[i]` to the centres) under a coefficient
+    /// `map` of [`Self::coefficient_map`]'s shape.
+    pub fn weights_with_map(&self, map: &DMatrix<f64>, d: &[f64], v: &[f64; 3]) -> Vec<f64> {
+        let g = DVector::from_vec(self.basis_from(d, v));
+        (0..self.len()).map(|i| map.column(i).dot(&g)).collect()
     }
 
     /// Whether the system has the affine block.

@@ -172,6 +172,9 @@ pub(crate) struct SurfaceBake {
     pub(crate) marker_distances: Vec<Vec<f64>>,
     /// The markers that ride the skull ([`anchoring::skull_markers`]).
     pub(crate) skull: Vec<usize>,
+    /// The RBF deformer's coefficient map when it is anchored
+    /// ([`RbfSystem::anchored_coefficient_map`]); `None`: the system's own.
+    pub(crate) anchored_map: Option<DMatrix<f64>>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
@@ -365,6 +368,35 @@ pub(crate) fn dense_weights(
         ridge,
     )?;
     let condition = system.condition();
+    let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
+    // The mouth: the lowest opening, when it is below the markers' mean height.
+    let mouth = geometry
+        .openings
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
+        .filter(|(_, o)| o.centre[1] < mean_height)
+        .map(|(i, _)| i);
+    let floor = mouth.map(|i| geometry.openings[i].centre[1]);
+    let rims = rims_of(&geometry, mesh);
+    let skull = anchoring::skull_markers(&rest, &rims, spacing);
+    // Without the rig's own head fit the skin beyond the markers also follows the inner corners
+    // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
+    let eyes: Vec<&[[f64; 3]]> = rims
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| Some(i) != mouth)
+        .map(|(_, r)| r.as_slice())
+        .collect();
+    let anchors =
+        anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
+    // The RBF deformer cannot blend weights towards the anchor markers as the linear one does; it
+    // anchors through its affine part instead, prescribed as the anchor markers' mean
+    // displacement (`RbfSystem::anchored_coefficient_map`), so its far field follows them.
+    let anchored_map = match (config.deformer, config.anchoring) {
+        (crate::DeformerKind::Rbf, Some(_)) => Some(system.anchored_coefficient_map(&anchors)?),
+        _ => None,
+    };
     let (dense, masked_vertices) = if masked {
         let sides = sides_of(input, &config.surface, &geometry, &rest, spacing)?;
         masks::masked_weights(
@@ -384,7 +416,10 @@ pub(crate) fn dense_weights(
         (
             rows.iter()
                 .zip(&points)
-                .map(|(r, p)| system.weights_from_distances(r, p))
+                .map(|(r, p)| match &anchored_map {
+                    Some(map) => system.weights_with_map(map, r, p),
+                    None => system.weights_from_distances(r, p),
+                })
                 .collect(),
             0,
         )
@@ -408,16 +443,6 @@ pub(crate) fn dense_weights(
         }
         None => dense,
     };
-    let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
-    // The mouth: the lowest opening, when it is below the markers' mean height.
-    let mouth = geometry
-        .openings
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
-        .filter(|(_, o)| o.centre[1] < mean_height)
-        .map(|(i, _)| i);
-    let floor = mouth.map(|i| geometry.openings[i].centre[1]);
     let mut dense = dense;
     let mut vertical = vec![Vec::new(); dense.len()];
     let corners =
@@ -439,18 +464,6 @@ pub(crate) fn dense_weights(
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
     let mut dense =
         follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref(), spacing);
-    let rims = rims_of(&geometry, mesh);
-    let skull = anchoring::skull_markers(&rest, &rims, spacing);
-    // Without the rig's own head fit the skin beyond the markers also follows the inner corners
-    // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
-    let eyes: Vec<&[[f64; 3]]> = rims
-        .iter()
-        .enumerate()
-        .filter(|&(i, _)| Some(i) != mouth)
-        .map(|(_, r)| r.as_slice())
-        .collect();
-    let anchors =
-        anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear) => {
             let a = anchoring::static_anchoring(
@@ -503,6 +516,7 @@ pub(crate) fn dense_weights(
         warnings,
         marker_distances,
         skull,
+        anchored_map,
     })
 }
 
@@ -713,6 +727,10 @@ impl SurfaceBake {
                 .map(|(i, &x)| self.kernel.phi(i, x))
                 .collect()
         });
-        deformer::rbf::bake(phi_rows, options.k.min(n), &self.system)
+        let map = self
+            .anchored_map
+            .clone()
+            .unwrap_or_else(|| self.system.coefficient_map());
+        deformer::rbf::bake(phi_rows, options.k.min(n), &self.system, &map)
     }
 }
