@@ -190,7 +190,8 @@ impl RbfSystem {
     }
 
     /// The dense weights of point `v` (distances `d[i]` to the centres) under a coefficient
-    /// `map` of [`Self::coefficient_map`]'s shape.
+    /// `map` whose first `n` columns are shaped as [`Self::coefficient_map`]'s (A⁻¹ itself
+    /// serves).
     pub fn weights_with_map(&self, map: &DMatrix<f64>, d: &[f64], v: &[f64; 3]) -> Vec<f64> {
         let g = DVector::from_vec(self.basis_from(d, v));
         (0..self.len()).map(|i| map.column(i).dot(&g)).collect()
@@ -229,9 +230,7 @@ impl RbfSystem {
     /// The dense weights of point `v` whose distance to centre `i` is `d[i]` (the distance
     /// function the system was built with).
     pub fn weights_from_distances(&self, d: &[f64], v: &[f64; 3]) -> Vec<f64> {
-        let g = DVector::from_vec(self.basis_from(d, v));
-        let n = self.len();
-        (0..n).map(|i| self.inverse.column(i).dot(&g)).collect()
+        self.weights_with_map(&self.inverse, d, v)
     }
 
     /// The kernel block Φ (without stiffness or ridge), `n × n`.

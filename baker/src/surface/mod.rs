@@ -727,10 +727,10 @@ impl SurfaceBake {
                 .map(|(i, &x)| self.kernel.phi(i, x))
                 .collect()
         });
-        let map = self
-            .anchored_map
-            .clone()
-            .unwrap_or_else(|| self.system.coefficient_map());
-        deformer::rbf::bake(phi_rows, options.k.min(n), &self.system, &map)
+        let k = options.k.min(n);
+        match &self.anchored_map {
+            Some(map) => deformer::rbf::bake(phi_rows, k, &self.system, map),
+            None => deformer::rbf::bake(phi_rows, k, &self.system, &self.system.coefficient_map()),
+        }
     }
 }
