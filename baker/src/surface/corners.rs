@@ -226,26 +226,10 @@ mod tests {
     use crate::geodesic::{GeodesicMethod, Source};
     use crate::model::FaceMesh;
 
-    /// A 41 × 21 grid (1 mm spacing, z = 0, y up, centred) with an eye-like slit: the cells
-    /// inside the ellipse (x/12)² + (y/1.2)² < 1 left out. Markers: the slit's two corners (just
-    /// past its ends), two on each lid and four far out.
+    /// [`crate::surface::slit`]'s eye-like slit. Markers: the slit's two corners (just past its
+    /// ends), two on each lid and four far out.
     fn eye() -> (FaceMesh, Vec<usize>) {
-        let (w, h) = (41u32, 21u32);
-        let at = |x: u32, y: u32| [f64::from(x) - 20.0, f64::from(y) - 10.0, 0.0];
-        let p: Vec<[f64; 3]> = (0..h).flat_map(|y| (0..w).map(move |x| at(x, y))).collect();
-        let mut t = Vec::new();
-        for y in 0..h - 1 {
-            for x in 0..w - 1 {
-                let c = [f64::from(x) - 19.5, f64::from(y) - 9.5];
-                if (c[0] / 12.0).powi(2) + (c[1] / 1.2).powi(2) < 1.0 {
-                    continue;
-                }
-                let i = y * w + x;
-                t.push([i, i + 1, i + w + 1]);
-                t.push([i, i + w + 1, i + w]);
-            }
-        }
-        let mesh = FaceMesh::from_triangles("eye", p, t);
+        let mesh = crate::surface::slit();
         let vertex = |x: i32, y: i32| ((y + 10) * 41 + x + 20) as usize;
         let markers = [
             (-13, 0),

@@ -284,13 +284,21 @@ pub(crate) fn dense_weights(
             decay: config.surface.decay_factor * spacing,
         },
     };
-    let d = distances::marker_distances(
+    let mut d = distances::marker_distances(
         kind,
         &geometry,
         &mesh.welded_positions,
         &mesh.positions,
         &rest,
     );
+    // The lips and lids as ribbons, for the linear deformer as the corners' reshaping (the RBF
+    // deformer has neither masks nor corners; on it the truth's flips went 57 → 58).
+    if kind != Distance::Euclidean
+        && config.deformer == crate::DeformerKind::Linear
+        && config.surface.rim_across < 1.0
+    {
+        distances::shorten_across_rims(&mut d, &geometry, spacing, config.surface.rim_across);
+    }
     let mut warnings = Vec::new();
     if !d.fallback.is_empty() {
         let mut pieces = geometry.topology_pieces(&d.fallback);
@@ -733,4 +741,27 @@ impl SurfaceBake {
             None => deformer::rbf::bake(phi_rows, k, &self.system, &self.system.coefficient_map()),
         }
     }
+}
+
+/// A 41 × 21 grid (1 mm spacing, z = 0, y up, centred; vertex `(y + 10) · 41 + x + 20` at
+/// (x, y)) with an eye-like slit: the cells inside the ellipse (x/12)² + (y/1.2)² < 1 left out,
+/// so the rims run from x = −11 to 11 at y = ±1. For the tests of what happens at openings.
+#[cfg(test)]
+pub(crate) fn slit() -> crate::model::FaceMesh {
+    let (w, h) = (41u32, 21u32);
+    let at = |x: u32, y: u32| [f64::from(x) - 20.0, f64::from(y) - 10.0, 0.0];
+    let p: Vec<[f64; 3]> = (0..h).flat_map(|y| (0..w).map(move |x| at(x, y))).collect();
+    let mut t = Vec::new();
+    for y in 0..h - 1 {
+        for x in 0..w - 1 {
+            let c = [f64::from(x) - 19.5, f64::from(y) - 9.5];
+            if (c[0] / 12.0).powi(2) + (c[1] / 1.2).powi(2) < 1.0 {
+                continue;
+            }
+            let i = y * w + x;
+            t.push([i, i + 1, i + w + 1]);
+            t.push([i, i + w + 1, i + w]);
+        }
+    }
+    crate::model::FaceMesh::from_triangles("slit", p, t)
 }
