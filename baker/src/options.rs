@@ -134,8 +134,9 @@ pub struct BakeOptions {
     /// Static anchoring (the linear deformer, on any method, and planar bones): the skin beyond
     /// the markers' hull above the mouth follows the skull markers, fading in over this
     /// distance × the mean marker spacing ([`crate::surface::anchoring`]); `None`: off. The RBF
-    /// deformer anchors through its affine part instead, the anchor markers' mean translation
-    /// (`RbfSystem::anchored_coefficient_map`), and needs the affine term for it.
+    /// deformer's affine part is then the anchor markers' mean translation
+    /// (`RbfSystem::anchored_coefficient_map`), which the skin there follows as its radial terms
+    /// fade by the same strength; it needs the affine term for it.
     pub anchoring: Option<f64>,
 }
 

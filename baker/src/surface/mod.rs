@@ -175,6 +175,10 @@ pub(crate) struct SurfaceBake {
     /// The RBF deformer's coefficient map when it is anchored
     /// ([`RbfSystem::anchored_coefficient_map`]); `None`: the system's own.
     pub(crate) anchored_map: Option<DMatrix<f64>>,
+    /// The RBF deformer's anchoring: per glTF vertex, the static anchoring's strength `s`, by
+    /// which its radial terms fade (× (1 − s)), leaving the affine part, the anchor markers'
+    /// mean translation, as the linear deformer's blend does.
+    pub(crate) radial_fade: Option<Vec<f64>>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
@@ -398,9 +402,10 @@ pub(crate) fn dense_weights(
         .collect();
     let anchors =
         anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
-    // The RBF deformer cannot blend weights towards the anchor markers as the linear one does; it
-    // anchors through its affine part instead, prescribed as the anchor markers' mean
-    // displacement (`RbfSystem::anchored_coefficient_map`), so its far field follows them.
+    // The RBF deformer cannot blend weights towards the anchor markers as the linear one does;
+    // its affine part is prescribed as the anchor markers' mean displacement instead
+    // (`RbfSystem::anchored_coefficient_map`), so its far field follows them, and its radial
+    // terms fade by the anchoring's strength (`radial_fade`).
     let anchored_map = match (config.deformer, config.anchoring) {
         (crate::DeformerKind::Rbf, Some(_)) => Some(system.anchored_coefficient_map(&anchors)?),
         _ => None,
@@ -472,8 +477,9 @@ pub(crate) fn dense_weights(
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
     let mut dense =
         follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref(), spacing);
+    let mut radial_fade = None;
     let anchoring = match (config.anchoring, config.deformer) {
-        (Some(factor), crate::DeformerKind::Linear) => {
+        (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             let a = anchoring::static_anchoring(
                 &mesh.positions,
                 &rest,
@@ -481,7 +487,12 @@ pub(crate) fn dense_weights(
                 floor,
                 factor * spacing,
             );
+            // The RBF deformer's affine part is the anchor markers' mean translation, so fading
+            // its radial terms by the strength is this same blend (its dense reference).
             a.apply(&mut dense);
+            if config.deformer == crate::DeformerKind::Rbf {
+                radial_fade = Some(a.strength.clone());
+            }
             Some(AnchoringFigures {
                 markers: anchors
                     .iter()
@@ -525,6 +536,7 @@ pub(crate) fn dense_weights(
         marker_distances,
         skull,
         anchored_map,
+        radial_fade,
     })
 }
 
@@ -729,10 +741,11 @@ impl SurfaceBake {
     /// The RBF deformer: each vertex's radial values under the method's distances.
     pub(crate) fn rbf(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
         let n = self.between.nrows();
-        let phi_rows = self.rows.iter().map(|r| {
+        let phi_rows = self.rows.iter().enumerate().map(|(v, r)| {
+            let keep = self.radial_fade.as_ref().map_or(1.0, |s| 1.0 - s[v]);
             r.iter()
                 .enumerate()
-                .map(|(i, &x)| self.kernel.phi(i, x))
+                .map(|(i, &x)| keep * self.kernel.phi(i, x))
                 .collect()
         });
         let k = options.k.min(n);

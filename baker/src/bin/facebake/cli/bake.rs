@@ -99,10 +99,10 @@ pub struct BakeArgs {
     /// The runtime's deformer: rbf (per-frame RBF coefficients with K radial terms per vertex),
     /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
     /// triangles per vertex; the layout's `triangles = [["A", "B", "C"], ..]` when given, else
-    /// built automatically) (default: linear). The RBF deformer has no corner reshaping, and
-    /// anchors the skin beyond the markers through its affine part alone (the anchor markers'
-    /// mean translation; on FaceCap's truth the skull moves 2.0 mm, 33 mm unanchored, against
-    /// 0.34 with the linear deformer).
+    /// built automatically) (default: linear). The RBF deformer has no masks and no corner
+    /// reshaping; anchored, its affine part is the anchor markers' mean translation and its
+    /// radial terms fade beyond the markers (on FaceCap's truth the skull moves 1.8 mm, next to
+    /// a forehead marker, 33 mm unanchored, against 0.34 with the linear deformer).
     #[arg(long, value_parser = deformer_parser())]
     pub deformer: Option<DeformerKind>,
     /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
