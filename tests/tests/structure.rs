@@ -322,6 +322,21 @@ fn facecap_layout_surface_aware() {
             },
         ),
         (
+            "--method hybrid",
+            Method::Hybrid,
+            false,
+            // Geodesic near the openings, Euclidean beyond: its far field moves the skull more
+            // and the Euclidean part flips triangles about the jaw-open mouth.
+            Pinned {
+                drift_mm: 0.60,
+                lips_mm: 6.7,
+                eyelids_mm: 0.91,
+                stretch: 2.24,
+                over_2x: 2,
+                flipped: 18,
+            },
+        ),
+        (
             "--method pbw --masks",
             Method::Pbw,
             true,
@@ -354,8 +369,8 @@ fn facecap_layout_surface_aware() {
             assert!(take.static_drift_mm.0 <= 0.5, "{label}: {take}");
         }
         // The error bars on this marker set (the 41 layout markers alone): face mean
-        // ≤ 0.6 mm and max ≤ 12 mm, met by the default (0.579 and 9.07 mm); lip band (8 mm
-        // from the mouth) p99 ≤ 4 mm, missed (4.19 mm; pinned).
+        // ≤ 0.6 mm and max ≤ 12 mm, met by the default (0.578 and 9.07 mm); lip band (8 mm
+        // from the mouth) p99 ≤ 4 mm, missed (4.11 mm; pinned).
         if (*method, *masks) == (Method::Geodesic, false) {
             let scores = layout_scene().score(&baked.blob);
             let (face, lips) = (scores.whole, scores.bands[0]);
@@ -365,7 +380,7 @@ fn facecap_layout_surface_aware() {
                 face.mean_mm, face.p99_mm, face.max_mm, lips.p99_mm
             );
             assert!(face.mean_mm <= 0.6 && face.max_mm <= 12.0, "{face:?}");
-            assert!(lips.p99_mm <= 4.25, "{lips:?}");
+            assert!(lips.p99_mm <= 4.15, "{lips:?}");
         }
     }
 }
@@ -392,6 +407,62 @@ fn jawmocap_take(options: &BakeOptions) -> (Vec<FrameMetrics>, TakeMetrics) {
         .collect();
     let r = Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
     r.measure_take(&played, None, false)
+}
+
+/// Every other method `bake --capture --method` accepts, on JawMoCap, as the CLI bakes it (the
+/// linear deformer, anchored, corners reshaped, rims riding their markers; Euclidean and PBW
+/// masked). Hybrid keeps every edge under 2× but flips 5 triangles and moves the skull 0.70 mm;
+/// none meets every bar the default meets (static drift 0.42 mm, no flip).
+#[test]
+fn jawmocap_every_method() {
+    for (method, masks, pins) in [
+        (
+            Method::Euclidean,
+            true,
+            // The masks part the lips; straight lines still move the skull more.
+            Pinned {
+                drift_mm: 0.73,
+                lips_mm: 33.9,
+                eyelids_mm: 11.8,
+                stretch: 2.33,
+                over_2x: 6,
+                flipped: 0,
+            },
+        ),
+        (
+            Method::Hybrid,
+            false,
+            Pinned {
+                drift_mm: 0.70,
+                lips_mm: 39.2,
+                eyelids_mm: 11.9,
+                stretch: 1.98,
+                over_2x: 0,
+                flipped: 5,
+            },
+        ),
+        (
+            Method::Pbw,
+            true,
+            // Its local weights stretch the lips' corners in the jaw open.
+            Pinned {
+                drift_mm: 0.23,
+                lips_mm: 37.9,
+                eyelids_mm: 12.0,
+                stretch: 2.72,
+                over_2x: 2,
+                flipped: 6,
+            },
+        ),
+    ] {
+        let (_, take) = jawmocap_take(&BakeOptions::for_method(method, masks));
+        let label = format!(
+            "JawMoCap, bake --capture --method {}{}",
+            method.name(),
+            if masks { " --masks" } else { "" }
+        );
+        guard(&label, &take, &pins);
+    }
 }
 
 #[test]
