@@ -1145,3 +1145,32 @@ fn pack_writes_a_take_that_plays_like_its_decoded_capture() {
     let run = facebake(&["play", s(&rig), "--markers", s(&corrupt), "-o", s(&npy[0])]);
     assert_bad_input(&run, "corrupt.fbt");
 }
+
+/// `--rim-across` sets how much of a distance across a lip or lid counts (the default's rims
+/// ride their markers; 1 measures distances as they are), and takes only fractions in (0, 1].
+#[test]
+fn rim_across_changes_the_rig_and_takes_only_fractions() {
+    let dir = temp_dir("rim_across");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let baked = |name: &str, extra: &[&str]| {
+        let rig = dir.join(name);
+        let out = bake(&mesh_path(), &layout, &rig, extra);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read(rig).unwrap()
+    };
+    let default = baked("default.fbk", &[]);
+    assert_eq!(default, baked("fifth.fbk", &["--rim-across", "0.2"]));
+    assert_ne!(default, baked("full.fbk", &["--rim-across", "1"]));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("bad.fbk"),
+        &["--rim-across", "1.5"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("must be at most 1"));
+}

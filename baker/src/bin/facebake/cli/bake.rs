@@ -66,6 +66,12 @@ pub struct BakeArgs {
     /// and the lips part near their corners. Linear deformer; the mouth's part needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
+    /// Across a lip or lid, between the opening's rim and a marker worn on it, count this
+    /// fraction of a distance, so that the rim moves with the marker in front of it rather than
+    /// with the next one along (default 0.2; 1 measures distances as they are). Linear
+    /// deformer, surface distances.
+    #[arg(long, value_name = "F", value_parser = parse_fraction)]
+    pub rim_across: Option<f64>,
     /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
     /// not move the other side. The groups are the layout's `[groups]`, else found from the
     /// mouth and eye openings (markers over an opening's span, above or below its rim). Masks
@@ -264,6 +270,7 @@ impl BakeArgs {
             },
             surface: facebake::SurfaceOptions {
                 corners: d.surface.corners && !self.no_corners,
+                rim_across: self.rim_across.unwrap_or(d.surface.rim_across),
                 ..d.surface
             },
             ..d
@@ -838,8 +845,27 @@ pub fn parse_positive(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A number in (0, 1].
+pub fn parse_fraction(s: &str) -> Result<f64, String> {
+    let x = parse_positive(s)?;
+    if x <= 1.0 {
+        Ok(x)
+    } else {
+        Err(format!("{s:?} must be at most 1"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn fractions_are_in_zero_to_one() {
+        assert_eq!(super::parse_fraction("0.2"), Ok(0.2));
+        assert_eq!(super::parse_fraction("1"), Ok(1.0));
+        for bad in ["0", "1.5", "-0.2", "nan", "x"] {
+            assert!(super::parse_fraction(bad).is_err(), "{bad}");
+        }
+    }
+
     #[test]
     fn neutral_frame_numbers_never_overflow() {
         assert!(super::parse_frames("18446744073709551615").is_err());
