@@ -99,6 +99,33 @@ fn weights_form_figures_are_pinned() {
     assert!(r.vs_dense.p99_mm <= 1.15, "{}", r.vs_dense);
 }
 
+/// The bar "the sparse runtime matches its own dense f64 method, p99 ≤ 0.1 mm", on the
+/// rig `bake` makes with no options (geodesic distances, exponential kernel at 1.5 spacings,
+/// the linear deformer, anchored, corners reshaped): missed at K = 8. The kernel is wide and
+/// the weights are an interpolation's, spread over many markers; the largest differences are
+/// in the jaw open, at the mouth and on the jaw's sides beyond the markers. Measured
+/// 2026-11-28: p99 0.63 mm at K = 8 (0.42 at 12, 0.30 at 16, 0.083 at 32); the runtime's
+/// cost grows with K, and the Cortex-M4 budget frame is at 96 % of its limit at K = 8.
+#[test]
+fn the_default_rig_against_its_own_dense_weights() {
+    let (truth, _) = facecap_default();
+    let at = |k: usize| {
+        let options = BakeOptions {
+            k,
+            ..BakeOptions::for_method(facebake::Method::Geodesic, false)
+        };
+        run_checked(
+            &format!("the default, K = {k}"),
+            truth,
+            &bake_truth(truth, &options),
+        )
+    };
+    let (k8, k32) = (at(8), at(32));
+    assert!(k8.vs_dense.p99_mm <= 0.65, "{}", k8.vs_dense);
+    assert!(k8.vs_dense.p99_mm > 0.1, "the bar is met: say so");
+    assert!(k32.vs_dense.p99_mm <= 0.1, "{}", k32.vs_dense);
+}
+
 /// The RBF deformer anchored through its affine part (`bake --deformer rbf`: geodesic
 /// distances, the exponential kernel, the anchor markers' mean translation as the affine part)
 /// plays its own f64 reference within the runtime bar. Its dense form is closer to the truth than
