@@ -1174,3 +1174,36 @@ fn rim_across_changes_the_rig_and_takes_only_fractions() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("must be at most 1"));
 }
+
+/// A face whose mouth is not cut open (MediaPipe's canonical face is one disk) bakes, but the
+/// bake says the lips cannot part, rather than tying them together silently.
+#[test]
+fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
+    let dir = temp_dir("no_mouth");
+    let layout = dir.join("layout.toml");
+    let markers: String = [0, 13, 61, 105, 152, 199, 234, 291, 334, 454]
+        .iter()
+        .enumerate()
+        .map(|(i, v)| format!("M{i} = {{ vertex = {v} }}\n"))
+        .collect();
+    std::fs::write(&layout, format!("[markers]\n{markers}")).unwrap();
+    let out = bake(
+        &fixture("mediapipe_canonical_face_model.glb"),
+        &layout,
+        &dir.join("disk.fbk"),
+        &["--json"],
+    );
+    let j = json_ok(&out);
+    let warnings = j["report"]["warnings"].to_string();
+    assert!(warnings.contains("no mouth opening"), "{warnings}");
+    // FaceCap's mouth is open: no such warning.
+    let out = bake(
+        &mesh_path(),
+        &fixture("facecap_jawmocap_layout.toml"),
+        &dir.join("facecap.fbk"),
+        &["--json"],
+    );
+    assert!(!json_ok(&out)["report"]["warnings"]
+        .to_string()
+        .contains("no mouth opening"));
+}

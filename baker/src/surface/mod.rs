@@ -389,6 +389,12 @@ pub(crate) fn dense_weights(
         .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
         .filter(|(_, o)| o.centre[1] < mean_height)
         .map(|(i, _)| i);
+    if mouth.is_none() {
+        warnings.push(
+            "the skin has no mouth opening (no boundary loop below the markers' mean height): distances along it cannot tell the lips apart, so they move together; cut the mouth open in the mesh, or give the lips' sides with --masks and --mask-sides or --mask-image"
+                .into(),
+        );
+    }
     let floor = mouth.map(|i| geometry.openings[i].centre[1]);
     let rims = rims_of(&geometry, mesh);
     let skull = anchoring::skull_markers(&rest, &rims, spacing);
