@@ -167,6 +167,9 @@ pub fn shorten_across_rims(
     spacing: f64,
     across: f64,
 ) {
+    if !(spacing > 0.0 && spacing.is_finite()) {
+        return;
+    }
     let shorten = |x: f64, delta: f64| -> f64 {
         if delta <= 0.0 || !x.is_finite() {
             return x;
