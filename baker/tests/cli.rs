@@ -1207,3 +1207,35 @@ fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
         .to_string()
         .contains("no mouth opening"));
 }
+
+/// With a capture, the bake plays it through the rig it made and reports what the face does on
+/// it (static drift, apertures, stretch, flips), warning where a face should not go.
+#[test]
+fn bake_with_a_capture_measures_the_rig_on_it() {
+    let dir = temp_dir("on_capture");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let capture = fixture("JawMoCap.trc");
+    let run = |name: &str, extra: &[&str]| {
+        let mut args = vec!["--capture", s(&capture), "--json"];
+        args.extend_from_slice(extra);
+        let out = bake(&mesh_path(), &layout, &dir.join(name), &args);
+        json_ok(&out)
+    };
+    let j = run("default.fbk", &[]);
+    let t = &j["on_capture"];
+    assert_eq!(t["frames"], 1590);
+    assert!(t["static_drift_mm"][0].as_f64().unwrap() <= 0.5, "{t}");
+    assert_eq!(t["flipped"][0], 0, "{t}");
+    assert!(t["lips_mm"][0].as_f64().unwrap() > 30.0, "{t}");
+    // Unmasked planar bones keep the lips shut and stretch the corners: the bake says so.
+    let j = run("bare_planar.fbk", &["--deformer", "planar", "--no-masks"]);
+    assert!(j["on_capture"]["lips_mm"][0].as_f64().unwrap() < 2.0);
+    let warnings = j["report"]["warnings"].to_string();
+    assert!(
+        warnings.contains("frames stretch an edge past twice its rest length"),
+        "{warnings}"
+    );
+    // Without a capture there is nothing to play.
+    let out = bake(&mesh_path(), &layout, &dir.join("none.fbk"), &["--json"]);
+    assert!(json_ok(&out)["on_capture"].is_null());
+}

@@ -8,12 +8,13 @@ use clap::Args;
 use serde::Serialize;
 
 use super::values::{deformer_parser, MethodArg, RadialArg, RefitArg, RetargetArg};
-use super::{emit, parse_units, print_json, weight_format, write_file, CliError};
+use super::{bytes_text, emit, parse_units, print_json, weight_format, write_file, CliError};
 use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_check::BufferAccess;
 use facebake::io::gltf_mesh::load_mesh_with;
 use facebake::io::layout::read_layout;
 use facebake::io::mask_sides::read_vertex_sides;
+use facebake::metrics::TakeMetrics;
 use facebake::model::{
     place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
@@ -303,6 +304,9 @@ pub struct BakeSummary {
     pub bytes_per_influence: f64,
     /// The masks' marker groups, when masked.
     pub mask_groups: Vec<MaskGroupSummary>,
+    /// With a capture: its every frame played through the rig just baked, measured (static
+    /// drift, apertures, stretch against rest, flips), worst over the take.
+    pub on_capture: Option<TakeMetrics>,
     /// The bake's own report (the capture stages' included).
     pub report: BakeReport,
 }
@@ -454,7 +458,25 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     scene.capture = capture.as_ref();
     let baked = facebake::bake(&scene, &options).map_err(|e| bake_error(args, e))?;
     write_file(&args.output, &baked.blob)?;
-    let report = baked.report;
+    let mut report = baked.report;
+    // The rig is written; a capture it cannot be measured on is said, not fatal.
+    let on_capture = match (&capture, &args.capture) {
+        (Some(capture), Some(path)) => {
+            match measure_on_capture(&baked.blob, &mesh, capture, path) {
+                Ok(t) => Some(t),
+                Err(e) => {
+                    report.warnings.push(format!(
+                        "the capture could not be played through the rig: {e}"
+                    ));
+                    None
+                }
+            }
+        }
+        _ => None,
+    };
+    report
+        .warnings
+        .extend(capture_warnings(on_capture.as_ref()));
     let summary = BakeSummary {
         output: args.output.clone(),
         mesh: args.mesh.clone(),
@@ -471,6 +493,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         bytes_per_influence: report.sizes.influence_bytes as f64
             / report.sizes.influences.max(1) as f64,
         mask_groups,
+        on_capture,
         report,
     };
     if args.json {
@@ -479,6 +502,33 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         print_text(&summary);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Play `capture` (the take the rig was baked from) through the rig in `blob`, frame by frame,
+/// and measure each frame as it comes (nothing per frame is kept but its metrics), so the bake
+/// says what the rig does to this actor's own take: a tear, a flip or a drifting skull shows
+/// here rather than in the engine. Stretch is against rest, as for any take without a truth.
+fn measure_on_capture(
+    blob: &[u8],
+    mesh: &FaceMesh,
+    capture: &facebake::model::Capture,
+    path: &std::path::Path,
+) -> Result<TakeMetrics, CliError> {
+    let rig = facebake_runtime::Rig::from_bytes(blob)
+        .map_err(|e| CliError::input(path, format!("the rig just baked does not load: {e}")))?;
+    let regions = super::render::rig_regions(&rig, mesh)?;
+    let metres = capture.in_metres();
+    let columns: Vec<Option<usize>> = rig.marker_names().map(|n| metres.marker_index(n)).collect();
+    let frames: Vec<Vec<Option<[f64; 3]>>> = metres
+        .frames
+        .iter()
+        .map(|f| columns.iter().map(|c| c.and_then(|c| f[c])).collect())
+        .collect();
+    let mut per_frame = Vec::with_capacity(frames.len());
+    super::play::play_stages(&rig, path, &frames, |_, positions| {
+        per_frame.push(regions.measure(positions, None, false));
+    })?;
+    Ok(TakeMetrics::of(&per_frame))
 }
 
 /// A failed bake as a command-line error naming the file it is about: the capture for the
@@ -500,11 +550,6 @@ fn bake_error(args: &BakeArgs, e: BakeError) -> CliError {
             source: e,
         },
     }
-}
-
-/// Bytes as "N bytes (x.y KiB)".
-pub fn bytes_text(n: usize) -> String {
-    format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
 }
 
 fn print_text(s: &BakeSummary) {
@@ -728,11 +773,47 @@ fn print_text(s: &BakeSummary) {
             );
         }
     }
+    if let Some(t) = &s.on_capture {
+        outln!(
+            out,
+            "  on the capture played through this rig, worst of {} frames: {t}",
+            t.frames
+        );
+    }
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
     outln!(out, "wrote {}", s.output.display());
     emit(&out);
+}
+
+/// What the capture played through the rig shows that a face should not do: skin beyond the
+/// markers that moves more than 0.5 mm, triangles turned over, edges stretched past twice their
+/// rest length (against rest: a face's own jaw open can, so this one is a note, not a fault).
+fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
+    let Some(t) = t else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    if t.static_drift_mm.0 > 0.5 {
+        out.push(format!(
+            "on the capture, the skin no marker should move (cranium, back of the head, neck, ears) moves up to {:.2} mm (frame {}): check the head markers (--head-markers)",
+            t.static_drift_mm.0, t.static_drift_mm.1
+        ));
+    }
+    if t.flipped.0 > 0 {
+        out.push(format!(
+            "on the capture, up to {} triangles turn over (frame {})",
+            t.flipped.0, t.flipped.1
+        ));
+    }
+    if t.frames_over_limit > 0 {
+        out.push(format!(
+            "on the capture, {} of {} frames stretch an edge past twice its rest length (worst {:.2}x, frame {}); a face's own jaw open can",
+            t.frames_over_limit, t.frames, t.max_stretch.0, t.max_stretch.1
+        ));
+    }
+    out
 }
 
 /// Parse `--neutral`: `N` or `A..B`.

@@ -10,7 +10,7 @@ use clap::Args;
 use facebake_runtime::deformer::Deformer;
 use serde::Serialize;
 
-use super::bake::bytes_text;
+use super::bytes_text;
 use super::inspect::CostSummary;
 use super::{
     deform_to_asset, emit, load_rig, markers_to_rig, max_distance, print_json, progress,

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use facebake_runtime::stages::retarget::Retarget;
 
-use super::bake::bytes_text;
+use super::bytes_text;
 use super::{emit, load_rig, marker_names, print_json, read_file, weight_format, CliError};
 
 /// Arguments of `facebake inspect`.

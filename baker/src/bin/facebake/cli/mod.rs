@@ -245,6 +245,11 @@ pub fn emit(text: &str) {
         .and_then(|()| stdout.flush());
 }
 
+/// Bytes as "N bytes (x.y KiB)".
+pub fn bytes_text(n: usize) -> String {
+    format!("{n} bytes ({:.1} KiB)", n as f64 / 1024.0)
+}
+
 /// Print a summary as pretty JSON on stdout.
 pub fn print_json(value: &impl serde::Serialize) {
     let mut text =

@@ -275,8 +275,8 @@ impl GlbSummary {
             } else {
                 " NOT MET: more targets needed"
             },
-            super::bake::bytes_text(self.bytes),
-            super::bake::bytes_text(self.one_target_per_frame_bytes),
+            super::bytes_text(self.bytes),
+            super::bytes_text(self.one_target_per_frame_bytes),
         )
     }
 }
