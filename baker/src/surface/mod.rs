@@ -472,12 +472,33 @@ pub(crate) fn dense_weights(
                 names: &names,
             };
             // The mouth's corrections take an influence pair of the K.
-            let mouth = mouth.map(|opening| corners::Mouth {
+            let corrections = mouth.map(|opening| corners::Mouth {
                 opening,
                 vertical: (config.k >= corners::MOUTH_MIN_K).then_some(vertical.as_mut_slice()),
             });
             let (welded, positions) = (&mesh.welded_positions, &mesh.positions);
-            corners::reshape(&mut dense, &geometry, welded, positions, &markers, mouth)
+            let mut figures = corners::reshape(
+                &mut dense,
+                &geometry,
+                welded,
+                positions,
+                &markers,
+                corrections,
+            );
+            // The skin past the mouth's corners, balanced between the lips' markers (found from
+            // the openings, as masks without a layout's groups are).
+            if let (Some(opening), Ok(groups)) = (mouth, masks::groups_from_openings(mesh, &rest)) {
+                let lips = (groups[0].upper.as_slice(), groups[0].lower.as_slice());
+                figures.balanced_vertices = corners::balance_past_mouth_corners(
+                    &mut dense,
+                    &geometry.openings[opening],
+                    welded,
+                    positions,
+                    lips,
+                    spacing,
+                );
+            }
+            figures
         });
     let pieces = geometry.pieces_of(&d.fallback);
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));

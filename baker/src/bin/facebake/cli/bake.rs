@@ -616,10 +616,11 @@ fn print_text(s: &BakeSummary) {
         if let Some(c) = &f.corners {
             outln!(
                 out,
-                "  corners       {} corners of the eyes and mouth with a marker ({}): {} vertices reshaped",
+                "  corners       {} corners of the eyes and mouth with a marker ({}): {} vertices reshaped; {} past the mouth's corners balanced between the lips",
                 c.corners,
                 c.markers.join(", "),
-                c.reshaped_vertices
+                c.reshaped_vertices,
+                c.balanced_vertices
             );
         }
     }
