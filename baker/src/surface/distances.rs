@@ -157,7 +157,7 @@ pub const RIM_END_FADE: f64 = 0.1;
 ///
 /// FaceCap's truth, the JawMoCap layout's 41 markers, worst over its 32 frames (`--test
 /// structure`): lips 6.8 → 6.7 mm (the jaw-open's middle 3.1 → 1.6 mm), eyelids 1.12 →
-/// 0.94 mm, stretch 2.19 → 2.16×, lip band p99 4.19 → 4.11 mm; JawMoCap's frames with an edge
+/// 0.91 mm, stretch 2.19 → 2.16×, lip band p99 4.19 → 4.11 mm; JawMoCap's frames with an edge
 /// over 2× 82 → 80. Without the fade at the corners (their markers then not reproduced, by
 /// 0.1 mm) the truth's one flipped triangle goes too; with the corners' own distances shortened
 /// as well, every figure but the lip band's is worse than without shortening.
