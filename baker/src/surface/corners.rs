@@ -45,6 +45,7 @@
 use crate::mesh::x_extremes;
 use crate::surface::anchoring::smoothstep;
 use crate::surface::geometry::SurfaceGeometry;
+use crate::surface::openings::Opening;
 
 /// A corner's marker is at most this fraction of the opening's width from the rim's end.
 pub const CORNER_REACH: f64 = 0.2;
@@ -134,16 +135,11 @@ pub fn reshape(
         if at_mouth && vertical.is_none() {
             continue;
         }
-        if opening.vertices.is_empty() {
+        let Some(rim) = RimEnds::of(opening, welded_positions) else {
             continue;
-        }
-        let (low, high) = x_extremes(&opening.vertices, welded_positions);
-        let [low, high] = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
-        let width = crate::mesh::distance(&low, &high);
-        if width <= 0.0 {
-            continue;
-        }
-        for (corner, other) in [(low, high), (high, low)] {
+        };
+        let width = rim.width;
+        for (corner, axis) in rim.corners() {
             let Some((marker, reach)) = rest
                 .iter()
                 .map(|m| crate::mesh::distance(m, &corner))
@@ -157,12 +153,10 @@ pub fn reshape(
             }
             figures.corners += 1;
             figures.markers.push(markers.names[marker].to_string());
-            let axis = crate::mesh::sub(&other, &corner);
             for (v, weights) in dense.iter_mut().enumerate() {
                 let welded = geometry.weld[v] as usize;
                 let band = smoothstep(1.0 - from_rim[welded] / (BAND * width));
-                let along = crate::mesh::dot(&crate::mesh::sub(&positions[v], &corner), &axis)
-                    / (width * width);
+                let along = rim.along(&positions[v], &corner, &axis);
                 // Nothing past this corner or past the other one; at the mouth, nothing past
                 // its middle either (one corner's correction a vertex).
                 let far = if at_mouth {
@@ -214,27 +208,21 @@ pub const PAST_CORNER_REACH: f64 = 0.3;
 /// vertices changed.
 pub fn balance_past_mouth_corners(
     dense: &mut [Vec<f64>],
-    opening: &crate::surface::openings::Opening,
+    opening: &Opening,
     welded_positions: &[[f64; 3]],
     positions: &[[f64; 3]],
     (upper, lower): (&[usize], &[usize]),
     spacing: f64,
 ) -> usize {
-    if opening.vertices.is_empty() || upper.is_empty() || lower.is_empty() || spacing <= 0.0 {
-        return 0;
-    }
-    let (low, high) = x_extremes(&opening.vertices, welded_positions);
-    let [low, high] = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
-    let width = crate::mesh::distance(&low, &high);
-    if width <= 0.0 {
-        return 0;
-    }
+    let rim = match RimEnds::of(opening, welded_positions) {
+        Some(rim) if !upper.is_empty() && !lower.is_empty() && spacing > 0.0 => rim,
+        _ => return 0,
+    };
     let reach = PAST_CORNER_REACH * spacing;
     let mut changed = 0;
-    for (corner, other) in [(low, high), (high, low)] {
-        let axis = crate::mesh::sub(&other, &corner);
+    for (corner, axis) in rim.corners() {
         for (weights, p) in dense.iter_mut().zip(positions) {
-            let along = crate::mesh::dot(&crate::mesh::sub(p, &corner), &axis) / (width * width);
+            let along = rim.along(p, &corner, &axis);
             let near = crate::mesh::distance(p, &corner);
             let strength = smoothstep(-along / FADE_IN) * smoothstep(1.0 - near / reach);
             let total = |side: &[usize]| side.iter().map(|&m| weights[m]).sum::<f64>();
@@ -253,6 +241,41 @@ pub fn balance_past_mouth_corners(
         }
     }
     changed
+}
+
+/// An opening's two ends across the face (its rim's x extremes) and its width, measured once
+/// for the reshaping and the balance past the mouth's corners.
+struct RimEnds {
+    ends: [[f64; 3]; 2],
+    width: f64,
+}
+
+impl RimEnds {
+    /// The ends of `opening` on the welded mesh; `None` for an empty or zero-width rim.
+    fn of(opening: &Opening, welded_positions: &[[f64; 3]]) -> Option<Self> {
+        if opening.vertices.is_empty() {
+            return None;
+        }
+        let (low, high) = x_extremes(&opening.vertices, welded_positions);
+        let ends = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
+        let width = crate::mesh::distance(&ends[0], &ends[1]);
+        (width > 0.0).then_some(Self { ends, width })
+    }
+
+    /// Each end with the direction to the other one.
+    fn corners(&self) -> [([f64; 3], [f64; 3]); 2] {
+        let [low, high] = self.ends;
+        [
+            (low, crate::mesh::sub(&high, &low)),
+            (high, crate::mesh::sub(&low, &high)),
+        ]
+    }
+
+    /// How far `p` is from `corner` towards the other end along `axis`, in widths (0 at the
+    /// corner, 1 at the other end, negative past the corner).
+    fn along(&self, p: &[f64; 3], corner: &[f64; 3], axis: &[f64; 3]) -> f64 {
+        crate::mesh::dot(&crate::mesh::sub(p, corner), axis) / (self.width * self.width)
+    }
 }
 
 /// The marker other than `marker` with the largest weight.

@@ -172,13 +172,18 @@ pub(crate) struct SurfaceBake {
     pub(crate) marker_distances: Vec<Vec<f64>>,
     /// The markers that ride the skull ([`anchoring::skull_markers`]).
     pub(crate) skull: Vec<usize>,
-    /// The RBF deformer's coefficient map when it is anchored
-    /// ([`RbfSystem::anchored_coefficient_map`]); `None`: the system's own.
-    pub(crate) anchored_map: Option<DMatrix<f64>>,
-    /// The RBF deformer's anchoring: per glTF vertex, the static anchoring's strength `s`, by
-    /// which its radial terms fade (× (1 − s)), leaving the affine part, the anchor markers'
-    /// mean translation, as the linear deformer's blend does.
-    pub(crate) radial_fade: Option<Vec<f64>>,
+    /// The RBF deformer's static anchoring (`None`: unanchored, the system's own map).
+    pub(crate) rbf_anchoring: Option<RbfAnchoring>,
+}
+
+/// How the RBF deformer anchors the skin beyond the markers.
+pub(crate) struct RbfAnchoring {
+    /// Its coefficient map, the affine part the anchor markers' mean translation
+    /// ([`RbfSystem::anchored_coefficient_map`]).
+    map: DMatrix<f64>,
+    /// Per glTF vertex, the static anchoring's strength `s`, by which its radial terms fade
+    /// (× (1 − s)), leaving that affine part, as the linear deformer's blend does.
+    fade: Vec<f64>,
 }
 
 /// The kernel in rig units; the inverse multiquadric's radii are each marker's distance to its
@@ -411,7 +416,7 @@ pub(crate) fn dense_weights(
     // The RBF deformer cannot blend weights towards the anchor markers as the linear one does;
     // its affine part is prescribed as the anchor markers' mean displacement instead
     // (`RbfSystem::anchored_coefficient_map`), so its far field follows them, and its radial
-    // terms fade by the anchoring's strength (`radial_fade`).
+    // terms fade by the anchoring's strength (`RbfAnchoring`).
     let anchored_map = match (config.deformer, config.anchoring) {
         (crate::DeformerKind::Rbf, Some(_)) => Some(system.anchored_coefficient_map(&anchors)?),
         _ => None,
@@ -504,7 +509,7 @@ pub(crate) fn dense_weights(
     let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
     let mut dense =
         follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref(), spacing);
-    let mut radial_fade = None;
+    let mut rbf_anchoring = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             let a = anchoring::static_anchoring(
@@ -517,9 +522,10 @@ pub(crate) fn dense_weights(
             // The RBF deformer's affine part is the anchor markers' mean translation, so fading
             // its radial terms by the strength is this same blend (its dense reference).
             a.apply(&mut dense);
-            if config.deformer == crate::DeformerKind::Rbf {
-                radial_fade = Some(a.strength.clone());
-            }
+            rbf_anchoring = anchored_map.map(|map| RbfAnchoring {
+                map,
+                fade: a.strength.clone(),
+            });
             Some(AnchoringFigures {
                 markers: anchors
                     .iter()
@@ -562,8 +568,7 @@ pub(crate) fn dense_weights(
         warnings,
         marker_distances,
         skull,
-        anchored_map,
-        radial_fade,
+        rbf_anchoring,
     })
 }
 
@@ -769,15 +774,15 @@ impl SurfaceBake {
     pub(crate) fn rbf(&self, options: &BakeOptions) -> Result<DeformerOutput, DeformerError> {
         let n = self.between.nrows();
         let phi_rows = self.rows.iter().enumerate().map(|(v, r)| {
-            let keep = self.radial_fade.as_ref().map_or(1.0, |s| 1.0 - s[v]);
+            let keep = self.rbf_anchoring.as_ref().map_or(1.0, |a| 1.0 - a.fade[v]);
             r.iter()
                 .enumerate()
                 .map(|(i, &x)| keep * self.kernel.phi(i, x))
                 .collect()
         });
         let k = options.k.min(n);
-        match &self.anchored_map {
-            Some(map) => deformer::rbf::bake(phi_rows, k, &self.system, map),
+        match &self.rbf_anchoring {
+            Some(a) => deformer::rbf::bake(phi_rows, k, &self.system, &a.map),
             None => deformer::rbf::bake(phi_rows, k, &self.system, &self.system.coefficient_map()),
         }
     }
