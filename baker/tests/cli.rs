@@ -1175,6 +1175,35 @@ fn rim_across_changes_the_rig_and_takes_only_fractions() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("must be at most 1"));
 }
 
+/// The default shrinks the kept weights (`--refit shrink`); `--refit prior` re-fits them, as
+/// `--method hybrid` and `--method pbw` do by default.
+#[test]
+fn the_default_shrinks_the_kept_weights() {
+    let dir = temp_dir("refit");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let baked = |name: &str, extra: &[&str]| {
+        let rig = dir.join(name);
+        let out = bake(&mesh_path(), &layout, &rig, extra);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read(rig).unwrap()
+    };
+    let default = baked("default.fbk", &[]);
+    assert_eq!(default, baked("shrink.fbk", &["--refit", "shrink"]));
+    assert_ne!(default, baked("prior.fbk", &["--refit", "prior"]));
+    let hybrid = baked("hybrid.fbk", &["--method", "hybrid"]);
+    assert_eq!(
+        hybrid,
+        baked(
+            "hybrid_prior.fbk",
+            &["--method", "hybrid", "--refit", "prior"]
+        )
+    );
+}
+
 /// A face whose mouth is not cut open (MediaPipe's canonical face is one disk) bakes, but the
 /// bake says the lips cannot part, rather than tying them together silently.
 #[test]

@@ -101,29 +101,44 @@ fn weights_form_figures_are_pinned() {
 
 /// The bar "the sparse runtime matches its own dense f64 method, p99 ≤ 0.1 mm", on the
 /// rig `bake` makes with no options (geodesic distances, exponential kernel at 1.5 spacings,
-/// the linear deformer, anchored, corners reshaped): missed at K = 8. The kernel is wide and
-/// the weights are an interpolation's, spread over many markers; the largest differences are
-/// in the jaw open, at the mouth and on the jaw's sides beyond the markers. Measured
-/// 2026-11-28: p99 0.63 mm at K = 8 (0.42 at 12, 0.30 at 16, 0.083 at 32); the runtime's
-/// cost grows with K, and the Cortex-M4 budget frame is at 96 % of its limit at K = 8.
+/// the linear deformer, anchored, corners reshaped, the kept weights shrunk): missed at K = 8.
+/// The kernel is wide and the weights are an interpolation's, spread over many markers; the
+/// largest differences are in the jaw open, at the mouth and on the jaw's sides beyond the
+/// markers. Shrinking (`Refit::Shrink`: every magnitude less the (K+1)-th largest) moves
+/// further from the dense weights than the prior's re-fit but nearer the truth, and it is
+/// continuous where a vertex's kept set changes. Measured 2026-11-28, sparse vs dense p99 and
+/// mean against the truth: shrink K = 8 0.92 / 0.878 mm, K = 32 0.22; prior K = 8 0.63 /
+/// 0.893, K = 32 0.083; the dense weights 0.922. The runtime's cost grows with K, and the
+/// Cortex-M4 budget frame is at 96 % of its limit at K = 8.
 #[test]
 fn the_default_rig_against_its_own_dense_weights() {
     let (truth, _) = facecap_default();
-    let at = |k: usize| {
+    let at = |k: usize, refit: facebake::Refit| {
         let options = BakeOptions {
             k,
+            refit,
             ..BakeOptions::for_method(facebake::Method::Geodesic, false)
         };
+        assert_eq!(
+            BakeOptions::for_method(facebake::Method::Geodesic, false).refit,
+            facebake::Refit::Shrink
+        );
         run_checked(
-            &format!("the default, K = {k}"),
+            &format!("the default, K = {k}, {refit:?}"),
             truth,
             &bake_truth(truth, &options),
         )
     };
-    let (k8, k32) = (at(8), at(32));
-    assert!(k8.vs_dense.p99_mm <= 0.65, "{}", k8.vs_dense);
+    use facebake::Refit::{Prior, Shrink};
+    let (k8, k32) = (at(8, Shrink), at(32, Shrink));
+    let (prior8, prior32) = (at(8, Prior), at(32, Prior));
+    assert!(k8.vs_dense.p99_mm <= 0.95, "{}", k8.vs_dense);
     assert!(k8.vs_dense.p99_mm > 0.1, "the bar is met: say so");
-    assert!(k32.vs_dense.p99_mm <= 0.1, "{}", k32.vs_dense);
+    assert!(k32.vs_dense.p99_mm <= 0.25, "{}", k32.vs_dense);
+    assert!(prior8.vs_dense.p99_mm <= 0.65, "{}", prior8.vs_dense);
+    assert!(prior32.vs_dense.p99_mm <= 0.1, "{}", prior32.vs_dense);
+    assert!(k8.truth.mean_mm < prior8.truth.mean_mm, "{}", k8.truth);
+    assert!(k8.truth.mean_mm < k8.dense_truth.mean_mm, "{}", k8.truth);
 }
 
 /// The RBF deformer anchored through its affine part (`bake --deformer rbf`: geodesic

@@ -130,9 +130,10 @@ pub struct BakeArgs {
     /// Influences per vertex, 1 to 64.
     #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeOptions::default().k)]
     pub k: usize,
-    /// How the kept weights are re-fitted after sparsifying (linear deformer).
-    #[arg(long, value_enum, default_value_t = RefitArg::Prior)]
-    pub refit: RefitArg,
+    /// How the K kept weights are found from the dense ones (linear deformer; default: shrink,
+    /// which is continuous over the skin where a vertex's kept set changes).
+    #[arg(long, value_enum)]
+    pub refit: Option<RefitArg>,
     /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
     /// (default: 1% of the mesh's bounding-box diagonal).
     #[arg(long, value_name = "D", value_parser = parse_positive)]
@@ -246,7 +247,7 @@ impl BakeArgs {
             width_factor: self.width_factor.unwrap_or(d.width_factor),
             affine: d.affine && !self.no_affine,
             k: self.k,
-            refit: self.refit.into(),
+            refit: self.refit.map_or(d.refit, Into::into),
             planar_radius: self.planar_radius,
             stages: StagesConfig {
                 neutral: self.neutral.clone(),

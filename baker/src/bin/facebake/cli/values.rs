@@ -73,6 +73,8 @@ pub enum RefitArg {
     Uniform,
     /// Best prediction of the dropped markers under a smooth-motion prior.
     Prior,
+    /// Every magnitude less the (K+1)-th largest, rescaled: continuous over the skin.
+    Shrink,
 }
 
 impl From<RefitArg> for facebake::Refit {
@@ -80,6 +82,7 @@ impl From<RefitArg> for facebake::Refit {
         match a {
             RefitArg::Uniform => Self::Uniform,
             RefitArg::Prior => Self::Prior,
+            RefitArg::Shrink => Self::Shrink,
         }
     }
 }
