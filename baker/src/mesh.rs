@@ -22,6 +22,12 @@ pub fn norm(a: &[f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
+/// `a` scaled to length one; `None` for a zero or non-finite vector.
+pub fn unit(a: &[f64; 3]) -> Option<[f64; 3]> {
+    let l = norm(a);
+    (l > 0.0 && l.is_finite()).then(|| a.map(|c| c / l))
+}
+
 /// Cross product `a × b`.
 pub fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
     [

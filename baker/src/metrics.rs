@@ -354,6 +354,10 @@ impl Regions {
             .map(|t| t.map(|v| weld[v as usize]))
             .collect();
         let topology = Topology::new(&welded, &welded_triangles);
+        // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
+        let frame =
+            crate::surface::frame::FaceFrame::from_openings(&find_openings(&topology, &welded));
+        let welded = frame.points(&welded);
         let openings = find_openings(&topology, &welded);
         let (mouth, eyes) = mouth_and_eyes(&openings);
         let to_input = |pairs: Vec<[u32; 2]>| -> RimPairs {

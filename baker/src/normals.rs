@@ -147,7 +147,7 @@ pub fn bake(mesh: &FaceMesh) -> Result<NormalsBytes, NormalsError> {
         } else {
             mesh.normals
                 .as_ref()
-                .and_then(|ns| unit(ns[v]))
+                .and_then(|ns| crate::mesh::unit(&ns[v]))
                 .unwrap_or([0.0, 0.0, 1.0])
         };
         for c in n {
@@ -199,11 +199,6 @@ pub fn angle_degrees(a: [f64; 3], b: [f64; 3]) -> f64 {
         return 0.0;
     }
     norm(&cross(&a, &b)).atan2(dot(&a, &b)).to_degrees()
-}
-
-fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
-    let len = norm(&v);
-    (len > 0.0 && len.is_finite()).then(|| v.map(|c| c / len))
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@
 use facebake::geodesic::Source;
 use facebake::mesh::distance;
 use facebake::stages::geodesic_retarget::{CharacterSurface, GeodesicRetarget};
-use facebake::stages::retarget::{Proportional, RetargetMap};
+use facebake::stages::retarget::{Proportional, RetargetMap, FILE_AXES};
 use facebake_tests::{facecap_truth, FACECAP_MARKERS, FACECAP_STATIC_MARKERS};
 
 /// The character's warp, in head units about the mesh's bounding-box centre (x̂ = (x − c)/h, h
@@ -109,7 +109,7 @@ fn geodesic_retargeting_onto_a_warped_facecap() {
             .map(|&v| Source::Vertex(mesh.weld[v as usize]))
             .collect(),
     };
-    let proportional = Proportional::new(&actor, &character).expect("proportional");
+    let proportional = Proportional::new(&actor, &character, &FILE_AXES).expect("proportional");
     let rbf = RetargetMap::new(&actor, &character).expect("RBF map");
     let geodesic_map = GeodesicRetarget::new(&actor, &character, &surface).expect("geodesic");
     let geodesic = geodesic_map.proportional(&character);

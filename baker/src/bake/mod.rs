@@ -82,7 +82,12 @@ impl<'a> Scene<'a> {
     /// ([`crate::surface::masks::groups_from_openings`]), as a bake with masks and no groups
     /// uses.
     pub fn with_groups_from_openings(&self) -> Result<Self, SurfaceError> {
-        let groups = crate::surface::masks::groups_from_openings(self.mesh, &self.marker_rest())?;
+        // In the face's own axes: "above" and "below" the openings are the face's.
+        let frame = crate::surface::frame::FaceFrame::of(self.mesh);
+        let groups = crate::surface::masks::groups_from_openings(
+            &frame.mesh(self.mesh),
+            &frame.points(&self.marker_rest()),
+        )?;
         Ok(Self {
             mesh: self.mesh,
             markers: self.markers.clone(),
@@ -306,6 +311,9 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             let mut config = options.stages.clone();
             config.marker_distances.get_or_insert(distances);
             config.head_candidates.get_or_insert(skull);
+            config
+                .face_axes
+                .get_or_insert_with(|| crate::surface::frame::FaceFrame::of(scene.mesh).axes());
             if config.retarget == crate::stages::RetargetKind::Geodesic {
                 config.character_surface.get_or_insert_with(|| {
                     crate::stages::geodesic_retarget::CharacterSurface {
@@ -414,6 +422,10 @@ fn planar_anchor(
     factor: f64,
     head_fit: bool,
 ) -> Option<([usize; 3], Vec<f64>)> {
+    // In the face's own axes: "above the mouth" is the face's.
+    let frame = crate::surface::frame::FaceFrame::of(mesh);
+    let (local_mesh, local_rest) = (frame.mesh(mesh), frame.points(rest));
+    let (mesh, rest) = (&local_mesh, local_rest.as_slice());
     let openings = crate::placement::face_openings(mesh).ok()?;
     let rims: Vec<Vec<[f64; 3]>> = openings
         .iter()

@@ -137,6 +137,10 @@ pub struct StagesConfig {
     /// [`RetargetKind::Geodesic`] (positions in asset units); [`crate::bake()`] fills it from
     /// the scene when that retargeting is asked for.
     pub character_surface: Option<CharacterSurface>,
+    /// The character face's own axes (rows right, up, front), for
+    /// [`RetargetKind::Proportional`]'s per-axis scales; [`crate::bake()`] fills them from the
+    /// mesh's openings (`surface::frame::FaceFrame`); `None`: the file's axes.
+    pub face_axes: Option<[[f64; 3]; 3]>,
 }
 
 impl Default for StagesConfig {
@@ -155,6 +159,7 @@ impl Default for StagesConfig {
             smoothing: Some(temporal::SmoothingConfig::default()),
             head_smoothing: HeadSmoothing::Auto(temporal::SmoothingConfig::HEAD),
             character_surface: None,
+            face_axes: None,
         }
     }
 }
@@ -567,7 +572,11 @@ pub fn bake_stages(
     let mut geodesic_condition = None;
     let proportional = match config.retarget {
         RetargetKind::Rbf => None,
-        RetargetKind::Proportional => Some(Proportional::new(&neutral, &character_rig)?),
+        RetargetKind::Proportional => Some(Proportional::new(
+            &neutral,
+            &character_rig,
+            &config.face_axes.unwrap_or(retarget::FILE_AXES),
+        )?),
         RetargetKind::Geodesic => {
             let surface = config
                 .character_surface

@@ -59,6 +59,9 @@ impl RetargetMap {
     }
 }
 
+/// The file's own axes, as rows: an upright face's.
+pub const FILE_AXES: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
 /// Paper 003 §4's proportional retargeting, in f64: `v_j + M_j d_j`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Proportional {
@@ -66,17 +69,24 @@ pub struct Proportional {
     pub matrices: Vec<[[f64; 3]; 3]>,
     /// Per marker, v_j (character rig units).
     pub rest: Vec<[f64; 3]>,
-    /// Per-axis scales of the upper face (character y at or above the markers' median) and of
-    /// the lower face.
+    /// Per-axis scales of the upper face (character markers at or above their median height)
+    /// and of the lower face, along the character face's own axes (right, up, front).
     pub scales: [[f64; 3]; 2],
 }
 
 impl Proportional {
     /// Build it from the actor's neutral markers (actor units) and the character's (rig units):
     /// the rotation between the faces (Kabsch on the centred marker sets), then per region and
-    /// axis the ratio of the character's marker extent to the turned actor's. The regions split
-    /// at the median height (y, glTF's up axis) of the character's markers.
-    pub fn new(neutral: &[[f64; 3]], character: &[[f64; 3]]) -> Result<Self, StagesError> {
+    /// axis the ratio of the character's marker extent to the turned actor's, both read in the
+    /// character face's own axes (`face`: rows right, up, front in the file's coordinates, as
+    /// `surface::frame::FaceFrame::axes` finds them from the mesh; [`FILE_AXES`] for an upright
+    /// face), so a head rolled or pitched in its file scales its width as a width. The regions
+    /// split at the median height of the character's markers along the face's up.
+    pub fn new(
+        neutral: &[[f64; 3]],
+        character: &[[f64; 3]],
+        face: &[[f64; 3]; 3],
+    ) -> Result<Self, StagesError> {
         let fit = kabsch(neutral, character)?;
         let r = fit.rotation;
         let mean = |p: &[[f64; 3]]| {
@@ -91,10 +101,17 @@ impl Proportional {
                 [w.x, w.y, w.z]
             })
             .collect();
-        let mut heights: Vec<f64> = character.iter().map(|v| v[1]).collect();
+        let local = |points: &[[f64; 3]]| -> Vec<[f64; 3]> {
+            points
+                .iter()
+                .map(|p| face.map(|axis| crate::mesh::dot(&axis, p)))
+                .collect()
+        };
+        let (local_character, local_turned) = (local(character), local(&turned));
+        let mut heights: Vec<f64> = local_character.iter().map(|v| v[1]).collect();
         heights.sort_by(f64::total_cmp);
         let median = heights[heights.len() / 2];
-        let upper = |j: usize| character[j][1] >= median;
+        let upper = |j: usize| local_character[j][1] >= median;
         let extent = |pts: &mut dyn Iterator<Item = f64>| {
             let (lo, hi) = pts.fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)));
             hi - lo
@@ -108,8 +125,16 @@ impl Proportional {
         };
         let scales = [true, false].map(|up| {
             [0, 1, 2].map(|c| {
-                let ev = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| character[j][c]));
-                let ew = extent(&mut (0..n).filter(|&j| upper(j) == up).map(|j| turned[j][c]));
+                let ev = extent(
+                    &mut (0..n)
+                        .filter(|&j| upper(j) == up)
+                        .map(|j| local_character[j][c]),
+                );
+                let ew = extent(
+                    &mut (0..n)
+                        .filter(|&j| upper(j) == up)
+                        .map(|j| local_turned[j][c]),
+                );
                 if ew > 1e-9 && ev > 1e-9 {
                     ev / ew
                 } else {
@@ -117,10 +142,19 @@ impl Proportional {
                 }
             })
         });
+        // M_j = Fᵀ · diag(s) · F · R, with F the face's axes (rows); F = I gives diag(s) · R.
+        let f = face;
         let matrices = (0..n)
             .map(|j| {
                 let s = scales[usize::from(!upper(j))];
-                [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]))
+                if *face == FILE_AXES {
+                    return [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]));
+                }
+                let fr = [0, 1, 2]
+                    .map(|a| [0, 1, 2].map(|c| (0..3).map(|b| f[a][b] * r[(b, c)]).sum::<f64>()));
+                [0, 1, 2].map(|row| {
+                    [0, 1, 2].map(|c| (0..3).map(|a| f[a][row] * s[a] * fr[a][c]).sum::<f64>())
+                })
             })
             .collect();
         Ok(Self {

@@ -22,6 +22,7 @@ pub mod anchoring;
 pub mod corners;
 pub mod distances;
 pub mod evaluate;
+pub mod frame;
 pub mod geometry;
 pub mod masks;
 pub mod openings;
@@ -228,6 +229,8 @@ pub fn mask_sides(
     input: &SurfaceInput<'_>,
     config: &SurfaceOptions,
 ) -> Result<Vec<masks::MaskSides>, SurfaceError> {
+    let local = LocalInput::of(input);
+    let input = &local.input();
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
     let geometry = SurfaceGeometry::new(input.mesh, &sources, config.geodesic)?;
@@ -277,6 +280,11 @@ pub(crate) fn dense_weights(
     space: &facebake_runtime::Space,
 ) -> Result<SurfaceBake, SurfaceError> {
     let config = options;
+    // The bake's directional rules read the face in its own axes (`frame`); the rig's affine
+    // part and the runtime keep the file's (`world`).
+    let world = input;
+    let local = LocalInput::of(world);
+    let input = &local.input();
     let mesh = input.mesh;
     let n = input.markers.len();
     let masked = config.masks && !input.groups.is_empty();
@@ -333,11 +341,13 @@ pub(crate) fn dense_weights(
     }
     // Rig units, where the runtime evaluates.
     let h = f64::from(space.half_extent);
-    let centres: Vec<[f64; 3]> = rest
+    let centres: Vec<[f64; 3]> = world
+        .markers
         .iter()
-        .map(|p| crate::space::to_rig_units(space, p))
+        .map(|m| crate::space::to_rig_units(space, &m.rest))
         .collect();
-    let points: Vec<[f64; 3]> = mesh
+    let points: Vec<[f64; 3]> = world
+        .mesh
         .positions
         .iter()
         .map(|p| crate::space::to_rig_units(space, p))
@@ -572,6 +582,42 @@ pub(crate) fn dense_weights(
     })
 }
 
+/// A bake's input read in the face's own axes ([`frame::FaceFrame`]); the input itself where
+/// those are the file's.
+struct LocalInput<'a> {
+    world: &'a SurfaceInput<'a>,
+    local: Option<(FaceMesh, Vec<SurfaceMarker>)>,
+}
+
+impl<'a> LocalInput<'a> {
+    fn of(world: &'a SurfaceInput<'a>) -> Self {
+        let frame = frame::FaceFrame::of(world.mesh);
+        let local = (frame != frame::FaceFrame::FILE).then(|| {
+            let markers = world
+                .markers
+                .iter()
+                .map(|m| SurfaceMarker {
+                    rest: frame.local(&m.rest),
+                    ..m.clone()
+                })
+                .collect();
+            (frame.mesh(world.mesh), markers)
+        });
+        Self { world, local }
+    }
+
+    fn input(&self) -> SurfaceInput<'_> {
+        match &self.local {
+            Some((mesh, markers)) => SurfaceInput {
+                mesh,
+                markers,
+                ..*self.world
+            },
+            None => SurfaceInput { ..*self.world },
+        }
+    }
+}
+
 /// What the capture stages need from the skin for any deformer: the markers' distances to each
 /// other along the skin (asset units, symmetric; straight-line where no path joins them) and
 /// the skull markers ([`anchoring::skull_markers`]).
@@ -579,6 +625,8 @@ pub(crate) fn skin_markers(
     input: &SurfaceInput<'_>,
     options: &SurfaceOptions,
 ) -> Result<(Vec<Vec<f64>>, Vec<usize>), SurfaceError> {
+    let local = LocalInput::of(input);
+    let input = &local.input();
     let rest: Vec<[f64; 3]> = input.markers.iter().map(|m| m.rest).collect();
     let sources: Vec<Source> = input.markers.iter().map(|m| m.source).collect();
     let geometry = SurfaceGeometry::new(input.mesh, &sources, options.geodesic)?;
