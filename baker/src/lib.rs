@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod model;
 pub mod morph_basis;
 pub mod normals;
+pub mod openings;
 mod options;
 pub mod pivot;
 pub mod placement;

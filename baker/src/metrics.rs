@@ -35,7 +35,7 @@
 
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
 use crate::model::{weld_positions, FaceMesh};
-use crate::surface::openings::{find_openings, Opening};
+use crate::openings::{find_openings, Opening};
 
 /// Openings with fewer rim vertices are not mouth or eyes.
 pub const MIN_OPENING_VERTICES: usize = 6;

@@ -139,23 +139,18 @@ pub const FEATURE_MARKERS: [(&str, Feature, bool, f64); 10] = [
 /// opening's width: on the lip's or lid's visible surface, clear of the rim.
 pub const FEATURE_OFFSET: f64 = 0.1;
 
-/// The mouth and eye openings of a face mesh's skin, as boundary loops of welded vertices
-/// (the skin's loops, longest first, are the neck cut, the mouth and the two eyes).
+/// The mouth and eye openings of a face mesh's skin (`surface::openings`: its boundary loops
+/// less the cut, the eyes the two most alike), as loops of welded vertices: mouth, left eye
+/// (larger x), right eye.
 pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {
     let topo = mesh.welded_topology();
-    let loops = topo.loops_of(0);
-    let [_, lips, eye_a, eye_b] = loops.as_slice() else {
+    let openings = crate::openings::find_openings(&topo, &mesh.welded_positions);
+    let Some((lips, [right, left])) = crate::openings::mouth_and_eyes(&openings) else {
         return Err(PlacementError::Mesh(format!(
-            "{}: the skin has {} boundary loops; placing lip and eyelid markers needs 4 (neck, lips, two eyes)",
+            "{}: the skin has {} openings; placing lip and eyelid markers needs 3 (lips, two eyes)",
             mesh.source.display(),
-            loops.len()
+            openings.len()
         )));
-    };
-    let x = |l: &crate::mesh::BoundaryLoop| mesh.welded_positions[l.vertices[0] as usize][0];
-    let (left, right) = if x(eye_a) > x(eye_b) {
-        (eye_a, eye_b)
-    } else {
-        (eye_b, eye_a)
     };
     Ok([
         lips.vertices.clone(),

@@ -43,9 +43,9 @@
 //! the opening's width. An opening without a marker at a corner is left as it is there.
 
 use crate::mesh::x_extremes;
+use crate::openings::Opening;
 use crate::surface::anchoring::smoothstep;
 use crate::surface::geometry::SurfaceGeometry;
-use crate::surface::openings::Opening;
 
 /// A corner's marker is at most this fraction of the opening's width from the rim's end.
 pub const CORNER_REACH: f64 = 0.2;

@@ -2,10 +2,9 @@
 //! ("above the mouth", "the mouth's corners across the face", "the upper lip") means the same on
 //! a head that is tilted, turned or rolled in its file as on one that faces +Z with +Y up.
 //!
-//! The eyes are the two of the three largest openings whose rims are most alike in length, the
-//! mouth the third. `right` runs from one eye to the other (the one at smaller x first, so an
-//! upright face keeps its x): a roll or a turn of the head in its file is read from the eyes
-//! exactly. `up` is square to it. How far the head is pitched needs an anatomical reference:
+//! The eyes and the mouth are those of [`crate::openings::mouth_and_eyes`]. `right` runs from
+//! one eye to the other (the one at smaller x first, so an upright face keeps its x): a roll or
+//! a turn of the head in its file is read from the eyes exactly. `up` is square to it. How far the head is pitched needs an anatomical reference:
 //! the line from the mouth's centre to the midpoint of the eyes leans back from the vertical by
 //! [`PROFILE_LEAN`] (the mouth sits in front of the eyes' openings; FaceCap's measure). Faces
 //! differ in this by a few degrees, so the file's own pitch (square to `right`, nearest +Y) is
@@ -20,7 +19,7 @@
 use crate::mesh::{cross, dot, sub, unit};
 use crate::model::FaceMesh;
 
-use super::openings::{find_openings, Opening};
+use crate::openings::{find_openings, mouth_and_eyes, Opening};
 
 /// The smallest cosine between the face's `up` and the file's +Y that is taken as the face's
 /// (60°): beyond it the openings are not read as eyes above a mouth.
@@ -56,19 +55,9 @@ impl FaceFrame {
 
     /// The frame of these openings (see the module docs), else [`Self::FILE`].
     pub fn from_openings(openings: &[Opening]) -> Self {
-        let mut largest: Vec<&Opening> = openings.iter().collect();
-        largest.sort_by(|a, b| b.length.total_cmp(&a.length));
-        let [a, b, c] = match largest.as_slice() {
-            [a, b, c, ..] => [*a, *b, *c],
-            _ => return Self::FILE,
+        let Some((mouth, eyes)) = mouth_and_eyes(openings) else {
+            return Self::FILE;
         };
-        let unlike =
-            |p: &Opening, q: &Opening| (p.length - q.length).abs() / p.length.max(q.length);
-        let (mouth, mut eyes) = [(a, [b, c]), (b, [a, c]), (c, [a, b])]
-            .into_iter()
-            .min_by(|x, y| unlike(x.1[0], x.1[1]).total_cmp(&unlike(y.1[0], y.1[1])))
-            .expect("three candidates");
-        eyes.sort_by(|p, q| p.centre[0].total_cmp(&q.centre[0]));
         let middle = [0, 1, 2].map(|i| 0.5 * (eyes[0].centre[i] + eyes[1].centre[i]));
         let Some(right) = unit(&sub(&eyes[1].centre, &eyes[0].centre)) else {
             return Self::FILE;

@@ -4,7 +4,7 @@
 use crate::geodesic::{GeodesicError, GeodesicMethod, Geodesics, Source};
 use crate::model::FaceMesh;
 
-use super::openings::{find_openings, Opening};
+use crate::openings::{find_openings, Opening};
 
 /// Geodesic measurements on a face mesh for a set of markers.
 pub struct SurfaceGeometry {

@@ -25,7 +25,6 @@ pub mod evaluate;
 pub mod frame;
 pub mod geometry;
 pub mod masks;
-pub mod openings;
 pub mod pbw;
 
 use nalgebra::DMatrix;

@@ -1,0 +1,128 @@
+//! The openings of a face mesh (mouth, eyes): the boundary loops of its largest piece, less the
+//! loop where the mesh is cut off (the neck of a head, the rim of a mask), if it has one: the
+//! longest loop, when it is at least half the mesh's bounding-box diagonal or
+//! [`CUT_RATIO`] × the next longest. A head closed at the neck has no such loop, and its mouth
+//! (FaceCap's: 108 mm of rim against a 555 mm neck and a diagonal of about 410 mm) stays an
+//! opening.
+
+use crate::mesh::{centroid, distance, Topology};
+
+/// How many times longer than the next loop the longest must be to be taken as the mesh's cut
+/// when it is shorter than half the diagonal (a small mesh's rim).
+pub const CUT_RATIO: f64 = 2.5;
+
+/// A hole in the skin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Opening {
+    /// Its boundary loop, welded vertex ids.
+    pub vertices: Vec<u32>,
+    /// Mean position of the loop's vertices.
+    pub centre: [f64; 3],
+    /// Length of the loop.
+    pub length: f64,
+}
+
+/// The openings of the largest piece of a welded mesh, longest first.
+pub fn find_openings(topology: &Topology, welded_positions: &[[f64; 3]]) -> Vec<Opening> {
+    let mut loops: Vec<_> = topology
+        .boundary_loops
+        .iter()
+        .filter(|l| l.component == 0 && l.closed)
+        .collect();
+    loops.sort_by(|a, b| b.length.total_cmp(&a.length));
+    let diagonal = {
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in welded_positions {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        if welded_positions.is_empty() {
+            0.0
+        } else {
+            distance(&lo, &hi)
+        }
+    };
+    let cut = match loops.as_slice() {
+        [longest, next, ..] => {
+            longest.length >= 0.5 * diagonal || longest.length >= CUT_RATIO * next.length
+        }
+        [_] => true,
+        [] => false,
+    };
+    loops
+        .into_iter()
+        .skip(usize::from(cut))
+        .map(|l| Opening {
+            vertices: l.vertices.clone(),
+            centre: centroid(welded_positions, &l.vertices),
+            length: l.length,
+        })
+        .collect()
+}
+
+/// The mouth and the two eyes among `openings`: of the three longest, the eyes are the two
+/// whose rims are most alike in length and the mouth is the third; eyes in order of x. `None`
+/// with fewer than three openings.
+pub fn mouth_and_eyes(openings: &[Opening]) -> Option<(&Opening, [&Opening; 2])> {
+    let mut largest: Vec<&Opening> = openings.iter().collect();
+    largest.sort_by(|a, b| b.length.total_cmp(&a.length));
+    let [a, b, c] = match largest.as_slice() {
+        [a, b, c, ..] => [*a, *b, *c],
+        _ => return None,
+    };
+    let unlike = |p: &Opening, q: &Opening| (p.length - q.length).abs() / p.length.max(q.length);
+    let (mouth, mut eyes) = [(a, [b, c]), (b, [a, c]), (c, [a, b])]
+        .into_iter()
+        .min_by(|x, y| unlike(x.1[0], x.1[1]).total_cmp(&unlike(y.1[0], y.1[1])))?;
+    eyes.sort_by(|p, q| p.centre[0].total_cmp(&q.centre[0]));
+    Some((mouth, eyes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tube_with_a_hole_has_one_opening() {
+        // A square annulus: outer rim 4 × 4 (the cut), inner hole 2 × 2 (the opening).
+        let mut p = Vec::new();
+        for &(x, y) in &[(-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)] {
+            p.push([x, y, 0.0]);
+        }
+        for &(x, y) in &[(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            p.push([x, y, 0.0]);
+        }
+        let mut t = Vec::new();
+        for i in 0..4u32 {
+            let j = (i + 1) % 4;
+            t.push([i, j, 4 + j]);
+            t.push([i, 4 + j, 4 + i]);
+        }
+        let topo = Topology::new(&p, &t);
+        let o = find_openings(&topo, &p);
+        assert_eq!(o.len(), 1);
+        assert!((o[0].length - 8.0).abs() < 1e-12);
+        assert!(o[0].centre.iter().all(|c| c.abs() < 1e-12));
+    }
+
+    #[test]
+    fn the_eyes_are_the_two_most_alike_and_the_mouth_the_third() {
+        let opening = |x: f64, length: f64| Opening {
+            vertices: Vec::new(),
+            centre: [x, 0.0, 0.0],
+            length,
+        };
+        let openings = [
+            opening(0.03, 0.069),
+            opening(0.0, 0.108),
+            opening(-0.03, 0.07),
+            opening(0.0, 0.02),
+        ];
+        let (mouth, [right, left]) = mouth_and_eyes(&openings).expect("three openings");
+        assert_eq!(mouth.length, 0.108);
+        assert_eq!((right.centre[0], left.centre[0]), (-0.03, 0.03));
+        assert!(mouth_and_eyes(&openings[..2]).is_none());
+    }
+}
