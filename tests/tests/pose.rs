@@ -115,7 +115,19 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
     let placed =
         facebake::model::place_markers(&pose.layout(&layout()), &truth.mesh, snap).expect("placed");
     let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene");
-    let blob = bake_scene(&scene, &BakeOptions::for_method(Method::Geodesic, false)).blob;
+    let baked = bake_scene(&scene, &BakeOptions::for_method(Method::Geodesic, false));
+    // The bake says how far it found the face turned in its file: the pose's own turn.
+    let turn = baked
+        .report
+        .surface
+        .as_ref()
+        .expect("figures")
+        .face_turn_degrees;
+    assert!(
+        (turn - pose.angle.abs().to_degrees()).abs() < 0.5,
+        "{turn}°"
+    );
+    let blob = baked.blob;
     let back = |frame: Vec<[f64; 3]>| -> Vec<[f64; 3]> {
         frame
             .into_iter()

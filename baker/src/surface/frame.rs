@@ -124,6 +124,13 @@ impl FaceFrame {
         }
     }
 
+    /// How far the face's axes are turned from the file's, in degrees (the angle of the
+    /// rotation between them).
+    pub fn turn_degrees(&self) -> f64 {
+        let trace = self.axes[0][0] + self.axes[1][1] + self.axes[2][2];
+        (0.5 * (trace - 1.0)).clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
     /// How far the face's `up` leans from the file's +Y, in degrees.
     pub fn tilt_degrees(&self) -> f64 {
         self.axes[1][1].clamp(-1.0, 1.0).acos().to_degrees()
@@ -165,6 +172,8 @@ mod tests {
         }
         let rolled = FaceFrame::from_openings(&face(0.3));
         assert!((rolled.tilt_degrees() - 0.3f64.to_degrees()).abs() < 1e-9);
+        assert!((rolled.turn_degrees() - 0.3f64.to_degrees()).abs() < 1e-6);
+        assert_eq!(upright.turn_degrees(), 0.0);
         // Pitched by 5° the file's vertical is kept; by 20°, the features' is taken.
         let pitched = |degrees: f64| {
             let (s, c) = degrees.to_radians().sin_cos();

@@ -120,6 +120,9 @@ pub struct SurfaceFigures {
     pub geodesic_asymmetry: f64,
     /// Openings found on the skin.
     pub openings: usize,
+    /// How far the face's own axes (read from its eyes and mouth, [`frame::FaceFrame`]) are
+    /// turned from the file's, in degrees; the bake's directional rules use the face's.
+    pub face_turn_degrees: f64,
     /// glTF vertices no marker reaches along the surface (Euclidean distances used).
     pub unreachable_vertices: usize,
     /// Vertices a mask touched.
@@ -554,6 +557,7 @@ pub(crate) fn dense_weights(
         ridge,
         geodesic_asymmetry: geometry.asymmetry(),
         openings: geometry.openings.len(),
+        face_turn_degrees: local.frame.turn_degrees(),
         unreachable_vertices: d.fallback.len(),
         masked_vertices,
         masks: if masked {
@@ -585,6 +589,7 @@ pub(crate) fn dense_weights(
 /// those are the file's.
 struct LocalInput<'a> {
     world: &'a SurfaceInput<'a>,
+    frame: frame::FaceFrame,
     local: Option<(FaceMesh, Vec<SurfaceMarker>)>,
 }
 
@@ -602,7 +607,11 @@ impl<'a> LocalInput<'a> {
                 .collect();
             (frame.mesh(world.mesh), markers)
         });
-        Self { world, local }
+        Self {
+            world,
+            frame,
+            local,
+        }
     }
 
     fn input(&self) -> SurfaceInput<'_> {

@@ -595,6 +595,13 @@ fn print_text(s: &BakeSummary) {
             f.ridge,
             100.0 * f.geodesic_asymmetry
         );
+        if f.face_turn_degrees > 0.05 {
+            outln!(
+                out,
+                "  face axes     turned {:.1}° from the file's (read from the eyes and the mouth); above, below and across are the face's",
+                f.face_turn_degrees
+            );
+        }
         outln!(
             out,
             "  masks         {}; vertices masked: {}",
