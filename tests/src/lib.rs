@@ -26,13 +26,21 @@ pub fn facecap_truth() -> GroundTruth {
     GroundTruth::new(mesh, FACECAP_MARKERS, FACECAP_STATIC_MARKERS).expect("ground truth builds")
 }
 
-/// The FaceCap ground truth on its head subdivided once (every triangle into four at its edges'
-/// midpoints, the morph targets' deltas averaged there too): a denser face of the same shape
-/// and the same expressions, 10,406 vertices with edges half as long. The original vertices
-/// keep their ids, so the truth's markers sit where they did.
-pub fn facecap_truth_subdivided() -> GroundTruth {
+/// The FaceCap ground truth on its head subdivided `times` times (every triangle into four at
+/// its edges' midpoints, the morph targets' deltas averaged there too): a denser face of the
+/// same shape and the same expressions (once: 10,406 vertices, edges half as long; twice:
+/// 40,926). The original vertices keep their ids, so the truth's markers sit where they did.
+pub fn facecap_truth_subdivided(times: usize) -> GroundTruth {
     let mut mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
         .expect("FaceCap head loads");
+    for _ in 0..times {
+        mesh = subdivided(mesh);
+    }
+    GroundTruth::new(mesh, FACECAP_MARKERS, FACECAP_STATIC_MARKERS).expect("ground truth builds")
+}
+
+/// `mesh` with every triangle cut into four at its edges' midpoints, morph targets included.
+fn subdivided(mut mesh: facebake::model::FaceMesh) -> facebake::model::FaceMesh {
     let mut positions = mesh.positions.clone();
     let mut deltas: Vec<Vec<[f64; 3]>> = mesh
         .morph_targets
@@ -62,7 +70,7 @@ pub fn facecap_truth_subdivided() -> GroundTruth {
     }
     dense.morph_targets = mesh.morph_targets;
     dense.source = mesh.source;
-    GroundTruth::new(dense, FACECAP_MARKERS, FACECAP_STATIC_MARKERS).expect("ground truth builds")
+    dense
 }
 
 /// The ground truth's markers, at their vertices, stiffness 1.
