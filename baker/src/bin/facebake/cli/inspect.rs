@@ -351,7 +351,7 @@ fn print_text(s: &InspectSummary) {
     );
     outln!(
         out,
-        "  counts        {} vertices, {} markers, K = {}, {} influences ({:.2} per vertex)",
+        "  counts        {} vertices, {} markers, at most {} influences a vertex (K), {} influences ({:.2} per vertex)",
         s.vertices,
         s.markers,
         s.k,
