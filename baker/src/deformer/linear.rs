@@ -209,12 +209,13 @@ impl PairTable {
 pub const VERTICAL: u8 = 0b010;
 
 /// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise. A vertex
-/// with `vertical` weights (on markers' vertical axes alone, summing to zero; empty for most:
-/// the mouth's corners) keeps its K markers and takes those weights besides, on derived
-/// markers, one per source marker, after the markers (the covariance's order). Keeping fewer
-/// markers there (K less the derived ones, as until 2026-11-28) changed the kept set where the
-/// corrections begin, a seam that on FaceCap subdivided twice (41k vertices) stretched edges
-/// below the mouth's corners 2.72× (2.37× without it).
+/// with `vertical` weights (on markers' vertical axes alone, summing to zero; empty for most)
+/// keeps K less their count on the markers and takes them on derived markers, one per source
+/// marker, after the markers (the covariance's order). Every vertex then has K influences, the
+/// uniform count the Cortex-M4's unrolled kernel needs; keeping all K markers besides the
+/// derived ones would take away the seam where the corrections begin (FaceCap subdivided
+/// twice: 2.72× → 2.37× at the mouth's corners) at 60 % more instructions on the M4
+/// (docs/measurements.md).
 pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
     vertical: &[Vec<(usize, f64)>],
@@ -239,7 +240,8 @@ pub(crate) fn bake(
         .enumerate()
         .map(|(v, dense)| {
             let extra = vertical.get(v).map_or(&[][..], Vec::as_slice);
-            let mut row = sparsify::sparsify_row(&dense, k, refit, Some(covariance));
+            let keep = k.saturating_sub(extra.len()).max(1);
+            let mut row = sparsify::sparsify_row(&dense, keep, refit, Some(covariance));
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
             row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w)));
