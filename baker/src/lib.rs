@@ -8,6 +8,7 @@ pub mod bake;
 pub mod blob;
 pub mod deformer;
 pub mod demo;
+pub mod frame;
 pub mod geodesic;
 pub mod ground_truth;
 pub mod io;

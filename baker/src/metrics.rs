@@ -355,10 +355,16 @@ impl Regions {
             .collect();
         let topology = Topology::new(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
-        let frame =
-            crate::surface::frame::FaceFrame::from_openings(&find_openings(&topology, &welded));
-        let welded = frame.points(&welded);
         let openings = find_openings(&topology, &welded);
+        let frame = crate::frame::FaceFrame::from_openings(&openings);
+        let welded = frame.points(&welded);
+        let openings: Vec<Opening> = openings
+            .into_iter()
+            .map(|o| Opening {
+                centre: frame.local(&o.centre),
+                ..o
+            })
+            .collect();
         let (mouth, eyes) = mouth_and_eyes(&openings);
         let to_input = |pairs: Vec<[u32; 2]>| -> RimPairs {
             pairs

@@ -30,20 +30,8 @@ pub fn find_openings(topology: &Topology, welded_positions: &[[f64; 3]]) -> Vec<
         .filter(|l| l.component == 0 && l.closed)
         .collect();
     loops.sort_by(|a, b| b.length.total_cmp(&a.length));
-    let diagonal = {
-        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-        for p in welded_positions {
-            for c in 0..3 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
-        if welded_positions.is_empty() {
-            0.0
-        } else {
-            distance(&lo, &hi)
-        }
-    };
+    let (lo, hi) = crate::model::bounds(welded_positions.iter().copied());
+    let diagonal = distance(&lo, &hi);
     let cut = match loops.as_slice() {
         [longest, next, ..] => {
             longest.length >= 0.5 * diagonal || longest.length >= CUT_RATIO * next.length

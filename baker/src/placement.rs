@@ -139,7 +139,7 @@ pub const FEATURE_MARKERS: [(&str, Feature, bool, f64); 10] = [
 /// opening's width: on the lip's or lid's visible surface, clear of the rim.
 pub const FEATURE_OFFSET: f64 = 0.1;
 
-/// The mouth and eye openings of a face mesh's skin (`surface::openings`: its boundary loops
+/// The mouth and eye openings of a face mesh's skin ([`crate::openings`]: its boundary loops
 /// less the cut, the eyes the two most alike), as loops of welded vertices: mouth, left eye
 /// (larger x), right eye.
 pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {

@@ -72,6 +72,18 @@ fn bake(mesh: &Path, layout: &Path, rig: &Path, extra: &[&str]) -> Output {
     facebake(&args)
 }
 
+/// The blob `bake` writes to `rig` for the FaceCap head and `layout` with `extra` options,
+/// failing the test if the bake does.
+fn baked_rig(rig: &Path, layout: &Path, extra: &[&str]) -> Vec<u8> {
+    let out = bake(&mesh_path(), layout, rig, extra);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::read(rig).unwrap()
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 temp paths")
 }
@@ -1152,16 +1164,7 @@ fn pack_writes_a_take_that_plays_like_its_decoded_capture() {
 fn rim_across_changes_the_rig_and_takes_only_fractions() {
     let dir = temp_dir("rim_across");
     let layout = fixture("facecap_jawmocap_layout.toml");
-    let baked = |name: &str, extra: &[&str]| {
-        let rig = dir.join(name);
-        let out = bake(&mesh_path(), &layout, &rig, extra);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        std::fs::read(rig).unwrap()
-    };
+    let baked = |name: &str, extra: &[&str]| baked_rig(&dir.join(name), &layout, extra);
     let default = baked("default.fbk", &[]);
     assert_eq!(default, baked("fifth.fbk", &["--rim-across", "0.2"]));
     assert_ne!(default, baked("full.fbk", &["--rim-across", "1"]));
@@ -1181,16 +1184,7 @@ fn rim_across_changes_the_rig_and_takes_only_fractions() {
 fn the_default_shrinks_the_kept_weights() {
     let dir = temp_dir("refit");
     let layout = fixture("facecap_jawmocap_layout.toml");
-    let baked = |name: &str, extra: &[&str]| {
-        let rig = dir.join(name);
-        let out = bake(&mesh_path(), &layout, &rig, extra);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        std::fs::read(rig).unwrap()
-    };
+    let baked = |name: &str, extra: &[&str]| baked_rig(&dir.join(name), &layout, extra);
     let default = baked("default.fbk", &[]);
     assert_eq!(default, baked("shrink.fbk", &["--refit", "shrink"]));
     assert_ne!(default, baked("prior.fbk", &["--refit", "prior"]));

@@ -4,7 +4,7 @@
 //! ground-truth sequence and for JawMoCap through the capture stages. What the bake decides by
 //! direction (the skin above the mouth that follows the skull, the upper and lower lips, the
 //! mouth's corners, the regions of proportional retargeting) reads the face in its own axes,
-//! found from its openings (`surface::frame::FaceFrame`).
+//! found from its openings (`frame::FaceFrame`).
 //!
 //! Measured 2026-11-28 against the upright head (static drift 0.34 mm on the truth, 0.37 mm on
 //! JawMoCap): before the face's own axes, the truth's static skin moved 4.5 mm with the head
@@ -187,7 +187,7 @@ fn closed_at_the_neck(mesh: &FaceMesh) -> FaceMesh {
 }
 
 /// A head closed at the neck has no loop where it is cut off: its longest loop is its mouth,
-/// which must stay an opening (`surface::openings`). Measured 2026-11-28: before, the mouth was
+/// which must stay an opening (`openings`). Measured 2026-11-28: before, the mouth was
 /// taken for the cut, the lips moved together and the skull with them (static drift 16.5 mm,
 /// lips 12.6 mm); now as the open head (0.34 mm, 6.7 mm).
 #[test]

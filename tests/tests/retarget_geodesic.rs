@@ -12,10 +12,11 @@
 //! `cargo test --release -p facebake-tests --test retarget_geodesic -- --nocapture` prints the
 //! figures.
 
+use facebake::frame::FaceFrame;
 use facebake::geodesic::Source;
 use facebake::mesh::distance;
 use facebake::stages::geodesic_retarget::{CharacterSurface, GeodesicRetarget};
-use facebake::stages::retarget::{Proportional, RetargetMap, FILE_AXES};
+use facebake::stages::retarget::{Proportional, RetargetMap};
 use facebake_tests::{facecap_truth, FACECAP_MARKERS, FACECAP_STATIC_MARKERS};
 
 /// The character's warp, in head units about the mesh's bounding-box centre (x̂ = (x − c)/h, h
@@ -109,7 +110,8 @@ fn geodesic_retargeting_onto_a_warped_facecap() {
             .map(|&v| Source::Vertex(mesh.weld[v as usize]))
             .collect(),
     };
-    let proportional = Proportional::new(&actor, &character, &FILE_AXES).expect("proportional");
+    let proportional =
+        Proportional::new(&actor, &character, &FaceFrame::FILE).expect("proportional");
     let rbf = RetargetMap::new(&actor, &character).expect("RBF map");
     let geodesic_map = GeodesicRetarget::new(&actor, &character, &surface).expect("geodesic");
     let geodesic = geodesic_map.proportional(&character);

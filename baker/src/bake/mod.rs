@@ -83,7 +83,7 @@ impl<'a> Scene<'a> {
     /// uses.
     pub fn with_groups_from_openings(&self) -> Result<Self, SurfaceError> {
         // In the face's own axes: "above" and "below" the openings are the face's.
-        let frame = crate::surface::frame::FaceFrame::of(self.mesh);
+        let frame = crate::frame::FaceFrame::of(self.mesh);
         let groups = crate::surface::masks::groups_from_openings(
             &frame.mesh(self.mesh),
             &frame.points(&self.marker_rest()),
@@ -313,7 +313,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             config.head_candidates.get_or_insert(skull);
             config
                 .face_axes
-                .get_or_insert_with(|| crate::surface::frame::FaceFrame::of(scene.mesh).axes());
+                .get_or_insert_with(|| crate::frame::FaceFrame::of(scene.mesh));
             if config.retarget == crate::stages::RetargetKind::Geodesic {
                 config.character_surface.get_or_insert_with(|| {
                     crate::stages::geodesic_retarget::CharacterSurface {
@@ -423,7 +423,7 @@ fn planar_anchor(
     head_fit: bool,
 ) -> Option<([usize; 3], Vec<f64>)> {
     // In the face's own axes: "above the mouth" is the face's.
-    let frame = crate::surface::frame::FaceFrame::of(mesh);
+    let frame = crate::frame::FaceFrame::of(mesh);
     let (local_mesh, local_rest) = (frame.mesh(mesh), frame.points(rest));
     let (mesh, rest) = (&local_mesh, local_rest.as_slice());
     let openings = crate::placement::face_openings(mesh).ok()?;

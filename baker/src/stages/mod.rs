@@ -137,10 +137,9 @@ pub struct StagesConfig {
     /// [`RetargetKind::Geodesic`] (positions in asset units); [`crate::bake()`] fills it from
     /// the scene when that retargeting is asked for.
     pub character_surface: Option<CharacterSurface>,
-    /// The character face's own axes (rows right, up, front), for
-    /// [`RetargetKind::Proportional`]'s per-axis scales; [`crate::bake()`] fills them from the
-    /// mesh's openings (`surface::frame::FaceFrame`); `None`: the file's axes.
-    pub face_axes: Option<[[f64; 3]; 3]>,
+    /// The character face's own axes, for [`RetargetKind::Proportional`]'s per-axis scales;
+    /// [`crate::bake()`] fills them from the mesh's openings; `None`: the file's axes.
+    pub face_axes: Option<crate::frame::FaceFrame>,
 }
 
 impl Default for StagesConfig {
@@ -575,7 +574,7 @@ pub fn bake_stages(
         RetargetKind::Proportional => Some(Proportional::new(
             &neutral,
             &character_rig,
-            &config.face_axes.unwrap_or(retarget::FILE_AXES),
+            &config.face_axes.unwrap_or(crate::frame::FaceFrame::FILE),
         )?),
         RetargetKind::Geodesic => {
             let surface = config

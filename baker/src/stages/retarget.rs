@@ -11,6 +11,7 @@ use nalgebra::DMatrix;
 
 use super::rigid::kabsch;
 use super::StagesError;
+use crate::frame::FaceFrame;
 use crate::mesh::distance;
 use crate::rbf::{Kernel, RadialFunction, RbfSystem, SolveError};
 
@@ -59,9 +60,6 @@ impl RetargetMap {
     }
 }
 
-/// The file's own axes, as rows: an upright face's.
-pub const FILE_AXES: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
 /// Paper 003 §4's proportional retargeting, in f64: `v_j + M_j d_j`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Proportional {
@@ -78,14 +76,13 @@ impl Proportional {
     /// Build it from the actor's neutral markers (actor units) and the character's (rig units):
     /// the rotation between the faces (Kabsch on the centred marker sets), then per region and
     /// axis the ratio of the character's marker extent to the turned actor's, both read in the
-    /// character face's own axes (`face`: rows right, up, front in the file's coordinates, as
-    /// `surface::frame::FaceFrame::axes` finds them from the mesh; [`FILE_AXES`] for an upright
-    /// face), so a head rolled or pitched in its file scales its width as a width. The regions
-    /// split at the median height of the character's markers along the face's up.
+    /// character face's own axes (`face`: [`FaceFrame::of`] the mesh; [`FaceFrame::FILE`] for an
+    /// upright face), so a head rolled or pitched in its file scales its width as a width. The
+    /// regions split at the median height of the character's markers along the face's up.
     pub fn new(
         neutral: &[[f64; 3]],
         character: &[[f64; 3]],
-        face: &[[f64; 3]; 3],
+        face: &FaceFrame,
     ) -> Result<Self, StagesError> {
         let fit = kabsch(neutral, character)?;
         let r = fit.rotation;
@@ -101,13 +98,7 @@ impl Proportional {
                 [w.x, w.y, w.z]
             })
             .collect();
-        let local = |points: &[[f64; 3]]| -> Vec<[f64; 3]> {
-            points
-                .iter()
-                .map(|p| face.map(|axis| crate::mesh::dot(&axis, p)))
-                .collect()
-        };
-        let (local_character, local_turned) = (local(character), local(&turned));
+        let (local_character, local_turned) = (face.points(character), face.points(&turned));
         let mut heights: Vec<f64> = local_character.iter().map(|v| v[1]).collect();
         heights.sort_by(f64::total_cmp);
         let median = heights[heights.len() / 2];
@@ -142,16 +133,13 @@ impl Proportional {
                 }
             })
         });
-        // M_j = Fᵀ · diag(s) · F · R, with F the face's axes (rows); F = I gives diag(s) · R.
-        let f = face;
+        // M_j = Fᵀ · diag(s) · F · R, with F the face's axes (rows): diag(s) · R when F = I.
+        let f = face.axes();
+        let fr =
+            [0, 1, 2].map(|a| [0, 1, 2].map(|c| (0..3).map(|b| f[a][b] * r[(b, c)]).sum::<f64>()));
         let matrices = (0..n)
             .map(|j| {
                 let s = scales[usize::from(!upper(j))];
-                if *face == FILE_AXES {
-                    return [0, 1, 2].map(|row| [0, 1, 2].map(|c| s[row] * r[(row, c)]));
-                }
-                let fr = [0, 1, 2]
-                    .map(|a| [0, 1, 2].map(|c| (0..3).map(|b| f[a][b] * r[(b, c)]).sum::<f64>()));
                 [0, 1, 2].map(|row| {
                     [0, 1, 2].map(|c| (0..3).map(|a| f[a][row] * s[a] * fr[a][c]).sum::<f64>())
                 })

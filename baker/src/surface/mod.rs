@@ -22,7 +22,6 @@ pub mod anchoring;
 pub mod corners;
 pub mod distances;
 pub mod evaluate;
-pub mod frame;
 pub mod geometry;
 pub mod masks;
 pub mod pbw;
@@ -30,6 +29,7 @@ pub mod pbw;
 use nalgebra::DMatrix;
 
 use crate::deformer::{self, DeformerError, DeformerOutput};
+use crate::frame::FaceFrame;
 use crate::geodesic::{GeodesicError, Source};
 use crate::model::FaceMesh;
 use crate::model::MarkerGroups;
@@ -120,7 +120,7 @@ pub struct SurfaceFigures {
     pub geodesic_asymmetry: f64,
     /// Openings found on the skin.
     pub openings: usize,
-    /// How far the face's own axes (read from its eyes and mouth, [`frame::FaceFrame`]) are
+    /// How far the face's own axes (read from its eyes and mouth, [`crate::frame::FaceFrame`]) are
     /// turned from the file's, in degrees; the bake's directional rules use the face's.
     pub face_turn_degrees: f64,
     /// glTF vertices no marker reaches along the surface (Euclidean distances used).
@@ -585,18 +585,18 @@ pub(crate) fn dense_weights(
     })
 }
 
-/// A bake's input read in the face's own axes ([`frame::FaceFrame`]); the input itself where
+/// A bake's input read in the face's own axes ([`crate::frame::FaceFrame`]); the input itself where
 /// those are the file's.
 struct LocalInput<'a> {
     world: &'a SurfaceInput<'a>,
-    frame: frame::FaceFrame,
+    frame: FaceFrame,
     local: Option<(FaceMesh, Vec<SurfaceMarker>)>,
 }
 
 impl<'a> LocalInput<'a> {
     fn of(world: &'a SurfaceInput<'a>) -> Self {
-        let frame = frame::FaceFrame::of(world.mesh);
-        let local = (frame != frame::FaceFrame::FILE).then(|| {
+        let frame = FaceFrame::of(world.mesh);
+        let local = (frame != FaceFrame::FILE).then(|| {
             let markers = world
                 .markers
                 .iter()
