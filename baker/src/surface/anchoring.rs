@@ -12,7 +12,10 @@
 //! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
 //!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
 //!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
-//!   height).
+//!   height), but only near the jaw: skin under the mouth farther than [`JAW_REACH`] from
+//!   every marker below it is the neck's or the nape's and stays anchored. Without that, a
+//!   head pitched a few degrees in its file dropped its nape under the mouth's height and the
+//!   jaw dragged it (FaceCap pitched 8.6°: 4.4 mm where the truth is still).
 //!
 //! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the head markers'
 //! mean: the weights still sum to one (uniform translation stays exact) and with the head
@@ -162,6 +165,14 @@ pub const SKULL_CLEARANCE: f64 = 2.0;
 /// farthest from them (brows are about half as far from the eyes as the forehead's markers).
 pub const SKULL_SHARE: f64 = 0.75;
 
+/// How far from the nearest of the jaw's markers (those under the mouth), in anchoring margins,
+/// the skin under the mouth is still the jaw's; beyond it, over one more margin, it becomes the
+/// neck's and the nape's and rides the head. On FaceCap's truth with the JawMoCap layout the
+/// static skin stays within 0.34 mm with the head pitched 8.6° either way in its file for a
+/// reach from 2.5 to 3 margins; at 2 the jaw's sides are held (face max 9.07 → 11.45 mm), at
+/// 3.5 the nape is left to the jaw again (3.95 mm pitched 8.6° down, `tests/tests/pose.rs`).
+pub const JAW_REACH: f64 = 3.0;
+
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers`, with the
 /// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
 /// distance over which the strength rises, in asset units.
@@ -184,6 +195,10 @@ pub fn static_anchoring(
     let hull = convex_hull(markers.iter().map(project).collect());
     let floor = floor
         .unwrap_or_else(|| markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64);
+    // The jaw's markers: those under the floor. Skin under the floor but far from all of them
+    // is the neck's and the nape's, not the jaw's.
+    let jaw: Vec<&[f64; 3]> = markers.iter().filter(|m| m[1] < floor).collect();
+    let reach = JAW_REACH * margin;
     let strength = positions
         .iter()
         .map(|p| {
@@ -191,7 +206,17 @@ pub fn static_anchoring(
                 return 0.0;
             }
             let outside = outside_distance(&hull, project(p));
-            smoothstep(outside / margin) * smoothstep((p[1] - (floor - margin)) / margin)
+            let above = smoothstep((p[1] - (floor - margin)) / margin);
+            let behind = if jaw.is_empty() {
+                0.0
+            } else {
+                let near = jaw
+                    .iter()
+                    .map(|m| distance(m, p))
+                    .fold(f64::INFINITY, f64::min);
+                smoothstep((near - reach) / margin)
+            };
+            smoothstep(outside / margin) * above.max(behind)
         })
         .collect();
     Anchoring {
@@ -362,5 +387,21 @@ mod tests {
         let positions = vec![[0.0, 3.0, 1.0], [0.0, -3.0, 1.0]];
         let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), 0.5);
         assert_eq!(a.strength, vec![1.0, 0.0]);
+    }
+
+    #[test]
+    fn skin_below_the_floor_far_from_the_jaw_rides_the_head() {
+        // A face on the front of a cylinder of radius 1: a "jaw" marker under the floor (0).
+        let markers = vec![
+            [0.0, -0.5, 1.0],
+            [0.3, 0.0, 0.95],
+            [-0.3, 0.0, 0.95],
+            [0.0, 1.0, 1.0],
+            [0.3, 1.0, 0.95],
+        ];
+        // Under the floor: beside the jaw marker (outside the hull), and round at the nape.
+        let positions = vec![[0.35, -0.7, 0.94], [-0.35, -0.7, 0.94], [0.0, -1.0, -1.0]];
+        let a = static_anchoring(&positions, &markers, &[3, 4], Some(0.0), 0.2);
+        assert_eq!(a.strength, vec![0.0, 0.0, 1.0]);
     }
 }
