@@ -124,6 +124,31 @@ pub fn sparsify_row(
     }
 }
 
+/// [`sparsify_row`] for a vertex beside influences that take `ranks` of its K elsewhere (the
+/// mouth's corrections, `surface::corners`): with [`Refit::Shrink`], its K kept weights are
+/// shrunk by a threshold that moves, as `give_way` goes from 0 to 1, from the (K+1)-th largest
+/// magnitude to the (K − ranks + 1)-th, so its `ranks` weakest fade to zero and the row meets,
+/// continuously, the K − `ranks` that a vertex with those influences keeps. Other re-fits, or
+/// `give_way` 0, keep K as [`sparsify_row`] does.
+pub fn sparsify_row_giving_way(
+    dense: &[f64],
+    k: usize,
+    ranks: usize,
+    give_way: f64,
+    refit: Refit,
+    covariance: Option<&DMatrix<f64>>,
+) -> SparseRow {
+    if refit != Refit::Shrink || give_way <= 0.0 || ranks == 0 || k <= ranks || k >= dense.len() {
+        return sparsify_row(dense, k, refit, covariance);
+    }
+    let mut magnitudes: Vec<f64> = dense.iter().map(|w| w.abs()).collect();
+    magnitudes.sort_by(|a, b| b.total_cmp(a));
+    let a = give_way.min(1.0);
+    let threshold = (1.0 - a) * magnitudes[k] + a * magnitudes[k - ranks];
+    shrink_by(dense, &top_k(dense, k), threshold)
+        .unwrap_or_else(|| sparsify_row(dense, k, refit, covariance))
+}
+
 /// The heaviest row [`Refit::Shrink`] keeps: Σ|w| at most twice an all-positive row's.
 const SHRINK_MAX_ABS_SUM: f64 = 2.0;
 
@@ -136,6 +161,12 @@ fn shrink(dense: &[f64], order: &[usize]) -> Option<SparseRow> {
         .filter(|i| order.binary_search(i).is_err())
         .map(|i| dense[i].abs())
         .fold(0.0, f64::max);
+    shrink_by(dense, order, threshold)
+}
+
+/// `dense`'s weights at `order`, each magnitude less `threshold` (those under it zero),
+/// rescaled to sum to one; `None` for a row heavier than [`SHRINK_MAX_ABS_SUM`].
+fn shrink_by(dense: &[f64], order: &[usize], threshold: f64) -> Option<SparseRow> {
     let row: SparseRow = order
         .iter()
         .map(|&i| (i, dense[i].signum() * (dense[i].abs() - threshold).max(0.0)))
@@ -346,6 +377,41 @@ mod tests {
         assert!(jump(Refit::Shrink) < 1e-6, "{}", jump(Refit::Shrink));
         assert!(jump(Refit::Prior) > 0.01, "{}", jump(Refit::Prior));
         assert!(jump(Refit::Uniform) > 0.01, "{}", jump(Refit::Uniform));
+    }
+
+    #[test]
+    fn giving_way_goes_from_k_to_k_less_the_ranks_with_k_pairs() {
+        let dense = [0.4, 0.25, 0.15, 0.1, 0.06, 0.04];
+        let full = |row: SparseRow| {
+            let mut out = [0.0; 6];
+            for (i, w) in row {
+                out[i] = w;
+            }
+            out
+        };
+        let at = |a: f64| sparsify_row_giving_way(&dense, 4, 2, a, Refit::Shrink, None);
+        // Nothing given: the shrink of K = 4. All given: the shrink of K − 2, padded with zeros.
+        assert_eq!(at(0.0), sparsify_row(&dense, 4, Refit::Shrink, None));
+        let given = full(at(1.0));
+        let fewer = full(sparsify_row(&dense, 2, Refit::Shrink, None));
+        assert!(given.iter().zip(&fewer).all(|(a, b)| (a - b).abs() < 1e-12));
+        // Always K pairs (the uniform count), summing to one, moving smoothly in between.
+        let mut last = full(at(0.0));
+        for step in 1..=100 {
+            let row = at(f64::from(step) / 100.0);
+            assert_eq!(row.len(), 4);
+            assert!((row.iter().map(|p| p.1).sum::<f64>() - 1.0).abs() < 1e-12);
+            let now = full(row);
+            let moved = now.iter().zip(&last).map(|(a, b)| (a - b).abs());
+            assert!(moved.fold(0.0, f64::max) < 0.01);
+            last = now;
+        }
+        // Other re-fits keep K as they were.
+        let prior = sparsify_row(&dense, 4, Refit::Uniform, None);
+        assert_eq!(
+            sparsify_row_giving_way(&dense, 4, 2, 0.5, Refit::Uniform, None),
+            prior
+        );
     }
 
     #[test]

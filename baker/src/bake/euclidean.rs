@@ -35,6 +35,7 @@ pub(super) fn linear(
     deformer::linear::bake(
         vertices.iter().map(|v| system.weights_at(v)),
         &[],
+        &[],
         options.k,
         options.refit,
         &covariance,

@@ -212,13 +212,15 @@ pub const VERTICAL: u8 = 0b010;
 /// with `vertical` weights (on markers' vertical axes alone, summing to zero; empty for most)
 /// keeps K less their count on the markers and takes them on derived markers, one per source
 /// marker, after the markers (the covariance's order). Every vertex then has K influences, the
-/// uniform count the Cortex-M4's unrolled kernel needs; keeping all K markers besides the
-/// derived ones would take away the seam where the corrections begin (FaceCap subdivided
-/// twice: 2.72× → 2.37× at the mouth's corners) at 60 % more instructions on the M4
-/// (docs/measurements.md).
+/// uniform count the Cortex-M4's unrolled kernel needs (keeping all K markers besides the
+/// derived ones costs 60 % more instructions on the M4, docs/measurements.md). So that the kept
+/// set does not jump where the corrections begin, a vertex without them gives way by
+/// `give_way` (1 beside them, fading out over a ring): its two weakest kept markers shrink
+/// towards zero ([`sparsify::sparsify_row_giving_way`]).
 pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
     vertical: &[Vec<(usize, f64)>],
+    give_way: &[f64],
     k: usize,
     refit: Refit,
     covariance: &nalgebra::DMatrix<f64>,
@@ -235,13 +237,20 @@ pub(crate) fn bake(
         .into());
     }
     let derived_index = |m: usize| markers + sources.binary_search(&m).unwrap_or(0);
+    // How many of the K the corrections take where they are: what the skin beside them gives way.
+    let ranks = vertical.iter().map(Vec::len).max().unwrap_or(0);
     let mut dropped = Vec::new();
     let rows: Vec<_> = dense_rows
         .enumerate()
         .map(|(v, dense)| {
             let extra = vertical.get(v).map_or(&[][..], Vec::as_slice);
-            let keep = k.saturating_sub(extra.len()).max(1);
-            let mut row = sparsify::sparsify_row(&dense, keep, refit, Some(covariance));
+            let mut row = if extra.is_empty() {
+                let a = give_way.get(v).copied().unwrap_or(0.0);
+                sparsify::sparsify_row_giving_way(&dense, k, ranks, a, refit, Some(covariance))
+            } else {
+                let keep = k.saturating_sub(extra.len()).max(1);
+                sparsify::sparsify_row(&dense, keep, refit, Some(covariance))
+            };
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
             row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w)));

@@ -169,6 +169,9 @@ pub(crate) struct SurfaceBake {
     /// Per glTF vertex, weights on the markers' vertical displacements alone, summing to zero
     /// (the mouth's corners, [`corners`]; empty elsewhere).
     pub(crate) vertical: Vec<Vec<(usize, f64)>>,
+    /// Per glTF vertex, how far its two weakest kept markers give way to the mouth's
+    /// corrections (1 where it has them, fading to 0 over a ring outside; [`corners`]).
+    pub(crate) give_way: Vec<f64>,
     pub(crate) warnings: Vec<String>,
     /// Marker-to-marker distances under the method's distance, asset units (rig marker order):
     /// along the skin for the geodesic methods.
@@ -481,6 +484,7 @@ pub(crate) fn dense_weights(
     };
     let mut dense = dense;
     let mut vertical = vec![Vec::new(); dense.len()];
+    let mut give_way = vec![0.0; dense.len()];
     let corners =
         (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
             let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
@@ -491,7 +495,10 @@ pub(crate) fn dense_weights(
             // The mouth's corrections take an influence pair of the K.
             let corrections = mouth.map(|opening| corners::Mouth {
                 opening,
-                vertical: (config.k >= corners::MOUTH_MIN_K).then_some(vertical.as_mut_slice()),
+                vertical: (config.k >= corners::MOUTH_MIN_K).then_some(corners::Corrections {
+                    vertical: vertical.as_mut_slice(),
+                    give_way: give_way.as_mut_slice(),
+                }),
             });
             let (welded, positions) = (&mesh.welded_positions, &mesh.positions);
             let mut figures = corners::reshape(
@@ -578,6 +585,7 @@ pub(crate) fn dense_weights(
         radial: config.radial,
         dense,
         vertical,
+        give_way,
         warnings,
         marker_distances,
         skull,
@@ -820,6 +828,7 @@ impl SurfaceBake {
         deformer::linear::bake(
             self.dense.iter().cloned(),
             &self.vertical,
+            &self.give_way,
             options.k,
             options.refit,
             &cov,
