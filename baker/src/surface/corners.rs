@@ -308,7 +308,7 @@ impl RimEnds {
 
 /// At an eye's corner, the share of the way from the corner's marker to the next marker (by
 /// the corner marker's weight) over which the profile is straight rather than a square root
-/// ([`profile`]). On FaceCap subdivided twice (`--test structure`), the blinks fold the last
+/// (`profile`). On FaceCap subdivided twice (`--test structure`), the blinks fold the last
 /// 1.3–4 mm before the inner corners (14 flipped triangles in `blink`): the lids meet there at
 /// an angle, so the gap between them closes in proportion to the distance, faster than the
 /// square root moves the closing lid. Flips in the blinks at 0 / 0.1 / 0.2 / 0.25 / **0.3 to
