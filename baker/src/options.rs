@@ -182,12 +182,13 @@ impl BakeOptions {
             width_factor: 1.5,
             anchoring: Some(ANCHORING_MARGIN),
             // Measured on both takes (docs/measurements.md): shrinking is continuous where a
-            // vertex's kept set changes and keeps the skull stiller on the skin's distances;
-            // the hybrid and PBW weights stretch more with it (JawMoCap hybrid 1.93 → 2.88×,
-            // truth PBW 2.89 → 3.16×), so they keep the prior's re-fit.
+            // vertex's kept set changes and keeps the skull stiller. Since the skin beside the
+            // mouth's corrections gives way to them, the hybrid distances gain from it too
+            // (JawMoCap drift 0.70 → 0.13 mm, truth 2.24× → 1.99×, 18 → 15 flips); the PBW
+            // weights stretch more with it (truth 2.89 → 3.15×), so they keep the prior's re-fit.
             refit: match method {
-                Method::Geodesic | Method::Euclidean => Refit::Shrink,
-                Method::Hybrid | Method::Pbw => Refit::Prior,
+                Method::Geodesic | Method::Euclidean | Method::Hybrid => Refit::Shrink,
+                Method::Pbw => Refit::Prior,
             },
             ..Self::default()
         }

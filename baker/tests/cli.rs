@@ -1178,8 +1178,8 @@ fn rim_across_changes_the_rig_and_takes_only_fractions() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("must be at most 1"));
 }
 
-/// The default shrinks the kept weights (`--refit shrink`); `--refit prior` re-fits them, as
-/// `--method hybrid` and `--method pbw` do by default.
+/// The default shrinks the kept weights (`--refit shrink`), as `--method hybrid` does;
+/// `--refit prior` re-fits them, as `--method pbw` does by default.
 #[test]
 fn the_default_shrinks_the_kept_weights() {
     let dir = temp_dir("refit");
@@ -1192,9 +1192,14 @@ fn the_default_shrinks_the_kept_weights() {
     assert_eq!(
         hybrid,
         baked(
-            "hybrid_prior.fbk",
-            &["--method", "hybrid", "--refit", "prior"]
+            "hybrid_shrink.fbk",
+            &["--method", "hybrid", "--refit", "shrink"]
         )
+    );
+    let pbw = baked("pbw.fbk", &["--method", "pbw"]);
+    assert_eq!(
+        pbw,
+        baked("pbw_prior.fbk", &["--method", "pbw", "--refit", "prior"])
     );
 }
 

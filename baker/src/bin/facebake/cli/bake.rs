@@ -131,7 +131,7 @@ pub struct BakeArgs {
     #[arg(short = 'k', long = "influences", value_name = "K", default_value_t = BakeOptions::default().k)]
     pub k: usize,
     /// How the K kept weights are found from the dense ones (linear deformer; default: shrink,
-    /// which is continuous over the skin where a vertex's kept set changes).
+    /// which is continuous over the skin where a vertex's kept set changes; prior for pbw).
     #[arg(long, value_enum)]
     pub refit: Option<RefitArg>,
     /// Largest distance a `point` marker may be snapped onto the surface, in mesh units
