@@ -118,8 +118,8 @@ pub struct Corrections<'a> {
     /// `(marker, Δ)` on the markers' vertical axes, summing to zero (empty where there is none).
     pub vertical: &'a mut [Vec<(usize, f64)>],
     /// How far the vertex's two weakest kept markers (as many as the corrections take) give
-    /// way to the corrections: 1 over the skin where they may be, fading to 0 over [`MOUTH_RING`] outside,
-    /// so the kept set does not jump where the corrections begin.
+    /// way to the corrections: 1 over the skin where they may be, fading to 0 over
+    /// [`MOUTH_RING`] outside, so the kept set does not jump where the corrections begin.
     pub give_way: &'a mut [f64],
 }
 
