@@ -243,8 +243,9 @@ fn the_truth_bakes_alike_turned_scaled_and_moved() {
 /// degrees off. Measured 2026-11-28: before the anchoring kept skin under the mouth far from
 /// the jaw's markers on the head (`surface::anchoring::JAW_REACH`), FaceCap pitched 5.7° /
 /// 8.6° down moved its static skin 0.55 / 4.42 mm (its nape dropped under the mouth's height
-/// and followed the jaw); now 0.34 mm. Pitched up, 0.40 / 0.43 mm either way (face max 10.5 /
-/// 10.9 mm against 9.07: the jaw's sides rise into the anchored band).
+/// and followed the jaw); now 0.34 mm. Pitched up, 0.40 / 0.43 mm either way; the jaw's sides
+/// rose into the anchored band (face max 10.5 / 10.9 mm against 9.07) until the floor rose near
+/// the jaw's markers (`surface::anchoring::JAW_LIFT`): 8.85 / 9.02 mm against 8.85.
 #[test]
 fn a_few_degrees_of_pitch_keep_the_skull_still() {
     for degrees in [-8.6f64, -5.7, 5.7, 8.6] {
@@ -254,7 +255,7 @@ fn a_few_degrees_of_pitch_keep_the_skull_still() {
         assert!(take.lips_mm.unwrap().0 <= 7.2, "{degrees}°: {take}");
         assert_eq!(take.frames_over_limit, 0, "{degrees}°: {take}");
         assert!(take.flipped.0 <= 2, "{degrees}°: {take}");
-        assert!(mean <= 0.57, "{degrees}°: {mean}");
+        assert!(mean <= 0.56, "{degrees}°: {mean}");
     }
 }
 

@@ -12,8 +12,9 @@
 //! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
 //!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
 //!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
-//!   height), but only near the jaw: skin under the mouth farther than [`JAW_REACH`] from
-//!   every marker below it is the neck's or the nape's and stays anchored. Without that, a
+//!   height, raised by [`JAW_LIFT`] near the jaw), but only near the jaw: skin under the mouth
+//!   farther than [`JAW_REACH`] from every marker below it is the neck's or the nape's and
+//!   stays anchored. Without that, a
 //!   head pitched a few degrees in its file dropped its nape under the mouth's height and the
 //!   jaw dragged it (FaceCap pitched 8.6°: 4.4 mm where the truth is still).
 //!
@@ -173,6 +174,13 @@ pub const SKULL_SHARE: f64 = 0.75;
 /// 3.5 the nape is left to the jaw again (3.95 mm pitched 8.6° down, `tests/tests/pose.rs`).
 pub const JAW_REACH: f64 = 3.0;
 
+/// How far the floor rises near the jaw's markers (within [`JAW_REACH`]), in anchoring
+/// margins. On FaceCap's truth with the JawMoCap layout (`--test structure`, `--test pose`):
+/// face mean / max 0.556 / 9.07 → 0.550 / 8.85 mm upright, max 10.94 → 9.02 mm pitched 8.6°
+/// up (the jaw's sides rising into the anchored band); 0.75 and more fold the twice-subdivided
+/// head in the smile (4 flipped triangles at 0.75, 10 at 1.25, 16 at 1.5).
+pub const JAW_LIFT: f64 = 0.5;
+
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers`, with the
 /// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
 /// distance over which the strength rises, in asset units.
@@ -206,16 +214,19 @@ pub fn static_anchoring(
                 return 0.0;
             }
             let outside = outside_distance(&hull, project(p));
-            let above = smoothstep((p[1] - (floor - margin)) / margin);
+            let near = jaw
+                .iter()
+                .map(|m| distance(m, p))
+                .fold(f64::INFINITY, f64::min);
             let behind = if jaw.is_empty() {
                 0.0
             } else {
-                let near = jaw
-                    .iter()
-                    .map(|m| distance(m, p))
-                    .fold(f64::INFINITY, f64::min);
                 smoothstep((near - reach) / margin)
             };
+            // Near the jaw's markers the floor is higher: the jaw's sides, just above the
+            // mouth's height, are the jaw's too.
+            let raised = floor + JAW_LIFT * margin * (1.0 - behind);
+            let above = smoothstep((p[1] - (raised - margin)) / margin);
             smoothstep(outside / margin) * above.max(behind)
         })
         .collect();
