@@ -12,11 +12,12 @@
 //! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
 //!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
 //!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
-//!   height, raised by [`JAW_LIFT`] near the jaw), but only near the jaw: skin under the mouth
-//!   farther than [`JAW_REACH`] from every marker below it is the neck's or the nape's and
-//!   stays anchored. Without that, a
-//!   head pitched a few degrees in its file dropped its nape under the mouth's height and the
-//!   jaw dragged it (FaceCap pitched 8.6°: 4.4 mm where the truth is still).
+//!   height), a height raised by [`JAW_LIFT`] near the jaw's markers (those under it) so that
+//!   the jaw's sides stay the jaw's.
+//! * Skin under that height but farther than [`JAW_REACH`] from every jaw marker is the neck's
+//!   or the nape's and stays anchored. Without that, a head pitched a few degrees in its file
+//!   dropped its nape under the mouth's height and the jaw dragged it (FaceCap pitched 8.6°:
+//!   4.4 mm where the truth is still).
 //!
 //! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the head markers'
 //! mean: the weights still sum to one (uniform translation stays exact) and with the head
@@ -414,5 +415,32 @@ mod tests {
         let positions = vec![[0.35, -0.7, 0.94], [-0.35, -0.7, 0.94], [0.0, -1.0, -1.0]];
         let a = static_anchoring(&positions, &markers, &[3, 4], Some(0.0), 0.2);
         assert_eq!(a.strength, vec![0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn the_floor_rises_near_the_jaw() {
+        // Beside the face at the floor's height: near the jaw marker (under the floor), and as
+        // far to the side but with no marker under the floor within reach.
+        let face = |jaw: f64| {
+            vec![
+                [0.3, jaw, 0.95],
+                [0.3, 0.0, 0.95],
+                [-0.3, 0.0, 0.95],
+                [0.0, 1.0, 1.0],
+                [0.3, 1.0, 0.95],
+            ]
+        };
+        let positions = vec![[0.6, 0.0, 0.8], [-0.6, 0.0, 0.8], [0.0, 0.5, -1.0]];
+        let near = static_anchoring(&positions, &face(-0.2), &[3, 4], Some(0.0), 0.2);
+        let far = static_anchoring(&positions, &face(-50.0), &[3, 4], Some(0.0), 0.2);
+        // At the floor: anchored by the band (smoothstep(1) = 1) away from the jaw, by
+        // smoothstep(0.5) = 0.5 within its reach, where the floor stands half a margin higher.
+        assert_eq!(far.strength[0], 1.0);
+        assert!(
+            (near.strength[0] - 0.5).abs() < 1e-12,
+            "{:?}",
+            near.strength
+        );
+        assert_eq!(near.strength[2], 1.0);
     }
 }
