@@ -123,8 +123,9 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
         .as_ref()
         .expect("figures")
         .face_turn_degrees;
-    // A pitch under `frame::PITCH_TRUSTED` is the face's own: the file's axes are kept.
-    let trusted = pose.axis == [1.0, 0.0, 0.0] && pose.angle.abs().to_degrees() < 10.0;
+    // A pitch under `PITCH_TRUSTED` is the face's own: the file's axes are kept.
+    let trusted = pose.axis == [1.0, 0.0, 0.0]
+        && pose.angle.abs().to_degrees() < facebake::frame::PITCH_TRUSTED;
     let expected = if trusted { 0.0 } else { pose.angle.abs() };
     assert!((turn - expected.to_degrees()).abs() < 0.5, "{turn}°");
     let blob = baked.blob;

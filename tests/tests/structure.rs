@@ -498,11 +498,7 @@ fn the_default_rigs_keep_one_influence_count() {
         };
         linear.vertex_influences().map(Iterator::count).collect()
     };
-    let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
-        .expect("the layout reads");
-    let truth = facecap_truth();
-    let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("placed");
-    let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene");
+    let scene = layout_benchmark(false);
     let truth = counts(&bake_scene(&scene, &facebake_tests::product_default()).blob);
     let capture = counts(
         &jawmocap_rig_with(&facebake_tests::product_default(), &Default::default())
