@@ -492,3 +492,50 @@ pub fn skinning_joint(
         }
     }
 }
+
+/// Today's worst figures of a take, pinned by a test: static drift (mm), lips and eyelids (mm),
+/// largest stretch, most edges over 2× in a frame, most flipped triangles in a frame.
+pub struct Pinned {
+    /// Static drift, mm.
+    pub drift_mm: f64,
+    /// Lip aperture error (or widest aperture without a truth), mm.
+    pub lips_mm: f64,
+    /// Eyelid closure error (or widest aperture without a truth), mm.
+    pub eyelids_mm: f64,
+    /// Largest edge stretch.
+    pub stretch: f64,
+    /// Most edges over 2× in a frame.
+    pub over_2x: usize,
+    /// Most flipped triangles in a frame.
+    pub flipped: usize,
+}
+
+/// Print `t` and assert no figure is worse than pinned (1 % and 0.05 mm of slack for platform
+/// rounding).
+pub fn guard(label: &str, t: &facebake::metrics::TakeMetrics, p: &Pinned) {
+    println!("{label}: {t}");
+    let slack = |x: f64| 1.01 * x + 0.05;
+    assert!(t.static_drift_mm.0 <= slack(p.drift_mm), "{label}: {t}");
+    assert!(t.lips_mm.unwrap().0 <= slack(p.lips_mm), "{label}: {t}");
+    assert!(
+        t.eyelids_mm.unwrap().0 <= slack(p.eyelids_mm),
+        "{label}: {t}"
+    );
+    assert!(t.max_stretch.0 <= 1.01 * p.stretch, "{label}: {t}");
+    assert!(t.edges_over_limit.0 <= p.over_2x, "{label}: {t}");
+    assert!(t.flipped.0 <= p.flipped, "{label}: {t}");
+}
+
+/// `layout` with every point anchor moved by `map` (vertex anchors stay on their vertices).
+pub fn layout_mapped(
+    layout: &facebake::model::MarkerLayout,
+    map: impl Fn([f64; 3]) -> [f64; 3],
+) -> facebake::model::MarkerLayout {
+    let mut moved = layout.clone();
+    for m in &mut moved.markers {
+        if let facebake::model::MarkerAnchor::Point(p) = &mut m.anchor {
+            *p = map(*p);
+        }
+    }
+    moved
+}

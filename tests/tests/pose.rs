@@ -16,7 +16,7 @@
 
 use facebake::ground_truth::GroundTruth;
 use facebake::metrics::{Regions, TakeMetrics};
-use facebake::model::{FaceMesh, MarkerAnchor, MarkerLayout};
+use facebake::model::{FaceMesh, MarkerLayout};
 use facebake::surface::evaluate::Benchmark;
 use facebake::{bake, BakeOptions, Method, Scene};
 use facebake_runtime::Rig;
@@ -80,13 +80,7 @@ impl Pose {
     }
 
     fn layout(&self, layout: &MarkerLayout) -> MarkerLayout {
-        let mut posed = layout.clone();
-        for m in &mut posed.markers {
-            if let MarkerAnchor::Point(p) = &mut m.anchor {
-                *p = self.point(*p);
-            }
-        }
-        posed
+        facebake_tests::layout_mapped(layout, |p| self.point(p))
     }
 }
 

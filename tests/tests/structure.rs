@@ -20,33 +20,9 @@ use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
 use facebake::surface::evaluate::Benchmark;
 use facebake::{BakeOptions, Method};
 use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{bake_scene, facecap_default, facecap_truth, fixture, jawmocap_rig_with};
-
-/// Today's worst figures of a take: static drift (mm), lips and eyelids (mm), largest stretch,
-/// most edges over 2× in a frame, most flipped triangles in a frame.
-struct Pinned {
-    drift_mm: f64,
-    lips_mm: f64,
-    eyelids_mm: f64,
-    stretch: f64,
-    over_2x: usize,
-    flipped: usize,
-}
-
-/// No figure worse than pinned (1 % and 0.05 mm of slack for platform rounding).
-fn guard(label: &str, t: &TakeMetrics, p: &Pinned) {
-    println!("{label}: {t}");
-    let slack = |x: f64| 1.01 * x + 0.05;
-    assert!(t.static_drift_mm.0 <= slack(p.drift_mm), "{label}: {t}");
-    assert!(t.lips_mm.unwrap().0 <= slack(p.lips_mm), "{label}: {t}");
-    assert!(
-        t.eyelids_mm.unwrap().0 <= slack(p.eyelids_mm),
-        "{label}: {t}"
-    );
-    assert!(t.max_stretch.0 <= 1.01 * p.stretch, "{label}: {t}");
-    assert!(t.edges_over_limit.0 <= p.over_2x, "{label}: {t}");
-    assert!(t.flipped.0 <= p.flipped, "{label}: {t}");
-}
+use facebake_tests::{
+    bake_scene, facecap_default, facecap_truth, fixture, guard, jawmocap_rig_with, Pinned,
+};
 
 /// The FaceCap regions, found once per test binary.
 fn regions() -> &'static Regions {

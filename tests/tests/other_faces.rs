@@ -1,0 +1,209 @@
+//! Faces of other proportions: FaceCap warped smoothly and non-uniformly (wider and shorter,
+//! narrower and longer, a heavier jaw), its morph targets warped the same way, so each is
+//! another character with an exact truth. The bundled layout's points are warped with it. The
+//! default bake of each must hold the skull still, close the eyes and keep the skin whole as
+//! it does on FaceCap itself: nothing in the default may be tuned to one face's proportions.
+//!
+//! `cargo test --release -p facebake-tests --test other_faces -- --nocapture` prints the
+//! figures.
+
+use facebake::ground_truth::GroundTruth;
+use facebake::metrics::{Regions, TakeMetrics};
+use facebake::model::FaceMesh;
+use facebake::surface::evaluate::Benchmark;
+use facebake_tests::{bake_scene, fixture, guard, product_default, Pinned, FACECAP_MARKERS};
+
+/// A map of head space in head units (see [`Warp`]).
+type HeadMap = fn([f64; 3]) -> [f64; 3];
+
+/// A smooth warp of head space, in head units about the bounding box's centre (x̂ = (x − c)/h,
+/// h half the largest side).
+struct Warp {
+    centre: [f64; 3],
+    half: f64,
+    map: HeadMap,
+}
+
+impl Warp {
+    fn of(mesh: &FaceMesh, map: HeadMap) -> Self {
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in &mesh.positions {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let half = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max) / 2.0;
+        Self {
+            centre: [0, 1, 2].map(|c| (lo[c] + hi[c]) / 2.0),
+            half,
+            map,
+        }
+    }
+
+    fn point(&self, p: [f64; 3]) -> [f64; 3] {
+        let q = [0, 1, 2].map(|c| (p[c] - self.centre[c]) / self.half);
+        let w = (self.map)(q);
+        [0, 1, 2].map(|c| self.centre[c] + self.half * w[c])
+    }
+
+    /// The mesh warped, each morph target's delta the warp of its deformed position less the
+    /// warp of its rest position (exact, not linearised).
+    fn mesh(&self, mesh: &FaceMesh) -> FaceMesh {
+        let mut warped = FaceMesh::from_triangles(
+            "head",
+            mesh.positions.iter().map(|&p| self.point(p)).collect(),
+            mesh.triangles.clone(),
+        );
+        warped.morph_targets = mesh.morph_targets.clone();
+        for target in &mut warped.morph_targets {
+            for (d, p) in target.deltas.iter_mut().zip(&mesh.positions) {
+                let moved = self.point([0, 1, 2].map(|c| p[c] + d[c]));
+                let rest = self.point(*p);
+                *d = [0, 1, 2].map(|c| moved[c] - rest[c]);
+            }
+        }
+        warped.source = mesh.source.clone();
+        warped
+    }
+}
+
+fn facecap() -> FaceMesh {
+    facebake::io::gltf_mesh::load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None)
+        .expect("FaceCap loads")
+}
+
+/// The truth's 32 frames through the default rig of the warped head, measured on it:
+/// (structure, skin mean error in mm).
+fn truth_take(map: HeadMap) -> (TakeMetrics, f64) {
+    let upright = facecap();
+    let warp = Warp::of(&upright, map);
+    let truth = GroundTruth::new(warp.mesh(&upright), FACECAP_MARKERS, 6).expect("truth");
+    let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
+        .expect("layout");
+    let snap = facebake::model::DEFAULT_MAX_SNAP_FRACTION * truth.mesh.diagonal();
+    let placed = facebake::model::place_markers(
+        &facebake_tests::layout_mapped(&layout, |p| warp.point(p)),
+        &truth.mesh,
+        snap,
+    )
+    .expect("placed");
+    let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene");
+    let baked = bake_scene(&scene, &product_default());
+    let played = scene.play(&baked.blob);
+    let truths: Vec<Vec<[f64; 3]>> = (0..scene.truth.frames.len())
+        .map(|f| scene.truth.positions(f))
+        .collect();
+    let regions =
+        Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
+    let (_, take) = regions.measure_take(&played, Some(&truths), false);
+    let (mut sum, mut count) = (0.0, 0);
+    for (p, t) in played.iter().zip(&truths) {
+        for (v, (a, b)) in p.iter().zip(t).enumerate() {
+            if scene.truth.skin[v] {
+                sum += facebake::mesh::distance(a, b) * 1000.0;
+                count += 1;
+            }
+        }
+    }
+    (take, sum / count as f64)
+}
+
+fn unwarped(q: [f64; 3]) -> [f64; 3] {
+    q
+}
+
+/// Wider and shorter, the face bent back about the vertical axis (the geodesic retargeting
+/// test's character).
+fn wide(q: [f64; 3]) -> [f64; 3] {
+    [1.15 * q[0], 0.9 * q[1], q[2] + 0.08 * q[0] * q[0]]
+}
+
+/// Narrower and longer, deeper from front to back.
+fn long(q: [f64; 3]) -> [f64; 3] {
+    [0.88 * q[0], 1.12 * q[1], 1.1 * q[2]]
+}
+
+/// A heavier jaw: the lower face wider and pushed forward, fading out above the nose.
+fn jaw(q: [f64; 3]) -> [f64; 3] {
+    let t = (-(q[1] + 0.1) / 0.5).clamp(0.0, 1.0);
+    let s = t * t * (3.0 - 2.0 * t);
+    [q[0] * (1.0 + 0.15 * s), q[1], q[2] + 0.06 * s]
+}
+
+/// Measured 2026-12-01. Every face meets the bars for static drift (0.5 mm), eyelids
+/// (1.5 mm) and skin mean (0.6 mm), and misses the lips as FaceCap does (near the corners,
+/// which no lip marker sees part). FaceCap keeps its one sliver flip (beside the right corner of
+/// the mouth in the pout), the heavier jaw one flip in the open funnel, the wider face none.
+/// The narrower, longer face is the hardest: under the lower lip two 1.5 mm-high triangles,
+/// which the truth's jaw-open folds nearly flat, turn over; in the smile one cheek edge
+/// stretches 2.04×; in the surprise two triangles at the outer end of the right brow turn over,
+/// where the anchoring that holds the temple meets the brow marker's pull (the truth lifts that
+/// skin 5.7 mm, the rig 0.2 mm beside 7.4 mm). A wider anchoring margin does not help there:
+/// 1.0 spacings moves the static skin 0.48–0.80 mm and keeps the flips.
+#[test]
+fn other_proportions_bake_as_well_as_facecap() {
+    let faces: [(&str, HeadMap, Pinned, f64); 4] = [
+        (
+            "FaceCap",
+            unwarped,
+            Pinned {
+                drift_mm: 0.34,
+                lips_mm: 6.8,
+                eyelids_mm: 0.9,
+                stretch: 1.93,
+                over_2x: 0,
+                flipped: 1,
+            },
+            0.5504,
+        ),
+        (
+            "wider and shorter",
+            wide,
+            Pinned {
+                drift_mm: 0.33,
+                lips_mm: 6.7,
+                eyelids_mm: 0.8,
+                stretch: 1.90,
+                over_2x: 0,
+                flipped: 0,
+            },
+            0.5584,
+        ),
+        (
+            "narrower and longer",
+            long,
+            Pinned {
+                drift_mm: 0.37,
+                lips_mm: 7.9,
+                eyelids_mm: 1.0,
+                stretch: 2.04,
+                over_2x: 1,
+                flipped: 2,
+            },
+            0.5825,
+        ),
+        (
+            "a heavier jaw",
+            jaw,
+            Pinned {
+                drift_mm: 0.34,
+                lips_mm: 6.7,
+                eyelids_mm: 0.9,
+                stretch: 1.91,
+                over_2x: 0,
+                flipped: 1,
+            },
+            0.5649,
+        ),
+    ];
+    for (label, map, pinned, mean_mm) in faces {
+        let (t, mean) = truth_take(map);
+        guard(label, &t, &pinned);
+        println!("{label}: skin mean {mean:.4} mm");
+        // The bars these faces meet.
+        assert!(t.static_drift_mm.0 <= 0.5, "{label}: {t}");
+        assert!(t.eyelids_mm.unwrap().0 <= 1.5, "{label}: {t}");
+        assert!(mean <= (mean_mm + 0.002).min(0.6), "{label}: {mean}");
+    }
+}
