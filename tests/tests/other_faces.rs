@@ -2,7 +2,8 @@
 //! narrower and longer, a heavier jaw), its morph targets warped the same way, so each is
 //! another character with an exact truth. The bundled layout's points are warped with it. The
 //! default bake of each must hold the skull still, close the eyes and keep the skin whole as
-//! it does on FaceCap itself: nothing in the default may be tuned to one face's proportions.
+//! it does on FaceCap itself, on the truth and on JawMoCap retargeted onto it through `bake
+//! --capture`: nothing in the default may be tuned to one face's proportions.
 //!
 //! `cargo test --release -p facebake-tests --test other_faces -- --nocapture` prints the
 //! figures.
@@ -205,5 +206,104 @@ fn other_proportions_bake_as_well_as_facecap() {
         assert!(t.static_drift_mm.0 <= 0.5, "{label}: {t}");
         assert!(t.eyelids_mm.unwrap().0 <= 1.5, "{label}: {t}");
         assert!(mean <= (mean_mm + 0.002).min(0.6), "{label}: {mean}");
+    }
+}
+
+/// JawMoCap through `bake --capture`'s default rig of the warped head (retargeted onto it by
+/// the capture stages), every frame measured on that head against its rest (no truth).
+fn jawmocap_take(map: HeadMap) -> TakeMetrics {
+    let upright = facecap();
+    let warp = Warp::of(&upright, map);
+    let mesh = warp.mesh(&upright);
+    let capture =
+        facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
+    let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
+        .expect("layout");
+    let placed = facebake::model::place_markers(
+        &facebake_tests::layout_mapped(&layout, |p| warp.point(p)),
+        &mesh,
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+    )
+    .expect("placed");
+    let mut scene = facebake::Scene::placed(&mesh, &placed);
+    scene.capture = Some(&capture);
+    let baked = facebake::bake(&scene, &product_default()).expect("bakes");
+    let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("loads");
+    let frames = facebake_tests::frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
+    let played = facebake_tests::play_take(&rig, &frames).0;
+    let regions = Regions::for_mesh(&mesh, &[], &[]).expect("regions");
+    regions.measure_take(&played, None, false).1
+}
+
+/// Measured 2026-12-01: every face holds the static skin within 0.5 mm (the wider face's
+/// 0.49 mm at the hairline, frame 419) and opens the mouth by its own proportions (37.4 to
+/// 45.7 mm). The narrower, longer face stretches the lower lip beside its right corner 2.16×
+/// in 108 of 1590 frames, with one flip: there the skin's weights pass from the corner's marker
+/// (`Mouth_Rend`, 12 mm down in the jaw-open) to the lower lip's (`Mouth_DownR`, 30 mm) within
+/// a few millimetres, so the lip between them must stretch about as much as their relative
+/// motion over their distance, and this face's narrower mouth puts them closer for a wider
+/// opening. On FaceCap the same skin reaches 1.96×.
+#[test]
+fn jawmocap_plays_on_other_proportions() {
+    let faces: [(&str, HeadMap, Pinned); 4] = [
+        (
+            "FaceCap",
+            unwarped,
+            Pinned {
+                drift_mm: 0.37,
+                lips_mm: 40.7,
+                eyelids_mm: 12.0,
+                stretch: 1.96,
+                over_2x: 0,
+                flipped: 0,
+            },
+        ),
+        (
+            "wider and shorter",
+            wide,
+            Pinned {
+                drift_mm: 0.49,
+                lips_mm: 37.4,
+                eyelids_mm: 10.8,
+                stretch: 1.77,
+                over_2x: 0,
+                flipped: 0,
+            },
+        ),
+        (
+            "narrower and longer",
+            long,
+            Pinned {
+                drift_mm: 0.28,
+                lips_mm: 45.7,
+                eyelids_mm: 13.4,
+                stretch: 2.16,
+                over_2x: 3,
+                flipped: 1,
+            },
+        ),
+        (
+            "a heavier jaw",
+            jaw,
+            Pinned {
+                drift_mm: 0.37,
+                lips_mm: 40.8,
+                eyelids_mm: 11.9,
+                stretch: 1.80,
+                over_2x: 0,
+                flipped: 0,
+            },
+        ),
+    ];
+    for (label, map, pinned) in faces {
+        let t = jawmocap_take(map);
+        guard(&format!("JawMoCap on {label}"), &t, &pinned);
+        // Without a truth the apertures are the widest: the mouth must open, the eyes stay open.
+        assert!(t.lips_mm.unwrap().0 > 0.85 * pinned.lips_mm, "{label}: {t}");
+        assert!(
+            t.eyelids_mm.unwrap().0 > 0.9 * pinned.eyelids_mm,
+            "{label}: {t}"
+        );
+        assert!(t.static_drift_mm.0 <= 0.5, "{label}: {t}");
     }
 }
