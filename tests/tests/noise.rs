@@ -184,7 +184,9 @@ fn smoothing_quarters_the_jitter() {
 /// issue's 0.5 mm in every frame, with no flipped triangle: the head markers hold still once
 /// the head's motion is taken out (runtime `stages`, step 3). Measured 2026-11-27: 0.49 mm;
 /// with the head markers moving by their fit residuals (before blob format 8) the jitter alone
-/// moved the forehead beside a head marker 1.08 mm (±0.2 mm jitter: 0.56 mm).
+/// moved the forehead beside a head marker 1.08 mm (±0.2 mm jitter: 0.56 mm). Measured
+/// 2026-12-01: 0.00 mm (0.43 mm before the anchoring's hull left out the held head markers,
+/// `surface::anchoring::hull_markers`: the skin above them carried the brows' ringing weights).
 #[test]
 fn the_static_region_holds_under_jitter_head_motion_and_dropouts() {
     let bake = product_default();
@@ -221,6 +223,6 @@ fn the_static_region_holds_under_jitter_head_motion_and_dropouts() {
     let regions = facebake::metrics::Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
     let (_, worst) = regions.measure_take(&played, None, false);
     println!("jitter, head motion and dropouts: {worst}");
-    assert!(worst.static_drift_mm.0 <= 0.5, "{worst}");
+    assert!(worst.static_drift_mm.0 <= 0.05, "{worst}");
     assert_eq!(worst.flipped.0, 0, "{worst}");
 }

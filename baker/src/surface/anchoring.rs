@@ -161,6 +161,35 @@ pub fn anchor_markers(
     chosen
 }
 
+/// The markers whose hull bounds the skin left to the face ([`static_anchoring`]): every
+/// marker, or with the rig's own head fit (`head_fit`) every marker but the `anchors`, when at
+/// least three remain.
+///
+/// With a head fit the anchor markers are the head markers, and the stages hold them still
+/// (`facebake_runtime::stages`: what is left of a head marker's motion once the head's is
+/// taken out is the fit's residual), so the skin beyond the expression's markers has nothing of
+/// its own to follow: it fades to the still head from the brows, not from past the forehead
+/// markers. Otherwise skin just above the forehead markers kept a tenth of the brows' ringing
+/// weights (`Reyebrow_M` −0.10, `Reyebrow_Inside` +0.10) and moved with a brow raise.
+/// Measured 2026-12-01 (`cargo test --release -p facebake-tests --test other_faces`): JawMoCap
+/// through `bake --capture`, static drift on FaceCap 0.37 → 0.00 mm, on the three faces of
+/// other proportions 0.49 / 0.28 / 0.37 → 0.00 mm, every other figure unchanged; the FaceCap
+/// truth played as a capture (head fit on the forehead markers), static drift 0.33 → 0.00 mm,
+/// skin mean 0.677 → 0.676 mm, forehead mean 0.359 → 0.341 mm.
+pub fn hull_markers(markers: &[[f64; 3]], anchors: &[usize], head_fit: bool) -> Vec<[f64; 3]> {
+    let face: Vec<[f64; 3]> = markers
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !anchors.contains(i))
+        .map(|(_, p)| *p)
+        .collect();
+    if head_fit && face.len() >= 3 {
+        face
+    } else {
+        markers.to_vec()
+    }
+}
+
 /// How far from every opening a skull marker sits, at least: × the mean marker spacing.
 pub const SKULL_CLEARANCE: f64 = 2.0;
 /// How far from every opening a skull marker sits, at least: × the clearance of the marker
@@ -182,7 +211,8 @@ pub const JAW_REACH: f64 = 3.0;
 /// head in the smile (4 flipped triangles at 0.75, 10 at 1.25, 16 at 1.5).
 pub const JAW_LIFT: f64 = 0.5;
 
-/// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers`, with the
+/// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers` (see
+/// [`hull_markers`]), with the
 /// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
 /// distance over which the strength rises, in asset units.
 pub fn static_anchoring(
@@ -341,6 +371,20 @@ mod tests {
             } else {
                 w == 0.0
             }));
+    }
+
+    #[test]
+    fn with_a_head_fit_the_hull_is_the_face_markers() {
+        let markers = [
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+            [0.0, 2.0, 1.0],
+        ];
+        // Without a head fit, or with fewer than three face markers left: every marker.
+        assert_eq!(hull_markers(&markers, &[3], false), markers.to_vec());
+        assert_eq!(hull_markers(&markers, &[2, 3], true), markers.to_vec());
+        assert_eq!(hull_markers(&markers, &[3], true), markers[..3].to_vec());
     }
 
     #[test]

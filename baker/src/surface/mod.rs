@@ -533,7 +533,7 @@ pub(crate) fn dense_weights(
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             let a = anchoring::static_anchoring(
                 &mesh.positions,
-                &rest,
+                &anchoring::hull_markers(&rest, &anchors, input.head_fit),
                 &anchors,
                 floor,
                 factor * spacing,
