@@ -212,9 +212,8 @@ pub const JAW_REACH: f64 = 3.0;
 pub const JAW_LIFT: f64 = 0.5;
 
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers` (see
-/// [`hull_markers`]), with the
-/// skin under `floor` (a height: the mouth's) left to the face markers; `margin` is the
-/// distance over which the strength rises, in asset units.
+/// [`hull_markers`]), with the skin under `floor` (a height: the mouth's) left to the face
+/// markers; `margin` is the distance over which the strength rises, in asset units.
 pub fn static_anchoring(
     positions: &[[f64; 3]],
     markers: &[[f64; 3]],
