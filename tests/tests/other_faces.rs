@@ -27,13 +27,7 @@ struct Warp {
 
 impl Warp {
     fn of(mesh: &FaceMesh, map: HeadMap) -> Self {
-        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-        for p in &mesh.positions {
-            for c in 0..3 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
+        let (lo, hi) = mesh.bounds();
         let half = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max) / 2.0;
         Self {
             centre: [0, 1, 2].map(|c| (lo[c] + hi[c]) / 2.0),
