@@ -73,16 +73,20 @@ fn scene_of(map: HeadMap) -> Benchmark {
     let upright = facecap();
     let warp = Warp::of(&upright, map);
     let truth = GroundTruth::new(warp.mesh(&upright), FACECAP_MARKERS, 6).expect("truth");
+    let placed = placed_on(&warp, &truth.mesh);
+    Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene")
+}
+
+/// The bundled layout warped by `warp`, placed on the warped head `mesh` as `bake` places it.
+fn placed_on(warp: &Warp, mesh: &FaceMesh) -> Vec<facebake::model::PlacedMarker> {
     let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
         .expect("layout");
-    let snap = facebake::model::DEFAULT_MAX_SNAP_FRACTION * truth.mesh.diagonal();
-    let placed = facebake::model::place_markers(
+    facebake::model::place_markers(
         &facebake_tests::layout_mapped(&layout, |p| warp.point(p)),
-        &truth.mesh,
-        snap,
+        mesh,
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
     )
-    .expect("placed");
-    Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene")
+    .expect("placed")
 }
 
 /// The truth's frames of `scene`, its structure metrics over `played` (one per truth frame),
@@ -262,14 +266,7 @@ fn jawmocap_take(map: HeadMap) -> TakeMetrics {
     let mesh = warp.mesh(&upright);
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let layout = facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml"))
-        .expect("layout");
-    let placed = facebake::model::place_markers(
-        &facebake_tests::layout_mapped(&layout, |p| warp.point(p)),
-        &mesh,
-        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
-    )
-    .expect("placed");
+    let placed = placed_on(&warp, &mesh);
     let mut scene = facebake::Scene::placed(&mesh, &placed);
     scene.capture = Some(&capture);
     let baked = facebake::bake(&scene, &product_default()).expect("bakes");
