@@ -333,6 +333,49 @@ pub fn facecap_scene_with(lip_offset: f64) -> Benchmark {
     Benchmark::new(truth, &placed, groups, FACECAP_STATIC_MARKERS).expect("benchmark builds")
 }
 
+/// The FaceCap truth driven by the bundled JawMoCap layout's 41 markers as placed on it (lip and
+/// eyelid markers on the lips and lids), with or without the layout's `[groups]`, no anchors:
+/// what `bake --layout` bakes.
+pub fn layout_benchmark(groups: bool) -> Benchmark {
+    let truth = facecap_truth();
+    let path = fixture("facecap_jawmocap_layout.toml");
+    let layout = facebake::io::layout::read_layout(&path).expect("layout reads");
+    let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("places");
+    let groups = if groups {
+        layout.groups.clone()
+    } else {
+        Vec::new()
+    };
+    Benchmark::new(truth, &placed, groups, 0).expect("benchmark builds")
+}
+
+/// The mesh's connected pieces (over welded vertices), each as its glTF vertices, largest first.
+pub fn pieces(mesh: &facebake::model::FaceMesh) -> Vec<Vec<usize>> {
+    fn root(parent: &mut [usize], mut v: usize) -> usize {
+        while parent[v] != v {
+            parent[v] = parent[parent[v]];
+            v = parent[v];
+        }
+        v
+    }
+    let mut parent: Vec<usize> = (0..mesh.welded_positions.len()).collect();
+    for t in &mesh.welded_triangles {
+        let a = root(&mut parent, t[0] as usize);
+        for &v in &t[1..] {
+            let b = root(&mut parent, v as usize);
+            parent[b] = a;
+        }
+    }
+    let mut by_root = std::collections::BTreeMap::<usize, Vec<usize>>::new();
+    for (v, &w) in mesh.weld.iter().enumerate() {
+        let r = root(&mut parent, w as usize);
+        by_root.entry(r).or_default().push(v);
+    }
+    let mut out: Vec<Vec<usize>> = by_root.into_values().collect();
+    out.sort_by_key(|p| std::cmp::Reverse(p.len()));
+    out
+}
+
 /// The benchmark's markers and groups on its mesh, ready to bake.
 pub fn benchmark_scene(bench: &Benchmark) -> Scene<'_> {
     Scene {

@@ -21,7 +21,7 @@ use facebake::surface::evaluate::Benchmark;
 use facebake::{BakeOptions, Method};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{
-    bake_scene, facecap_default, facecap_truth, fixture, guard, jawmocap_rig_with, Pinned,
+    bake_scene, facecap_default, fixture, guard, jawmocap_rig_with, layout_benchmark, Pinned,
 };
 
 /// The FaceCap regions, found once per test binary.
@@ -147,20 +147,6 @@ fn facecap_ground_truth_default_bake() {
 fn layout_scene() -> &'static Benchmark {
     static CELL: std::sync::OnceLock<Benchmark> = std::sync::OnceLock::new();
     CELL.get_or_init(|| layout_benchmark(true))
-}
-
-/// The truth driven by the bundled layout's markers, with or without its `[groups]`.
-fn layout_benchmark(groups: bool) -> Benchmark {
-    let truth = facecap_truth();
-    let path = fixture("facecap_jawmocap_layout.toml");
-    let layout = facebake::io::layout::read_layout(&path).expect("layout reads");
-    let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("places");
-    let groups = if groups {
-        layout.groups.clone()
-    } else {
-        Vec::new()
-    };
-    Benchmark::new(truth, &placed, groups, 0).expect("benchmark builds")
 }
 
 /// A bake of the layout scene's markers with `options`.

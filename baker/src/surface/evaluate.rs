@@ -151,14 +151,26 @@ impl Benchmark {
     /// # Panics
     /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
     pub fn play(&self, blob: &[u8]) -> Vec<Vec<[f64; 3]>> {
+        let frames: Vec<Vec<[f64; 3]>> = (0..self.truth.frames.len())
+            .map(|f| self.truth.positions(f))
+            .collect();
+        self.play_positions(blob, &frames)
+    }
+
+    /// Run a rig through the runtime on the markers read off each of `frames` (positions of
+    /// this scene's mesh, glTF vertex order): vertex positions per frame.
+    ///
+    /// # Panics
+    /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
+    pub fn play_positions(&self, blob: &[u8], frames: &[Vec<[f64; 3]>]) -> Vec<Vec<[f64; 3]>> {
         let rig = facebake_runtime::Rig::from_bytes(blob).expect("a rig this crate baked");
         let space = rig.space();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
-        (0..self.truth.frames.len())
-            .map(|f| {
-                let t = self.truth.positions(f);
+        frames
+            .iter()
+            .map(|t| {
                 let q: Vec<[i32; 3]> = self
-                    .markers_of(&t)
+                    .markers_of(t)
                     .iter()
                     .map(|p| {
                         space
