@@ -23,6 +23,7 @@ pub mod corners;
 pub mod distances;
 pub mod evaluate;
 pub mod geometry;
+mod interior;
 pub mod masks;
 pub mod pbw;
 
@@ -524,10 +525,23 @@ pub(crate) fn dense_weights(
             }
             figures
         });
-    let pieces = geometry.pieces_of(&d.fallback);
-    let jaw = floor.map(|mouth| JawMarkers::below(&rest, mouth, spacing));
-    let mut dense =
-        follow_nearest_reachable(dense, &pieces, &mesh.positions, jaw.as_ref(), spacing);
+    let unreachable = geometry.pieces_of(&d.fallback);
+    let pieces = interior::Piece::all(&unreachable, &mesh.positions, spacing);
+    let jaw = mouth.map(|opening| {
+        // The lower lip's markers, found from the openings as the balance above finds them.
+        let lower_lip = masks::groups_from_openings(mesh, &rest)
+            .map(|g| g[0].lower.clone())
+            .unwrap_or_default();
+        interior::Jaw::new(
+            &rest,
+            geometry.openings[opening].centre,
+            spacing,
+            &lower_lip,
+            &anchors,
+            &pieces,
+        )
+    });
+    let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref());
     let mut rbf_anchoring = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
@@ -678,138 +692,6 @@ fn rims_of(geometry: &SurfaceGeometry, mesh: &FaceMesh) -> Vec<Vec<[f64; 3]>> {
                 .collect()
         })
         .collect()
-}
-
-/// Jaw markers are at least this many mean marker spacings below the mouth's centre: the chin's,
-/// not the lower lip's, which moves on its own (a funnel, a pout).
-const JAW_MARGIN: f64 = 0.5;
-/// Jaw markers a piece follows, the nearest: over FaceCap's 52 morph targets three follow its
-/// lower teeth best (error mean 1.33 mm, max 19.6 mm; five or eight 1.35 / 21.3 mm).
-const JAW_MARKERS: usize = 3;
-/// Width of the band about the mouth's height over which mouth-interior skin goes from riding
-/// the skin beside it to riding the jaw, in mean marker spacings.
-const JAW_BAND: f64 = 0.25;
-
-/// The markers below the mouth that carry the jaw, with their rest positions (asset units).
-struct JawMarkers {
-    /// The mouth's centre height.
-    mouth: f64,
-    /// [`JAW_BAND`] in asset units.
-    band: f64,
-    markers: Vec<(usize, [f64; 3])>,
-}
-
-impl JawMarkers {
-    /// The markers of `rest` more than [`JAW_MARGIN`] × `spacing` below the mouth's centre
-    /// height `mouth`.
-    fn below(rest: &[[f64; 3]], mouth: f64, spacing: f64) -> Self {
-        let margin = JAW_MARGIN * spacing;
-        Self {
-            mouth,
-            band: JAW_BAND * spacing,
-            markers: rest
-                .iter()
-                .copied()
-                .enumerate()
-                .filter(|(_, p)| p[1] < mouth - margin)
-                .collect(),
-        }
-    }
-
-    /// Weights (over all `n` markers) that move a piece centred at `centre` with the jaw: the
-    /// 1/d²-weighted mean displacement of its nearest [`JAW_MARKERS`] jaw markers (convex, so
-    /// nothing is extrapolated and a marker's jitter is not magnified). On FaceCap's `jawOpen`
-    /// the lower teeth move 43 mm and the chin's skin 37 mm: the teeth then land 17.6 mm off
-    /// on average against 20.7 mm riding the nearest skin (an affine fit of the chin markers,
-    /// whose skin does not move rigidly, 23 mm; their best rigid fit, which weights cannot
-    /// express, 15.7 mm). `None` without jaw markers.
-    fn weights(&self, centre: &[f64; 3], n: usize) -> Option<Vec<f64>> {
-        let mut near: Vec<(f64, usize)> = self
-            .markers
-            .iter()
-            .map(|(m, p)| (crate::mesh::distance(p, centre), *m))
-            .collect();
-        near.sort_by(|a, b| a.0.total_cmp(&b.0));
-        near.truncate(JAW_MARKERS);
-        let total: f64 = near.iter().map(|(d, _)| 1.0 / (d * d).max(1e-12)).sum();
-        if near.is_empty() || !total.is_finite() {
-            return None;
-        }
-        let mut w = vec![0.0; n];
-        for (d, m) in near {
-            w[m] = 1.0 / (d * d).max(1e-12) / total;
-        }
-        Some(w)
-    }
-}
-
-/// Pieces of the mesh that not every marker reaches along the surface (mouth-interior pieces:
-/// teeth, gums, tongue, the mouth's lining) ride what is beside them. A piece no wider than a
-/// marker spacing (a tooth) moves as one: every vertex takes the weights of the reachable vertex
-/// nearest the piece's centre, so it moves rigidly with that skin instead of being stretched
-/// between the lips or pulled by markers across the face; a wider one (the lining) takes, vertex
-/// by vertex, the weights of the reachable vertex nearest it. Below the mouth they ride the jaw
-/// instead ([`JawMarkers::weights`]), so the lower teeth go down with the chin, blending across
-/// a band of [`JAW_BAND`] spacings about the mouth's height. Over FaceCap's 52 morph targets,
-/// against riding the skin nearest each piece's centre: lower teeth error mean 3.21 → 1.33 mm,
-/// max 40.0 → 19.6 mm; the lining mean 3.24 → 1.77 mm, p99 24.8 → 14.8 mm.
-fn follow_nearest_reachable(
-    mut dense: Vec<Vec<f64>>,
-    pieces: &[(u32, Vec<u32>)],
-    positions: &[[f64; 3]],
-    jaw: Option<&JawMarkers>,
-    spacing: f64,
-) -> Vec<Vec<f64>> {
-    if pieces.is_empty() {
-        return dense;
-    }
-    let mut cut = vec![false; positions.len()];
-    for &v in pieces.iter().flat_map(|(_, piece)| piece) {
-        cut[v as usize] = true;
-    }
-    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
-    let n = dense.first().map_or(0, Vec::len);
-    let nearest = |p: &[f64; 3]| {
-        reachable.iter().copied().min_by(|&a, &b| {
-            crate::mesh::distance(p, &positions[a])
-                .total_cmp(&crate::mesh::distance(p, &positions[b]))
-        })
-    };
-    for (_, piece) in pieces {
-        let centre = crate::mesh::centroid(positions, piece);
-        let radius = piece
-            .iter()
-            .map(|&v| crate::mesh::distance(&centre, &positions[v as usize]))
-            .fold(0.0, f64::max);
-        // A piece wider than a marker spacing is a sheet (the mouth's lining): each vertex follows
-        // the skin and the jaw nearest itself. A smaller one (a tooth) moves as one.
-        let sheet = radius > spacing;
-        // What a point rides: the skin nearest it and, below the mouth, the jaw's markers.
-        let rides = |dense: &[Vec<f64>], p: &[f64; 3]| {
-            let skin = nearest(p).map(|s| dense[s].clone());
-            (skin, jaw.and_then(|j| j.weights(p, n)))
-        };
-        let whole = (!sheet).then(|| rides(&dense, &centre));
-        for &v in piece {
-            let at = positions[v as usize];
-            let (skin, on_jaw) = match &whole {
-                Some(w) => w.clone(),
-                None => rides(&dense, &at),
-            };
-            let Some(skin) = skin else { continue };
-            dense[v as usize] = match (jaw, on_jaw) {
-                (Some(j), Some(w)) => {
-                    let t = anchoring::smoothstep((j.mouth - at[1]) / j.band + 0.5);
-                    skin.iter()
-                        .zip(&w)
-                        .map(|(s, w)| (1.0 - t) * s + t * w)
-                        .collect()
-                }
-                _ => skin,
-            };
-        }
-    }
-    dense
 }
 
 impl SurfaceBake {

@@ -1,0 +1,390 @@
+//! The mouth's interior: pieces of the mesh that not every marker reaches along the surface
+//! (teeth, gums, tongue, a mouth's lining) ride what is beside them, and those on the jaw's
+//! side ride the jaw.
+//!
+//! Measured on FaceCap's truth with the JawMoCap layout's 41 markers, the 14 lower-teeth pieces
+//! against their truth (`cargo test --release -p facebake-tests --test interior --
+//! --nocapture`): over the 32 frames error mean 3.64 mm, max 14.3 mm, worst frame's
+//! mean 9.9 mm (`jaw open` 9.3 mm); over the 52 morph targets mean 1.58 mm, max 14.3 mm. Before
+//! the parting line rose with the teeth and the lower lip's share (every vertex below the
+//! mouth's height on the jaw's three markers): 4.86 / 23.8 / 15.9 (14.5) mm and 1.87 / 23.1 mm,
+//! the back teeth of the arch riding the cheek, and a tooth that straddled the band bent. With
+//! FaceCap's upper row (a mesh of its own) merged into the head mesh, the upper teeth stay within
+//! 0.35 mm (mean 0.05) of still, where they rode the upper lip (6.36, max 28.06 mm).
+
+use super::anchoring::smoothstep;
+use crate::mesh::{centroid, distance};
+
+/// Jaw markers are at least this many mean marker spacings below the mouth's centre: the chin's,
+/// not the lower lip's, which moves on its own (a funnel, a pout).
+const JAW_MARGIN: f64 = 0.5;
+/// Markers of a set (the jaw's, the lower lip's) a point follows: the nearest three.
+const NEAREST: usize = 3;
+/// Width of the band about the parting line over which an interior sheet goes from riding the
+/// skin beside it to riding the jaw, in mean marker spacings.
+const JAW_BAND: f64 = 0.25;
+/// Steepest rise of the parting line towards the back of the head (−dy/dz): the arch of
+/// FaceCap's lower teeth rises 0.23 (13°); a steeper fit is clamped.
+const RISE_MAX: f64 = 0.5;
+/// Share of the lower lip's markers in what a tooth on the jaw's side rides, the rest the jaw's.
+/// In `jaw open` FaceCap's lower lip moves with the front teeth and the chin's skin half as far;
+/// in the funnel and the pucker the lip moves on its own. Over the 32 truth frames, shares of
+/// 0 / 0.1 / 0.2 / 0.25 / 0.3 / 0.4 / 0.5: error mean 3.68 / 3.59 / 3.60 / 3.64 / 3.70 / 3.90 /
+/// 4.19 mm, worst frame's mean 13.4 / 11.6 / 10.0 / 9.9 / 10.3 / 11.2 / 12.2 mm (52 targets:
+/// 13.4 / 11.6 / 10.0 / 9.3 / 8.9 / 11.6 / 14.3). Sheets (the tongue) ride the jaw alone: with
+/// the share, its error mean 4.25 → 4.41 mm.
+const TOOTH_LIP: f64 = 0.25;
+
+/// A piece of the mesh that not every marker reaches along the surface.
+pub(crate) struct Piece<'a> {
+    vertices: &'a [u32],
+    /// The mean of its vertices' rest positions.
+    centre: [f64; 3],
+    /// Wider than a marker spacing (a tongue, a mouth's lining): each vertex rides what is
+    /// nearest itself. A smaller piece (a tooth) moves as one, with what is nearest its centre.
+    sheet: bool,
+}
+
+impl<'a> Piece<'a> {
+    /// The `pieces` (component, vertices) with their centres on `positions`, and which are
+    /// sheets at marker `spacing`.
+    pub(crate) fn all(
+        pieces: &'a [(u32, Vec<u32>)],
+        positions: &[[f64; 3]],
+        spacing: f64,
+    ) -> Vec<Self> {
+        pieces
+            .iter()
+            .map(|(_, vertices)| {
+                let centre = centroid(positions, vertices);
+                let radius = vertices
+                    .iter()
+                    .map(|&v| distance(&centre, &positions[v as usize]))
+                    .fold(0.0, f64::max);
+                Piece {
+                    vertices,
+                    centre,
+                    sheet: radius > spacing,
+                }
+            })
+            .collect()
+    }
+}
+
+/// What carries the interior on the jaw's side of the parting line: a line (in the face's axes,
+/// y up, z forward) through the mouth's centre that rises towards the back of the head as the
+/// teeth do, so the back teeth of an arch whose front is below the mouth are on the jaw's side
+/// with its front, and an upper arch above the line stays with the skull.
+pub(crate) struct Jaw {
+    /// A point of the line: the mouth's centre, or between two arches of teeth the middle of
+    /// the gap at the mouth's depth.
+    mouth: [f64; 3],
+    /// How far the line rises per unit towards the back: the teeth's centres' least-squares
+    /// slope of height on depth, 0 to [`RISE_MAX`].
+    rise: f64,
+    /// The skull's markers, whose mean a tooth on the skull's side rides (the upper arch is
+    /// bone, not skin); empty: it rides the skin nearest it.
+    skull: Vec<usize>,
+    /// [`JAW_BAND`] in asset units.
+    band: f64,
+    /// The jaw's markers: more than [`JAW_MARGIN`] spacings below the mouth's centre.
+    markers: Vec<(usize, [f64; 3])>,
+    /// The lower lip's markers.
+    lip: Vec<(usize, [f64; 3])>,
+}
+
+impl Jaw {
+    /// The jaw of markers `rest` (spaced `spacing` apart on average) under a mouth centred at
+    /// `mouth`, with the lower lip's markers `lip` and the skull's `skull` (indices into `rest`)
+    /// and the parting line fitted to the teeth among `pieces`.
+    pub(crate) fn new(
+        rest: &[[f64; 3]],
+        mouth: [f64; 3],
+        spacing: f64,
+        lip: &[usize],
+        skull: &[usize],
+        pieces: &[Piece<'_>],
+    ) -> Self {
+        let teeth: Vec<[f64; 3]> = pieces
+            .iter()
+            .filter(|p| !p.sheet)
+            .map(|p| p.centre)
+            .collect();
+        let margin = JAW_MARGIN * spacing;
+        let rise = rise_to_the_back(&teeth);
+        let band = JAW_BAND * spacing;
+        // Arches parted by half the band or more: each clear of the line by a quarter of it.
+        let on_line = match between_arches(&teeth, rise, 0.5 * band) {
+            Some(level) => [mouth[0], level - rise * mouth[2], mouth[2]],
+            None => mouth,
+        };
+        let known = |m: &usize| *m < rest.len();
+        Self {
+            mouth: on_line,
+            rise,
+            skull: skull.iter().copied().filter(known).collect(),
+            band,
+            markers: rest
+                .iter()
+                .copied()
+                .enumerate()
+                .filter(|(_, p)| p[1] < mouth[1] - margin)
+                .collect(),
+            lip: lip
+                .iter()
+                .copied()
+                .filter(known)
+                .map(|m| (m, rest[m]))
+                .collect(),
+        }
+    }
+
+    /// How much of the jaw a point at `p` rides: 0 above the band about the parting line, 1
+    /// below it.
+    fn share(&self, p: &[f64; 3]) -> f64 {
+        let below = self.mouth[1] + self.rise * (self.mouth[2] - p[2]) - p[1];
+        smoothstep(below / self.band + 0.5)
+    }
+
+    /// Weights (over all `n` markers) that move a point at `p` with the jaw: `lip` of the lower
+    /// lip's nearest markers and the rest of the jaw's nearest, each the 1/d²-weighted mean of
+    /// its nearest [`NEAREST`] (convex, so nothing is extrapolated and a marker's jitter is not
+    /// magnified). `None` without jaw markers.
+    fn weights(&self, p: &[f64; 3], n: usize, lip: f64) -> Option<Vec<f64>> {
+        let jaw = nearest_mean(&self.markers, p, n)?;
+        Some(match nearest_mean(&self.lip, p, n) {
+            Some(on_lip) => jaw
+                .iter()
+                .zip(&on_lip)
+                .map(|(j, l)| (1.0 - lip) * j + lip * l)
+                .collect(),
+            None => jaw,
+        })
+    }
+}
+
+/// Where two arches of teeth part, if the teeth's `centres` make two: their heights with the
+/// line's `rise` taken out (`y + rise · z`, the height where the line through a centre meets
+/// depth 0) fall into two groups with a gap of at least `min_gap` and wider than either group's
+/// spread; then the middle of that gap, in the same measure. One arch, or teeth the gap does not
+/// part cleanly, give `None`.
+fn between_arches(centres: &[[f64; 3]], rise: f64, min_gap: f64) -> Option<f64> {
+    let mut level: Vec<f64> = centres.iter().map(|c| c[1] + rise * c[2]).collect();
+    if level.len() < 2 || level.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    level.sort_by(f64::total_cmp);
+    let (at, gap) = level
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (low, high) = level.split_at(at + 1);
+    let spread = |g: &[f64]| g[g.len() - 1] - g[0];
+    (gap >= min_gap && gap > spread(low).max(spread(high)))
+        .then(|| 0.5 * (low[low.len() - 1] + high[0]))
+}
+
+/// The 1/d²-weighted mean, as weights over `n` markers, of the [`NEAREST`] of `markers` nearest
+/// `p`; `None` when there are none.
+fn nearest_mean(markers: &[(usize, [f64; 3])], p: &[f64; 3], n: usize) -> Option<Vec<f64>> {
+    let mut near: Vec<(f64, usize)> = markers.iter().map(|(m, q)| (distance(q, p), *m)).collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    near.truncate(NEAREST);
+    let total: f64 = near.iter().map(|(d, _)| 1.0 / (d * d).max(1e-12)).sum();
+    if near.is_empty() || !total.is_finite() {
+        return None;
+    }
+    let mut w = vec![0.0; n];
+    for (d, m) in near {
+        w[m] += 1.0 / (d * d).max(1e-12) / total;
+    }
+    Some(w)
+}
+
+/// The least-squares slope of height on depth of `centres` as a rise towards the back (−dy/dz),
+/// clamped to 0..[`RISE_MAX`]; 0 for fewer than two centres or none spread in depth.
+fn rise_to_the_back(centres: &[[f64; 3]]) -> f64 {
+    if centres.len() < 2 {
+        return 0.0;
+    }
+    let k = centres.len() as f64;
+    let mean = |c: usize| centres.iter().map(|p| p[c]).sum::<f64>() / k;
+    let (mz, my) = (mean(2), mean(1));
+    let szz: f64 = centres.iter().map(|p| (p[2] - mz).powi(2)).sum();
+    let szy: f64 = centres.iter().map(|p| (p[2] - mz) * (p[1] - my)).sum();
+    if szz.is_nan() || szz <= 0.0 || !szy.is_finite() {
+        return 0.0;
+    }
+    (-szy / szz).clamp(0.0, RISE_MAX)
+}
+
+/// The `pieces` ride what is beside them: the weights of the reachable vertex nearest them (a
+/// tooth, moving as one, that nearest its centre; a sheet's vertex, that nearest itself), so
+/// they move with that skin instead of being stretched between the lips or pulled by markers
+/// across the face. With a `jaw`, what is on its side of the parting line rides it instead
+/// ([`Jaw::weights`], a tooth with [`TOOTH_LIP`] of the lower lip's markers), blending across a
+/// band of [`JAW_BAND`] spacings about the line, and a tooth on the skull's side rides the skull
+/// markers' mean rather than the skin.
+pub(crate) fn ride_beside(
+    mut dense: Vec<Vec<f64>>,
+    pieces: &[Piece<'_>],
+    positions: &[[f64; 3]],
+    jaw: Option<&Jaw>,
+) -> Vec<Vec<f64>> {
+    if pieces.is_empty() {
+        return dense;
+    }
+    let mut cut = vec![false; positions.len()];
+    for &v in pieces.iter().flat_map(|p| p.vertices) {
+        cut[v as usize] = true;
+    }
+    let reachable: Vec<usize> = (0..positions.len()).filter(|&v| !cut[v]).collect();
+    let n = dense.first().map_or(0, Vec::len);
+    let nearest = |p: &[f64; 3]| {
+        reachable
+            .iter()
+            .copied()
+            .min_by(|&a, &b| distance(p, &positions[a]).total_cmp(&distance(p, &positions[b])))
+    };
+    // What a point rides: on the skull's side the skin nearest it (a tooth: the skull, when
+    // there are skull markers) and on the jaw's side, the jaw.
+    let rides = |dense: &[Vec<f64>], p: &[f64; 3], tooth: bool| -> Option<Vec<f64>> {
+        let lip = if tooth { TOOTH_LIP } else { 0.0 };
+        let Some((jaw, on_jaw)) = jaw.and_then(|j| Some((j, j.weights(p, n, lip)?))) else {
+            return Some(dense[nearest(p)?].clone());
+        };
+        let skin = match (tooth, jaw.skull.len()) {
+            (true, k) if k > 0 => {
+                let mut w = vec![0.0; n];
+                for &m in &jaw.skull {
+                    w[m] += 1.0 / k as f64;
+                }
+                w
+            }
+            _ => dense[nearest(p)?].clone(),
+        };
+        let t = jaw.share(p);
+        Some(
+            skin.iter()
+                .zip(&on_jaw)
+                .map(|(s, j)| (1.0 - t) * s + t * j)
+                .collect(),
+        )
+    };
+    for piece in pieces {
+        if piece.sheet {
+            for &v in piece.vertices {
+                if let Some(w) = rides(&dense, &positions[v as usize], false) {
+                    dense[v as usize] = w;
+                }
+            }
+        } else if let Some(w) = rides(&dense, &piece.centre, true) {
+            for &v in piece.vertices {
+                dense[v as usize].clone_from(&w);
+            }
+        }
+    }
+    dense
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An arch of six teeth centres rising 0.2 to the back, its front 4 below the mouth at 0.
+    fn arch(rise: f64) -> Vec<[f64; 3]> {
+        (0..6)
+            .map(|i| {
+                let z = 50.0 - 8.0 * f64::from(i);
+                let x = if i % 2 == 0 { 10.0 } else { -10.0 };
+                [x, -4.0 + rise * (50.0 - z), z]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_parting_line_rises_as_the_teeth_do_within_bounds() {
+        assert!((rise_to_the_back(&arch(0.2)) - 0.2).abs() < 1e-12);
+        assert_eq!(rise_to_the_back(&arch(2.0)), RISE_MAX);
+        assert_eq!(rise_to_the_back(&arch(-0.3)), 0.0);
+        assert_eq!(rise_to_the_back(&arch(0.2)[..1]), 0.0);
+        assert_eq!(rise_to_the_back(&[[0.0, 1.0, 5.0], [0.0, 3.0, 5.0]]), 0.0);
+        assert_eq!(rise_to_the_back(&[[f64::NAN; 3], [0.0, 3.0, 5.0]]), 0.0);
+    }
+
+    /// One-vertex pieces at `centres`.
+    fn teeth(centres: &[[f64; 3]]) -> Vec<(u32, Vec<u32>)> {
+        (0..centres.len() as u32).map(|v| (v, vec![v])).collect()
+    }
+
+    /// The jaw of [`MARKERS`] (spacing 20) under a mouth at (0, −2, 62), with one-vertex teeth
+    /// at `centres`.
+    fn jaw_of(centres: &[[f64; 3]]) -> Jaw {
+        let pieces = teeth(centres);
+        let pieces = Piece::all(&pieces, centres, 20.0);
+        Jaw::new(&MARKERS, [0.0, -2.0, 62.0], 20.0, &[1], &[2], &pieces)
+    }
+
+    /// Markers: a chin marker, a lower-lip marker and a skull marker.
+    const MARKERS: [[f64; 3]; 3] = [[0.0, -40.0, 60.0], [0.0, -6.0, 62.0], [0.0, 80.0, 40.0]];
+
+    #[test]
+    fn two_arches_part_in_their_gap_and_one_arch_does_not() {
+        let lower = arch(0.2);
+        assert_eq!(between_arches(&lower, 0.2, 2.5), None);
+        let upper: Vec<[f64; 3]> = lower.iter().map(|p| [p[0], p[1] + 6.0, p[2]]).collect();
+        let both = [lower.clone(), upper].concat();
+        // Heights with the rise out: −4 + 0.2 · 50 = 6 for the lower arch, 12 for the upper.
+        let level = between_arches(&both, 0.2, 2.5).expect("two arches");
+        assert!((level - 9.0).abs() < 1e-9, "{level}");
+        // Not parted cleanly: a gap no wider than a group's spread.
+        let ragged = [
+            [0.0, 0.0, 0.0],
+            [0.0, 3.0, 0.0],
+            [0.0, 5.0, 0.0],
+            [0.0, 8.0, 0.0],
+        ];
+        assert_eq!(between_arches(&ragged, 0.0, 2.5), None);
+        // Nor by less than the least gap.
+        assert_eq!(between_arches(&both, 0.2, 6.5), None);
+    }
+
+    /// A lower arch rising above the mouth's height at the back rides the jaw tooth by tooth,
+    /// front to back (a level line left the back of it on the skin); with an upper arch beside
+    /// it whose front reaches the mouth's centre, the line parts the two, the upper riding the
+    /// skull.
+    #[test]
+    fn an_arch_is_on_one_side_front_to_back() {
+        let lower = arch(0.2);
+        let jaw = jaw_of(&lower);
+        assert_eq!(jaw.markers.iter().map(|m| m.0).collect::<Vec<_>>(), [0]);
+        assert!((jaw.rise - 0.2).abs() < 1e-12);
+        for l in &lower {
+            assert!(jaw.share(l) > 0.99, "{l:?}: {}", jaw.share(l));
+        }
+        let level = Jaw { rise: 0.0, ..jaw };
+        assert!(level.share(&lower[5]) < 0.01);
+        let upper: Vec<[f64; 3]> = lower.iter().map(|p| [p[0], p[1] + 6.0, p[2]]).collect();
+        let both = [lower.clone(), upper.clone()].concat();
+        let pieces = teeth(&both);
+        let jaw = jaw_of(&both);
+        for (l, u) in lower.iter().zip(&upper) {
+            assert!(jaw.share(l) > 0.99, "{l:?}: {}", jaw.share(l));
+            assert!(jaw.share(u) < 0.01, "{u:?}: {}", jaw.share(u));
+        }
+        // The lower arch rides the chin and a quarter of the lower lip; the upper, the skull.
+        let dense = vec![vec![0.0; 3]; both.len()];
+        let rode = ride_beside(dense, &Piece::all(&pieces, &both, 20.0), &both, Some(&jaw));
+        for (v, w) in rode.iter().enumerate() {
+            let want = if v < lower.len() {
+                [1.0 - TOOTH_LIP, TOOTH_LIP, 0.0]
+            } else {
+                [0.0, 0.0, 1.0]
+            };
+            for (a, b) in w.iter().zip(want) {
+                assert!((a - b).abs() < 1e-9, "tooth {v}: {w:?}");
+            }
+        }
+    }
+}
