@@ -495,6 +495,7 @@ fn bake_deformer(
         let anchor = options
             .anchoring
             .and_then(|factor| planar_anchor(mesh, rest, factor, scene.capture.is_some()));
+        let teeth = crate::surface::interior::teeth(mesh, crate::surface::mean_spacing(rest));
         let (output, summary, reference) = deformer::planar::bake(
             &mesh.positions,
             &mesh.triangles,
@@ -505,6 +506,7 @@ fn bake_deformer(
                 radius_factor: options.planar_radius,
                 masks: allowance.as_ref(),
                 anchor: anchor.as_ref().map(|(t, s)| (*t, s.as_slice())),
+                rigid: &teeth,
             },
             space,
         )

@@ -203,6 +203,46 @@ pub fn influences(
         .collect()
 }
 
+/// The influences of a `piece` of `vertices` as one: those of its centre, within the masks of
+/// its vertex nearest the centre. `None` for an empty piece.
+fn piece_influences(
+    vertices: &[V3],
+    piece: &[u32],
+    triangles: &[[usize; 3]],
+    frames: &[Frame],
+    radii: &[f64],
+    masks: Option<&MarkerAllowance>,
+) -> Option<Vec<Influence>> {
+    let points: Vec<V3> = piece
+        .iter()
+        .filter_map(|&v| vertices.get(v as usize).copied())
+        .collect();
+    if points.is_empty() {
+        return None;
+    }
+    let centre = crate::mesh::centroid(&points, &(0..points.len() as u32).collect::<Vec<_>>());
+    let nearest = piece
+        .iter()
+        .copied()
+        .filter(|&v| (v as usize) < vertices.len())
+        .min_by(|&a, &b| {
+            crate::mesh::distance(&centre, &vertices[a as usize])
+                .total_cmp(&crate::mesh::distance(&centre, &vertices[b as usize]))
+        })?;
+    let allowance = masks
+        .and_then(|m| m.get(nearest as usize))
+        .map(|a| vec![a.clone()]);
+    influences(
+        &[centre],
+        triangles,
+        frames,
+        radii,
+        usize::MAX,
+        allowance.as_ref(),
+    )
+    .pop()
+}
+
 /// Weights quantised to Q1.15 summing to exactly 2¹⁵ (largest remainders get the spare
 /// units); influences whose weight rounds to zero are dropped.
 pub fn quantise_weights(row: &[Influence]) -> Vec<(Influence, u16)> {
@@ -298,6 +338,10 @@ pub struct PlanarOptions<'a> {
     /// weight that rides it ([`crate::surface::anchoring`]), so that the skin beyond the
     /// markers (cranium, back of the head) follows the skull instead of the nearest face bone.
     pub anchor: Option<([usize; 3], &'a [f64])>,
+    /// Pieces of the mesh (glTF vertices) that move as one (teeth): every vertex takes the
+    /// bones and weights of the piece's centre, so a blend of the bones' motions moves the
+    /// piece as a whole instead of bending it.
+    pub rigid: &'a [Vec<u32>],
 }
 
 /// Bake planar bones: the control surface (`given` triangles, or the automatic one from the
@@ -316,6 +360,7 @@ pub fn bake(
         radius_factor,
         masks,
         anchor,
+        rigid,
     } = *options;
     let mut triangles = match given {
         Some(t) => t.to_vec(),
@@ -338,6 +383,32 @@ pub fn bake(
         usize::MAX,
         masks,
     );
+    for piece in rigid {
+        let Some(row) = piece_influences(
+            vertices,
+            piece,
+            &triangles[..face],
+            &rest_frames[..face],
+            &radii[..face],
+            masks,
+        ) else {
+            continue;
+        };
+        // Over each bone's triangle region, extended: its local coordinates are affine, so
+        // the blend is one affine motion of the whole piece (an apex's are not).
+        let row: Vec<Influence> = row
+            .into_iter()
+            .map(|i| Influence {
+                region: Region::Triangle,
+                ..i
+            })
+            .collect();
+        for &v in piece {
+            if let Some(r) = all.get_mut(v as usize) {
+                r.clone_from(&row);
+            }
+        }
+    }
     if let Some((t, strength)) = skull {
         for ((row, s), &strength) in all.iter_mut().zip(vertices).zip(strength) {
             if strength <= 0.0 {

@@ -71,6 +71,32 @@ impl<'a> Piece<'a> {
     }
 }
 
+/// The teeth of `mesh` at marker `spacing`: its pieces besides the largest (the skin) that are
+/// no wider than a marker spacing, each as its glTF vertices. Deformers that cannot follow the
+/// jaw as [`ride_beside`] does (planar bones) still move each one as one piece.
+pub(crate) fn teeth(mesh: &crate::model::FaceMesh, spacing: f64) -> Vec<Vec<u32>> {
+    let components = mesh.welded_topology().components;
+    let Some(skin) = (0..components.len()).max_by_key(|&c| components.vertex_counts[c]) else {
+        return Vec::new();
+    };
+    let mut pieces: Vec<(u32, Vec<u32>)> = Vec::new();
+    for (v, &w) in mesh.weld.iter().enumerate() {
+        let c = components.vertex_component[w as usize];
+        if c as usize == skin {
+            continue;
+        }
+        match pieces.iter_mut().find(|p| p.0 == c) {
+            Some(p) => p.1.push(v as u32),
+            None => pieces.push((c, vec![v as u32])),
+        }
+    }
+    Piece::all(&pieces, &mesh.positions, spacing)
+        .into_iter()
+        .filter(|p| !p.sheet)
+        .map(|p| p.vertices.to_vec())
+        .collect()
+}
+
 /// What carries the interior on the jaw's side of the parting line: a line (in the face's axes,
 /// y up, z forward) through the mouth's centre that rises towards the back of the head as the
 /// teeth do, so the back teeth of an arch whose front is below the mouth are on the jaw's side

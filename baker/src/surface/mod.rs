@@ -23,7 +23,7 @@ pub mod corners;
 pub mod distances;
 pub mod evaluate;
 pub mod geometry;
-mod interior;
+pub(crate) mod interior;
 pub mod masks;
 pub mod pbw;
 
@@ -273,7 +273,7 @@ fn sides_of(
 }
 
 /// Mean nearest-marker distance.
-fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
+pub(crate) fn mean_spacing(rest: &[[f64; 3]]) -> f64 {
     let r = crate::rbf::radial::nearest_distances(rest);
     r.iter().sum::<f64>() / r.len().max(1) as f64
 }
