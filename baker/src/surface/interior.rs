@@ -79,17 +79,19 @@ pub(crate) fn teeth(mesh: &crate::model::FaceMesh, spacing: f64) -> Vec<Vec<u32>
     let Some(skin) = (0..components.len()).max_by_key(|&c| components.vertex_counts[c]) else {
         return Vec::new();
     };
-    let mut pieces: Vec<(u32, Vec<u32>)> = Vec::new();
+    let mut by_component: Vec<Vec<u32>> = vec![Vec::new(); components.len()];
     for (v, &w) in mesh.weld.iter().enumerate() {
-        let c = components.vertex_component[w as usize];
-        if c as usize == skin {
-            continue;
-        }
-        match pieces.iter_mut().find(|p| p.0 == c) {
-            Some(p) => p.1.push(v as u32),
-            None => pieces.push((c, vec![v as u32])),
+        let c = components.vertex_component[w as usize] as usize;
+        if c != skin {
+            by_component[c].push(v as u32);
         }
     }
+    let pieces: Vec<(u32, Vec<u32>)> = by_component
+        .into_iter()
+        .enumerate()
+        .filter(|(_, p)| !p.is_empty())
+        .map(|(c, p)| (c as u32, p))
+        .collect();
     Piece::all(&pieces, &mesh.positions, spacing)
         .into_iter()
         .filter(|p| !p.sheet)
@@ -340,20 +342,41 @@ mod tests {
     }
 
     /// One-vertex pieces at `centres`.
-    fn teeth(centres: &[[f64; 3]]) -> Vec<(u32, Vec<u32>)> {
+    fn one_vertex_pieces(centres: &[[f64; 3]]) -> Vec<(u32, Vec<u32>)> {
         (0..centres.len() as u32).map(|v| (v, vec![v])).collect()
     }
 
     /// The jaw of [`MARKERS`] (spacing 20) under a mouth at (0, −2, 62), with one-vertex teeth
     /// at `centres`.
     fn jaw_of(centres: &[[f64; 3]]) -> Jaw {
-        let pieces = teeth(centres);
+        let pieces = one_vertex_pieces(centres);
         let pieces = Piece::all(&pieces, centres, 20.0);
         Jaw::new(&MARKERS, [0.0, -2.0, 62.0], 20.0, &[1], &[2], &pieces)
     }
 
     /// Markers: a chin marker, a lower-lip marker and a skull marker.
     const MARKERS: [[f64; 3]; 3] = [[0.0, -40.0, 60.0], [0.0, -6.0, 62.0], [0.0, 80.0, 40.0]];
+
+    /// A skin of two triangles, a tooth (a small triangle) and a sheet (a wide one): the teeth
+    /// are the small piece alone.
+    #[test]
+    fn teeth_are_the_small_pieces_besides_the_skin() {
+        let positions = vec![
+            [0.0, 0.0, 0.0],
+            [100.0, 0.0, 0.0],
+            [100.0, 100.0, 0.0],
+            [0.0, 100.0, 0.0],
+            [10.0, 10.0, 5.0],
+            [12.0, 10.0, 5.0],
+            [11.0, 12.0, 5.0],
+            [0.0, 0.0, 9.0],
+            [90.0, 0.0, 9.0],
+            [0.0, 90.0, 9.0],
+        ];
+        let triangles = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [7, 8, 9]];
+        let mesh = crate::model::FaceMesh::from_triangles("t", positions, triangles);
+        assert_eq!(teeth(&mesh, 20.0), vec![vec![4, 5, 6]]);
+    }
 
     #[test]
     fn two_arches_part_in_their_gap_and_one_arch_does_not() {
@@ -393,7 +416,7 @@ mod tests {
         assert!(level.share(&lower[5]) < 0.01);
         let upper: Vec<[f64; 3]> = lower.iter().map(|p| [p[0], p[1] + 6.0, p[2]]).collect();
         let both = [lower.clone(), upper.clone()].concat();
-        let pieces = teeth(&both);
+        let pieces = one_vertex_pieces(&both);
         let jaw = jaw_of(&both);
         for (l, u) in lower.iter().zip(&upper) {
             assert!(jaw.share(l) > 0.99, "{l:?}: {}", jaw.share(l));
