@@ -52,6 +52,11 @@ pub struct SurfaceOptions {
     pub mask_plateau_factor: f64,
     /// Masks: width of the Gaussian fade beyond it, × mean marker spacing.
     pub mask_decay_factor: f64,
+    /// Masks (linear deformer): where a vertex is nearly as near one side's markers as the
+    /// other's (at and past an opening's corners), the mask fades out over this difference of
+    /// the two distances, × mean marker spacing ([`crate::surface::masks::vertex_sides`]); 0
+    /// switches sides abruptly there.
+    pub mask_side_factor: f64,
     /// PBW: α of paper 002's eq 11, the share of the local (proximity) weights; the rest is the
     /// global RBF (on geodesic distances).
     pub pbw_alpha: f64,
@@ -80,6 +85,7 @@ impl Default for SurfaceOptions {
             decay_factor: 0.5,
             mask_plateau_factor: 0.5,
             mask_decay_factor: 1.0,
+            mask_side_factor: 0.0,
             pbw_alpha: 0.5,
             ridge: None,
             corners: true,
@@ -87,6 +93,22 @@ impl Default for SurfaceOptions {
         }
     }
 }
+
+/// How far a mask fades out at an opening's corners for distances along the skin, × the mean
+/// marker spacing (see [`SurfaceOptions::mask_side_factor`]). Where the two sides' distances
+/// differ by less (at a corner and past it), the unmasked weights take over, which distances
+/// along the skin already keep apart across the opening. On FaceCap's truth with the JawMoCap
+/// layout, `bake --masks` (`--test structure`): 0 / 0.25 / 0.5 / 1: flips 5 / 1 / 1 / 1,
+/// stretch 2.07× / 1.90× / 1.90× / 1.92×, eyelids 1.1 / 0.9 / 0.9 / 0.9 mm, lips 6.7 / 6.7 /
+/// 6.7 / 6.8 mm; JawMoCap 1.98× / 2.26× (115 frames over 2×) / 1.99× / **1.92×** (0). Hybrid
+/// with masks at 1: truth flips 5 → 1, JawMoCap frames over 2× 86 → 67.
+pub const MASK_SIDE_SURFACE: f64 = 1.0;
+
+/// [`MASK_SIDE_SURFACE`] for Euclidean distances, which do not keep the lips apart unmasked, so
+/// the hand-over is short: `bake --method euclidean` at 0 / 0.1 / 0.25 / 0.5 / 1: truth flips
+/// 3 / 2 / 2 / 2 / 2, lips 7.0 / 7.0 / 7.0 / 8.8 / 13.6 mm; JawMoCap 2.36× (118 frames) / 2.74×
+/// (129) / **2.18× (108)** / 2.15× (106) / 2.02× (77).
+pub const MASK_SIDE_EUCLIDEAN: f64 = 0.25;
 
 /// How much of a distance measured across a lip or lid (from a marker worn on it towards the
 /// opening's rim) counts, by default. On FaceCap's truth the inner rim of the lower lip moves
@@ -189,6 +211,13 @@ impl BakeOptions {
             refit: match method {
                 Method::Geodesic | Method::Euclidean | Method::Hybrid => Refit::Shrink,
                 Method::Pbw => Refit::Prior,
+            },
+            surface: SurfaceOptions {
+                mask_side_factor: match method {
+                    Method::Euclidean => MASK_SIDE_EUCLIDEAN,
+                    Method::Geodesic | Method::Hybrid | Method::Pbw => MASK_SIDE_SURFACE,
+                },
+                ..SurfaceOptions::default()
             },
             ..Self::default()
         }

@@ -99,7 +99,7 @@ impl Benchmark {
         let rest: Vec<[f64; 3]> = markers.iter().map(|m| m.rest).collect();
         let geometry = SurfaceGeometry::new(mesh, &sources, GeodesicMethod::EdgeDijkstra)
             .map_err(SurfaceError::from)?;
-        let sides = vertex_sides(&groups, &SideRule::Auto, &geometry, &rest, BAND, BAND)
+        let sides = vertex_sides(&groups, &SideRule::Auto, &geometry, &rest, BAND, BAND, 0.0)
             .map_err(|e: MaskError| SurfaceError::from(e))?;
         let bands = sides
             .iter()

@@ -216,7 +216,9 @@ fn gaussian(d: f64, width: f64) -> f64 {
 }
 
 /// Sides and strengths of every mask: full strength within `plateau` of the openings (or the
-/// vertex sets), then a Gaussian fade of width `decay` (asset units).
+/// vertex sets), then a Gaussian fade of width `decay`; and where a vertex's distances to the
+/// two sides differ by less than `side_band`, fading to nothing as they meet (at and past an
+/// opening's corners, which belong to neither side; 0: no fade). Asset units.
 pub fn vertex_sides(
     groups: &[MarkerGroups],
     rule: &SideRule,
@@ -224,6 +226,7 @@ pub fn vertex_sides(
     markers: &[[f64; 3]],
     plateau: f64,
     decay: f64,
+    side_band: f64,
 ) -> Result<Vec<MaskSides>, MaskError> {
     let vertex_count = geometry.weld.len();
     let openings = assign_openings(groups, geometry, markers);
@@ -300,7 +303,15 @@ pub fn vertex_sides(
             let strength = geometry
                 .weld
                 .iter()
-                .map(|&x| gaussian((reach[x as usize] - plateau).max(0.0), decay))
+                .map(|&x| {
+                    let (u, l) = (up[x as usize], low[x as usize]);
+                    let apart = if side_band > 0.0 && u.is_finite() && l.is_finite() {
+                        super::anchoring::smoothstep((u - l).abs() / side_band)
+                    } else {
+                        1.0
+                    };
+                    apart * gaussian((reach[x as usize] - plateau).max(0.0), decay)
+                })
                 .collect();
             Ok(MaskSides {
                 groups: grp.clone(),
