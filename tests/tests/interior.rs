@@ -4,7 +4,7 @@
 //! opens. Run with `-- --nocapture` for the figures.
 
 use facebake::surface::evaluate::Benchmark;
-use facebake_tests::{bake_scene, layout_benchmark, pieces, product_default};
+use facebake_tests::{bake_scene, jaw_open_frame, layout_benchmark, pieces, product_default};
 
 /// Error of a set of vertices over a sequence, mm.
 #[derive(Debug)]
@@ -71,12 +71,8 @@ fn the_lower_teeth_ride_the_jaw_and_move_as_one() {
     let t = errors(&frames, &played, &teeth);
     let t52 = errors(&targets, &on_targets, &teeth);
     let tongue_error = errors(&frames, &played, tongue);
-    let jaw_open = s.truth.frames.iter().position(|f| f.name == "jaw open");
-    let jaw_open = errors(
-        &frames[jaw_open.expect("a jaw open")..][..1],
-        &played[jaw_open.expect("a jaw open")..][..1],
-        &teeth,
-    );
+    let open = jaw_open_frame(&s.truth);
+    let jaw_open = errors(&frames[open..=open], &played[open..=open], &teeth);
     println!(
         "lower teeth, 32 frames: mean {:.2}, max {:.1}, worst frame {:.1} mm ({}); jaw open {:.1} mm",
         t.mean, t.max, t.worst_frame.0, s.truth.frames[t.worst_frame.1].name, jaw_open.mean

@@ -213,22 +213,16 @@ fn piece_influences(
     radii: &[f64],
     masks: Option<&MarkerAllowance>,
 ) -> Option<Vec<Influence>> {
-    let points: Vec<V3> = piece
-        .iter()
-        .filter_map(|&v| vertices.get(v as usize).copied())
-        .collect();
-    if points.is_empty() {
-        return None;
-    }
-    let centre = crate::mesh::centroid(&points, &(0..points.len() as u32).collect::<Vec<_>>());
-    let nearest = piece
+    let piece: Vec<u32> = piece
         .iter()
         .copied()
         .filter(|&v| (v as usize) < vertices.len())
-        .min_by(|&a, &b| {
-            crate::mesh::distance(&centre, &vertices[a as usize])
-                .total_cmp(&crate::mesh::distance(&centre, &vertices[b as usize]))
-        })?;
+        .collect();
+    let centre = crate::mesh::centroid(vertices, &piece);
+    let nearest = piece.iter().copied().min_by(|&a, &b| {
+        crate::mesh::distance(&centre, &vertices[a as usize])
+            .total_cmp(&crate::mesh::distance(&centre, &vertices[b as usize]))
+    })?;
     let allowance = masks
         .and_then(|m| m.get(nearest as usize))
         .map(|a| vec![a.clone()]);

@@ -106,7 +106,7 @@ pub(crate) fn teeth(mesh: &crate::model::FaceMesh, spacing: f64) -> Vec<Vec<u32>
 pub(crate) struct Jaw {
     /// A point of the line: the mouth's centre, or between two arches of teeth the middle of
     /// the gap at the mouth's depth.
-    mouth: [f64; 3],
+    through: [f64; 3],
     /// How far the line rises per unit towards the back: the teeth's centres' least-squares
     /// slope of height on depth, 0 to [`RISE_MAX`].
     rise: f64,
@@ -148,7 +148,7 @@ impl Jaw {
         };
         let known = |m: &usize| *m < rest.len();
         Self {
-            mouth: on_line,
+            through: on_line,
             rise,
             skull: skull.iter().copied().filter(known).collect(),
             band,
@@ -170,7 +170,7 @@ impl Jaw {
     /// How much of the jaw a point at `p` rides: 0 above the band about the parting line, 1
     /// below it.
     fn share(&self, p: &[f64; 3]) -> f64 {
-        let below = self.mouth[1] + self.rise * (self.mouth[2] - p[2]) - p[1];
+        let below = self.through[1] + self.rise * (self.through[2] - p[2]) - p[1];
         smoothstep(below / self.band + 0.5)
     }
 
