@@ -98,7 +98,7 @@ impl Default for SurfaceOptions {
 /// marker spacing (see [`SurfaceOptions::mask_side_factor`]). Where the two sides' distances
 /// differ by less (at a corner and past it), the unmasked weights take over, which distances
 /// along the skin already keep apart across the opening. On FaceCap's truth with the JawMoCap
-/// layout, `bake --masks` (`--test structure`): 0 / 0.25 / 0.5 / 1: flips 5 / 1 / 1 / 1,
+/// layout, the masked default (`--test structure`): 0 / 0.25 / 0.5 / 1: flips 5 / 1 / 1 / 1,
 /// stretch 2.07× / 1.90× / 1.90× / 1.92×, eyelids 1.1 / 0.9 / 0.9 / 0.9 mm, lips 6.7 / 6.7 /
 /// 6.7 / 6.8 mm; JawMoCap 1.98× / 2.26× (115 frames over 2×) / 1.99× / **1.92×** (0). Hybrid
 /// with masks at 1: truth flips 5 → 1, JawMoCap frames over 2× 86 → 67.
@@ -187,14 +187,20 @@ impl Default for BakeOptions {
 }
 
 impl BakeOptions {
+    /// What `facebake bake` bakes with no flags: geodesic distances, masked, in the linear
+    /// deformer ([`BakeOptions::for_method`]); the rig that keeps the skull still, lets the lips
+    /// part and closes the eyes (the README's figures).
+    pub fn product_default() -> Self {
+        Self::for_method(Method::Geodesic, true)
+    }
+
     /// The defaults of `method`, with or without `masks`: every method in the linear deformer
     /// with static anchoring over 0.8 × the mean marker spacing and the exponential radial
     /// function `exp(−r/c)` (thesis eq 2.3a; its geodesic kernel matrix stays positive definite
     /// on FaceCap where the Gaussian's does not), c = 1.5 × the mean marker spacing; the method
     /// picks the distance. (The papers' bare Euclidean RBF, which the golden rigs pin, is
-    /// [`Default`].) `for_method(Method::Geodesic, false)` is what `facebake bake` uses when
-    /// given no method: the rig that keeps the skull still and lets the lips part (see the
-    /// README's figures); `for_method(Method::Euclidean, true)` is `bake --method euclidean`.
+    /// [`Default`].) `for_method(method, true)` is `bake --method METHOD`; what `bake` uses
+    /// when given no method is [`BakeOptions::product_default`].
     pub fn for_method(method: Method, masks: bool) -> Self {
         Self {
             method,

@@ -699,6 +699,48 @@ fn compensate_writes_a_head_stabilised_capture() {
     );
 }
 
+/// The default bake masks the lips and the eyelids (the layout's groups), every method does,
+/// and `--no-masks` leaves them out.
+#[test]
+fn the_default_bake_is_masked_unless_told_otherwise() {
+    let dir = temp_dir("default_masks");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let masks = |name: &str, extra: &[&str]| {
+        let mut args = vec!["--json"];
+        args.extend_from_slice(extra);
+        let j = json_ok(&bake(&mesh_path(), &layout, &dir.join(name), &args));
+        let groups: Vec<String> = j["mask_groups"]
+            .as_array()
+            .expect("mask groups")
+            .iter()
+            .map(|g| {
+                format!(
+                    "{} ({})",
+                    g["name"].as_str().unwrap(),
+                    g["source"].as_str().unwrap()
+                )
+            })
+            .collect();
+        (
+            groups,
+            j["report"]["surface"]["masked_vertices"]
+                .as_u64()
+                .unwrap_or(0),
+        )
+    };
+    let (groups, masked) = masks("default.fbk", &[]);
+    assert_eq!(groups, ["mouth (the layout's)", "eyes (the layout's)"]);
+    assert!(masked > 0);
+    for method in ["hybrid", "pbw"] {
+        let (groups, masked) = masks(&format!("{method}.fbk"), &["--method", method]);
+        assert_eq!(groups.len(), 2, "{method}");
+        assert!(masked > 0, "{method}");
+    }
+    let (groups, masked) = masks("bare.fbk", &["--no-masks"]);
+    assert!(groups.is_empty());
+    assert_eq!(masked, 0);
+}
+
 /// `--method euclidean` keeps the default's anchoring and kernel and masks the openings; the
 /// papers' bare Euclidean RBF is still there with the flags that undo each.
 #[test]
@@ -817,7 +859,11 @@ fn surface_aware_bakes_report_their_method_and_masks() {
         &["--masks", "--deformer", "rbf"],
     );
     assert_bad_input(&out, "facecap_jawmocap_layout.toml");
-    assert!(stderr(&out).contains("linear deformer"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("linear or planar deformer"),
+        "{}",
+        stderr(&out)
+    );
     // Without groups, masks find them from the mouth and eye openings, and say so: the lip and
     // eyelid markers, as the bundled layout's groups name them.
     let plain = dir.join("plain.toml");
@@ -1224,6 +1270,7 @@ fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
     let j = json_ok(&out);
     let warnings = j["report"]["warnings"].to_string();
     assert!(warnings.contains("no mouth opening"), "{warnings}");
+    assert!(warnings.contains("baked without masks"), "{warnings}");
     // FaceCap's mouth is open: no such warning.
     let out = bake(
         &mesh_path(),

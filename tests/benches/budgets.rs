@@ -24,7 +24,7 @@ use std::time::Duration;
 use facebake::model::{place_markers, FaceMesh};
 use facebake::{bake, BakeOptions, Scene};
 use facebake_runtime::{FrameTable, Rig};
-use facebake_tests::{fixture, interleaved, median, median_ratio, product_default};
+use facebake_tests::{fixture, interleaved, median, median_ratio};
 
 const ROUNDS: usize = 7;
 const SLICE: Duration = Duration::from_millis(120);
@@ -75,7 +75,7 @@ fn default_rig(mesh: &FaceMesh, k: usize) -> Vec<u8> {
     let placed = place_markers(&layout, mesh, 0.02).expect("layout places");
     let options = BakeOptions {
         k,
-        ..product_default()
+        ..BakeOptions::product_default()
     };
     bake(&Scene::placed(mesh, &placed), &options)
         .expect("bakes")

@@ -11,11 +11,9 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use facebake::Baked;
+use facebake::{BakeOptions, Baked};
 use facebake_runtime::Rig;
-use facebake_tests::{
-    bake_truth, facecap_truth, jaw_open_frame, median, product_default, weights_config,
-};
+use facebake_tests::{bake_truth, facecap_truth, jaw_open_frame, median, weights_config};
 
 /// Timed rounds (after one warm-up round).
 const ROUNDS: usize = 15;
@@ -75,7 +73,10 @@ fn main() {
         "rig", "verts", "K", "positions µs", "+ normals µs", "positions+normals / positions"
     );
     for (name, options) in [
-        ("facecap default (geodesic linear)", product_default()),
+        (
+            "facecap default (geodesic linear)",
+            BakeOptions::product_default(),
+        ),
         ("facecap linear IMQ", weights_config()),
     ] {
         let baked = bake_truth(&truth, &options);

@@ -106,9 +106,10 @@ fn weights_form_figures_are_pinned() {
 /// largest differences are in the jaw open, at the mouth and on the jaw's sides beyond the
 /// markers. Shrinking (`Refit::Shrink`: every magnitude less the (K+1)-th largest) moves
 /// further from the dense weights than the prior's re-fit but nearer the truth, and it is
-/// continuous where a vertex's kept set changes. Measured 2026-11-28, sparse vs dense p99 and
-/// mean against the truth: shrink K = 8 0.92 / 0.878 mm, K = 32 0.22; prior K = 8 0.63 /
-/// 0.893, K = 32 0.083; the dense weights 0.922. The runtime's cost grows with K, and the
+/// continuous where a vertex's kept set changes. Measured 2026-12-02 (masked, the default),
+/// sparse vs dense p99 and mean against the truth: shrink K = 8 0.94 / 0.877 mm, K = 32 0.22;
+/// prior K = 8 0.62 / 0.891, K = 32 0.084; the dense weights 0.920 (unmasked: 0.92 / 0.878,
+/// 0.63 / 0.893, dense 0.922). The runtime's cost grows with K, and the
 /// Cortex-M4 budget frame is at 96 % of its limit at K = 8.
 #[test]
 fn the_default_rig_against_its_own_dense_weights() {
@@ -117,10 +118,10 @@ fn the_default_rig_against_its_own_dense_weights() {
         let options = BakeOptions {
             k,
             refit,
-            ..BakeOptions::for_method(facebake::Method::Geodesic, false)
+            ..BakeOptions::product_default()
         };
         assert_eq!(
-            BakeOptions::for_method(facebake::Method::Geodesic, false).refit,
+            BakeOptions::product_default().refit,
             facebake::Refit::Shrink
         );
         run_checked(

@@ -4,7 +4,8 @@
 //! opens. Run with `-- --nocapture` for the figures.
 
 use facebake::surface::evaluate::Benchmark;
-use facebake_tests::{bake_scene, jaw_open_frame, layout_benchmark, pieces, product_default};
+use facebake::BakeOptions;
+use facebake_tests::{bake_scene, jaw_open_frame, layout_benchmark, pieces};
 
 /// Error of a set of vertices over a sequence, mm.
 #[derive(Debug)]
@@ -44,7 +45,7 @@ fn errors(truth: &[Vec<[f64; 3]>], got: &[Vec<[f64; 3]>], vertices: &[usize]) ->
 #[test]
 fn the_lower_teeth_ride_the_jaw_and_move_as_one() {
     let s = layout_benchmark(true);
-    let baked = bake_scene(&s, &product_default());
+    let baked = bake_scene(&s, &BakeOptions::product_default());
     let mesh = &s.truth.mesh;
     let parts = pieces(mesh);
     // The skin, then the tongue (166 vertices), then 14 teeth.
@@ -146,7 +147,7 @@ fn upper_teeth_stay_with_the_skull() {
             .expect("layout reads");
     let placed = facebake::model::place_markers(&layout, &truth.mesh, 0.02).expect("places");
     let s = Benchmark::new(truth, &placed, layout.groups.clone(), 0).expect("benchmark");
-    let baked = bake_scene(&s, &product_default());
+    let baked = bake_scene(&s, &BakeOptions::product_default());
     let frames: Vec<Vec<[f64; 3]>> = (0..s.truth.frames.len())
         .map(|f| s.truth.positions(f))
         .collect();

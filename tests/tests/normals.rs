@@ -8,8 +8,9 @@
 
 use facebake::model::FaceMesh;
 use facebake::normals::{angle_degrees, vertex_normals};
+use facebake::BakeOptions;
 use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{bake_truth, facecap_truth, jawmocap_rig, product_default};
+use facebake_tests::{bake_truth, facecap_truth, jawmocap_rig};
 
 /// The accuracy bar: angle to the f64 normals at the 99th percentile, every frame, degrees.
 const P99_BAR_DEGREES: f64 = 0.5;
@@ -91,7 +92,7 @@ fn assert_seams_identical(mesh: &FaceMesh, normals: &[[i16; 3]], what: &str) {
 #[test]
 fn facecap_truth_frames_are_within_half_a_degree_of_f64() {
     let truth = facecap_truth();
-    let baked = bake_truth(&truth, &product_default());
+    let baked = bake_truth(&truth, &BakeOptions::product_default());
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     let space = rig.space();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
@@ -132,7 +133,7 @@ fn jawmocap_frames_are_within_half_a_degree_of_f64() {
 #[test]
 fn rest_normals_match_the_files_own_normals() {
     let truth = facecap_truth();
-    let baked = bake_truth(&truth, &product_default());
+    let baked = bake_truth(&truth, &BakeOptions::product_default());
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     let mesh = &truth.mesh;
     let file = mesh.normals.as_ref().expect("the FaceCap head has NORMAL");
@@ -195,7 +196,7 @@ fn split_vertices_get_identical_normals_even_when_their_positions_differ() {
     // Move every split vertex away from its canonical twin: the normal still comes from the
     // canonical vertex's fan, so the seam stays shut in shading.
     let truth = facecap_truth();
-    let baked = bake_truth(&truth, &product_default());
+    let baked = bake_truth(&truth, &BakeOptions::product_default());
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     let canonical = truth.mesh.welded_to_original();
     let positions: Vec<[i32; 3]> = (0..rig.vertex_count())
@@ -216,7 +217,7 @@ fn split_vertices_get_identical_normals_even_when_their_positions_differ() {
 #[test]
 fn collapsed_triangles_fall_back_to_the_rest_normal_and_nothing_panics() {
     let truth = facecap_truth();
-    let baked = bake_truth(&truth, &product_default());
+    let baked = bake_truth(&truth, &BakeOptions::product_default());
     let rig = Rig::from_bytes(&baked.blob).unwrap();
     let n = rig.vertex_count();
     let mut normals = vec![[0i16; 3]; n];

@@ -18,7 +18,7 @@ use facebake::ground_truth::GroundTruth;
 use facebake::metrics::{Regions, TakeMetrics};
 use facebake::model::{FaceMesh, MarkerLayout};
 use facebake::surface::evaluate::Benchmark;
-use facebake::{bake, BakeOptions, Method, Scene};
+use facebake::{bake, BakeOptions, Scene};
 use facebake_runtime::Rig;
 use facebake_tests::{bake_scene, fixture, frames_in_order, play_take, rotate, FACECAP_MARKERS};
 
@@ -109,7 +109,7 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
     let placed =
         facebake::model::place_markers(&pose.layout(&layout()), &truth.mesh, snap).expect("placed");
     let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("scene");
-    let baked = bake_scene(&scene, &BakeOptions::for_method(Method::Geodesic, false));
+    let baked = bake_scene(&scene, &BakeOptions::product_default());
     // The bake says how far it found the face turned in its file: the pose's own turn.
     let turn = baked
         .report
@@ -268,7 +268,7 @@ fn jawmocap_frames(pose: &Pose) -> Vec<Vec<[f64; 3]>> {
     .expect("placed");
     let mut scene = Scene::placed(&mesh, &placed);
     scene.capture = Some(&capture);
-    let baked = bake(&scene, &BakeOptions::for_method(Method::Geodesic, false)).expect("bakes");
+    let baked = bake(&scene, &BakeOptions::product_default()).expect("bakes");
     let rig = Rig::from_bytes(&baked.blob).expect("loads");
     let frames = frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
     play_take(&rig, &frames)

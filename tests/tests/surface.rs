@@ -69,9 +69,9 @@ fn masked_euclidean() -> BakeOptions {
 }
 
 /// The command line's default: geodesic, exponential at 1.5 spacings, linear deformer, static
-/// anchoring.
+/// anchoring, masks.
 fn geodesic() -> BakeOptions {
-    BakeOptions::for_method(Method::Geodesic, false)
+    BakeOptions::product_default()
 }
 
 #[test]
@@ -145,6 +145,7 @@ fn gaussian_geodesic_kernel_is_indefinite_and_is_reported() {
 fn the_rbf_deformer_refuses_masks_and_anchoring_without_its_affine_part() {
     let rbf = BakeOptions {
         deformer: DeformerKind::Rbf,
+        masks: false,
         ..geodesic()
     };
     for (options, refusal) in [
@@ -153,7 +154,7 @@ fn the_rbf_deformer_refuses_masks_and_anchoring_without_its_affine_part() {
                 masks: true,
                 ..rbf.clone()
             },
-            "linear deformer",
+            "linear or planar deformer",
         ),
         (
             BakeOptions {

@@ -385,7 +385,8 @@ fn check(options: &BakeOptions) -> Result<(), BakeError> {
     if options.deformer == DeformerKind::Rbf {
         if options.masks {
             return Err(BakeError::Input(
-                "masks need the linear deformer (--deformer linear): the RBF deformer has one RBF for the whole face"
+                "masks need the linear or planar deformer: the RBF deformer has one RBF for the \
+                 whole face (leave out --masks and the masks' sides, or use --deformer linear)"
                     .into(),
             ));
         }

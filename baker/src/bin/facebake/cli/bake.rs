@@ -50,8 +50,7 @@ pub struct BakeArgs {
     /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
     /// half with the geodesic RBF). Default: geodesic (euclidean with `--deformer planar`,
     /// whose bones blend triangle frames, not distances). Every method bakes the linear deformer
-    /// with static anchoring and the exponential radial function, width factor 1.5; euclidean is
-    /// masked too, since straight lines tie the lips together across the closed mouth (the
+    /// masked, with static anchoring and the exponential radial function, width factor 1.5 (the
     /// papers' bare Euclidean RBF: `--method euclidean --no-masks --no-anchoring --deformer rbf
     /// --radial gaussian --width-factor 0.75`).
     #[arg(long, value_enum)]
@@ -73,35 +72,34 @@ pub struct BakeArgs {
     /// deformer, surface distances.
     #[arg(long, value_name = "F", value_parser = parse_fraction)]
     pub rim_across: Option<f64>,
-    /// Apply masks (upper/lower lip, upper/lower eyelid): markers of one side of an opening may
-    /// not move the other side. The groups are the layout's `[groups]`, else found from the
-    /// mouth and eye openings (markers over an opening's span, above or below its rim). Masks
-    /// need the linear or planar deformer (linear is the default); planar bones and
-    /// `--method euclidean` are masked by default.
+    /// Mask (upper/lower lip, upper/lower eyelid): markers of one side of an opening may not
+    /// move the other side. On by default for the linear and planar deformers, every method;
+    /// the RBF deformer takes no masks, so with it `--masks` is refused. The groups are the
+    /// layout's `[groups]`, else found from the mouth and eye openings (markers over an
+    /// opening's span, above or below its rim).
     #[arg(long)]
     pub masks: bool,
-    /// No masks for planar bones (a vertex then may ride a bone across the lips or eyelids) or
-    /// `--method euclidean` (the lips then stay tied together).
+    /// No masks: a vertex may then follow markers across the lips or eyelids (with
+    /// `--method euclidean` or planar bones the lips then stay tied together).
     #[arg(long, conflicts_with = "masks")]
     pub no_masks: bool,
-    /// With --masks: a TOML/JSON file giving each mask's sides as glTF vertex sets,
+    /// A TOML/JSON file giving each mask's sides as glTF vertex sets,
     /// `mouth = { upper = [..], lower = [..] }`, instead of finding them from the openings.
-    #[arg(long, value_name = "FILE", requires = "masks")]
+    #[arg(long, value_name = "FILE", conflicts_with = "no_masks")]
     pub mask_sides: Option<PathBuf>,
-    /// With --masks: a mask's sides from a grey PNG in the mesh's cylindrical projection (paper
+    /// A mask's sides from a grey PNG in the mesh's cylindrical projection (paper
     /// 000 §4.3; white = upper side, black = lower, grey = unmasked), as `NAME=FILE`, once per
     /// mask of the layout's `[groups]`. `facebake mask-images` writes templates.
     #[arg(
         long,
         value_name = "NAME=FILE",
-        requires = "masks",
-        conflicts_with = "mask_sides"
+        conflicts_with_all = ["mask_sides", "no_masks"]
     )]
     pub mask_image: Vec<String>,
-    /// With --masks: a mask's sides from a float vertex attribute of the mesh's primitive (a
+    /// A mask's sides from a float vertex attribute of the mesh's primitive (a
     /// glTF application-specific attribute such as `_MASK_MOUTH`: above 0.5 upper side, below
     /// -0.5 lower, between unmasked), as `NAME=ATTRIBUTE`, once per mask.
-    #[arg(long, value_name = "NAME=ATTRIBUTE", requires = "masks", conflicts_with_all = ["mask_sides", "mask_image"])]
+    #[arg(long, value_name = "NAME=ATTRIBUTE", conflicts_with_all = ["mask_sides", "mask_image", "no_masks"])]
     pub mask_attribute: Vec<String>,
     /// The runtime's deformer: rbf (per-frame RBF coefficients with K radial terms per vertex),
     /// linear (K weights per vertex on marker displacements) or planar (planar bones, K control
@@ -230,12 +228,18 @@ impl BakeArgs {
         }
     }
 
-    /// Whether to mask: asked for, or unless `--no-masks` planar bones and the Euclidean method
-    /// on a deformer that takes masks.
+    /// Whether masks were asked for: `--masks` or given sides (which the RBF deformer refuses).
+    fn masks_asked(&self) -> bool {
+        self.masks
+            || self.mask_sides.is_some()
+            || !self.mask_image.is_empty()
+            || !self.mask_attribute.is_empty()
+    }
+
+    /// Whether to mask: asked for, or unless `--no-masks` on the deformers that take masks
+    /// (linear and planar).
     fn masks(&self) -> bool {
-        let euclidean = self.method == Some(MethodArg::Euclidean)
-            && matches!(self.deformer, None | Some(DeformerKind::Linear));
-        self.masks || (!self.no_masks && (self.deformer == Some(DeformerKind::Planar) || euclidean))
+        self.masks_asked() || (!self.no_masks && self.deformer != Some(DeformerKind::Rbf))
     }
 
     pub fn options(&self) -> BakeOptions {
@@ -423,19 +427,30 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         .max_snap
         .unwrap_or(DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal());
     let placed = place_markers(&layout, &mesh, max_snap)?;
-    let options = args.options();
+    let mut options = args.options();
     let mut scene = Scene::placed(&mesh, &placed);
     if options.deformer == DeformerKind::Planar {
         scene.control_triangles = layout.triangles.clone();
     }
     let mut mask_groups = Vec::new();
+    let mut unmasked = None;
     if options.masks {
         scene.groups = layout.groups.clone();
         scene.sides = side_rule(args, &mesh, &scene.groups)?;
         let source = if scene.groups.is_empty() {
-            scene = scene
-                .with_groups_from_openings()
-                .map_err(|e| CliError::input(&args.mesh, e.to_string()))?;
+            match scene.with_groups_from_openings() {
+                Ok(found) => scene = found,
+                Err(e) if !args.masks_asked() => {
+                    // The default's masks need groups; a mesh without the openings to find
+                    // them from bakes unmasked, and says so.
+                    options.masks = false;
+                    unmasked = Some(format!(
+                        "baked without masks (the lips and lids may move together): the layout \
+                         has no [groups] and {e}"
+                    ));
+                }
+                Err(e) => return Err(CliError::input(&args.mesh, e.to_string())),
+            }
             "found from the openings"
         } else {
             "the layout's"
@@ -460,6 +475,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     let baked = facebake::bake(&scene, &options).map_err(|e| bake_error(args, e))?;
     write_file(&args.output, &baked.blob)?;
     let mut report = baked.report;
+    report.warnings.extend(unmasked);
     // The rig is written; a capture it cannot be measured on is said, not fatal.
     let on_capture = match (&capture, &args.capture) {
         (Some(capture), Some(path)) => {

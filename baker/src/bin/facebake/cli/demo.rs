@@ -168,13 +168,15 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         &truth.mesh,
         DEFAULT_MAX_SNAP_FRACTION * truth.mesh.diagonal(),
     )?;
-    let baked = facebake::bake(
-        &Scene::placed(&truth.mesh, &placed),
-        &BakeOptions::for_method(facebake::Method::Geodesic, false),
-    )
-    .map_err(|source| CliError::Bake {
-        path: layout_path.clone(),
-        source,
+    let scene = Scene {
+        groups: layout.groups.clone(),
+        ..Scene::placed(&truth.mesh, &placed)
+    };
+    let baked = facebake::bake(&scene, &BakeOptions::product_default()).map_err(|source| {
+        CliError::Bake {
+            path: layout_path.clone(),
+            source,
+        }
     })?;
     let rig_path = dir.join("facecap.fbk");
     write_file(&rig_path, &baked.blob)?;

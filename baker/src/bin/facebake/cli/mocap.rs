@@ -78,11 +78,12 @@ pub fn run(
     let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
     let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
     let mut scene = Scene::placed(&mesh, &placed);
+    scene.groups = layout.groups.clone();
     scene.capture = Some(&capture);
     // What `facebake bake --capture` does with no other flag: the product's default rig, head
     // markers picked among the skull markers, the capture smoothed. Everything the demo shows
     // comes from it.
-    let options = BakeOptions::for_method(facebake::Method::Geodesic, false);
+    let options = BakeOptions::product_default();
     let bake = |options: &BakeOptions| {
         facebake::bake(&scene, options).map_err(|e| match e {
             BakeError::Stages(_) => CliError::input(&capture_path, e.to_string()),
