@@ -199,20 +199,20 @@ fn other_proportions_bake_as_well_as_facecap() {
             "FaceCap",
             unwarped,
             facebake_tests::DEFAULT_ON_TRUTH,
-            0.5509,
+            0.5526,
         ),
         (
             "wider and shorter",
             wide,
             Pinned {
-                drift_mm: 0.33,
+                drift_mm: 0.32,
                 lips_mm: 6.7,
                 eyelids_mm: 0.8,
                 stretch: 1.89,
                 over_2x: 0,
                 flipped: 0,
             },
-            0.5592,
+            0.5610,
         ),
         (
             "narrower and longer",
@@ -225,7 +225,7 @@ fn other_proportions_bake_as_well_as_facecap() {
                 over_2x: 1,
                 flipped: 2,
             },
-            0.5823,
+            0.5840,
         ),
         (
             "a heavier jaw",
@@ -238,7 +238,7 @@ fn other_proportions_bake_as_well_as_facecap() {
                 over_2x: 0,
                 flipped: 1,
             },
-            0.5656,
+            0.5672,
         ),
     ];
     for (label, map, pinned, mean_mm) in faces {
@@ -368,25 +368,25 @@ fn the_truth_through_the_capture_stages() {
             "FaceCap",
             unwarped,
             pin(6.8, 0.9, 1.92, 0, 1),
-            [0.6764, 0.3409],
+            [0.6775, 0.3426],
         ),
         (
             "wider and shorter",
             wide,
             pin(6.7, 0.8, 1.89, 0, 0),
-            [0.6555, 0.2755],
+            [0.6566, 0.2778],
         ),
         (
             "narrower and longer",
             long,
             pin(7.9, 1.0, 2.01, 1, 2),
-            [0.7314, 0.3812],
+            [0.7325, 0.3829],
         ),
         (
             "a heavier jaw",
             jaw,
             pin(6.8, 0.9, 1.91, 0, 1),
-            [0.6922, 0.3405],
+            [0.6932, 0.3421],
         ),
     ];
     for (label, map, pinned, [skin_mm, forehead_mm]) in faces {

@@ -8,7 +8,8 @@
 //! * The face is seen in a cylindrical projection about the vertical axis (glTF's +Y) through
 //!   the centre of the mesh's bounding box: `u` = angle × the markers' median radius, `v` = height.
 //! * A vertex is *outside* by its distance beyond the convex hull of the markers in that plane.
-//!   Its anchoring strength rises smoothly from 0 on the hull to 1 at `margin` outside.
+//!   Its anchoring strength rises linearly from 0 on the hull to 1 at [`HULL_RISE`] × `margin`
+//!   outside.
 //! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
 //!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
 //!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
@@ -211,6 +212,26 @@ pub const JAW_REACH: f64 = 3.0;
 /// head in the smile (4 flipped triangles at 0.75, 10 at 1.25, 16 at 1.5).
 pub const JAW_LIFT: f64 = 0.5;
 
+/// Over what share of the anchoring margin the strength rises beyond the markers' hull, linearly
+/// from 0 on the hull. A brow raise moves the skin at the hull by centimetres while the skin a
+/// margin out holds still, so the rise compresses the skin between them, and where the fade is
+/// steepest a triangle can turn over; a linear rise is nowhere steeper than its mean, where a
+/// smoothstep over the whole margin was 1.5× steeper in its middle. Measured 2026-12-02 against
+/// that smoothstep (`--test structure`, `--test other_faces`, `-- --nocapture`), worst over the
+/// truth's 32 frames:
+///
+/// | | smoothstep, 1 margin | linear, 1 | **linear, 0.8** |
+/// |---|---|---|---|
+/// | FaceCap: static drift; skin mean | 0.34; 0.551 mm | 0.36; 0.550 | 0.34; 0.553 |
+/// | `--method euclidean` / `hybrid` / `pbw`: static drift | 0.51 / 0.52 / 0.54 mm | 0.52 / 0.53 / 0.51 | **0.44 / 0.45 / 0.49** |
+/// | the longer face: flips in the surprise | 2 | 0 | **0** |
+/// | FaceCap subdivided once: static drift, flips | 0.45 mm, 1 | 0.44, 0 | **0.42, 0** |
+/// | JawMoCap, planar bones: static drift | 0.33 mm | 0.30 | **0.28** |
+///
+/// With a short ease-in before the linear part (0.1–0.3 of the margin) its slope is steeper and
+/// FaceCap's own surprise flipped a triangle at the outer end of a brow.
+pub const HULL_RISE: f64 = 0.8;
+
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers` (see
 /// [`hull_markers`]), with the skin under `floor` (a height: the mouth's) left to the face
 /// markers; `margin` is the distance over which the strength rises, in asset units.
@@ -257,7 +278,7 @@ pub fn static_anchoring(
             // mouth's height, are the jaw's too.
             let raised = floor + JAW_LIFT * margin * (1.0 - behind);
             let above = smoothstep((p[1] - (raised - margin)) / margin);
-            smoothstep(outside / margin) * above.max(behind)
+            (outside / (HULL_RISE * margin)).clamp(0.0, 1.0) * above.max(behind)
         })
         .collect();
     Anchoring {
@@ -432,6 +453,33 @@ mod tests {
     }
 
     #[test]
+    fn the_strength_rises_linearly_beyond_the_hull() {
+        // A patch of markers on the front of a unit cylinder, its top edge at height 1; skin
+        // straight above it, and three points that centre the mesh's box on the axis.
+        let markers = vec![
+            [0.0, 0.0, 1.0],
+            [0.3, 0.0, 0.95],
+            [0.0, 1.0, 1.0],
+            [0.3, 1.0, 0.95],
+        ];
+        let (x, margin) = (0.15f64, 0.5);
+        let z = (1.0 - x * x).sqrt();
+        let above: Vec<f64> = (0..=10).map(|k| 0.05 * f64::from(k)).collect();
+        let mut positions: Vec<[f64; 3]> = above.iter().map(|d| [x, 1.0 + d, z]).collect();
+        positions.extend([[0.0, 0.5, -1.0], [0.6, 0.5, 0.0], [-0.6, 0.5, 0.0]]);
+        let a = static_anchoring(&positions, &markers, &[2, 3], Some(-10.0), margin);
+        for (d, s) in above.iter().zip(&a.strength) {
+            // Outside by d × (1 − the projection's small stretch): the rise is linear.
+            let expected = (d / (HULL_RISE * margin)).min(1.0);
+            assert!((s - expected).abs() < 0.02, "{d}: {s} against {expected}");
+        }
+        // Nowhere steeper than its mean.
+        for w in a.strength[..above.len()].windows(2) {
+            assert!(w[1] - w[0] <= 0.05 / (HULL_RISE * margin) + 1e-9, "{w:?}");
+        }
+    }
+
+    #[test]
     fn skin_below_the_floor_is_left_to_the_face() {
         let markers = vec![
             [0.0, 0.0, 1.0],
@@ -477,7 +525,8 @@ mod tests {
         let near = static_anchoring(&positions, &face(-0.2), &[3, 4], Some(0.0), 0.2);
         let far = static_anchoring(&positions, &face(-50.0), &[3, 4], Some(0.0), 0.2);
         // At the floor: anchored by the band (smoothstep(1) = 1) away from the jaw, by
-        // smoothstep(0.5) = 0.5 within its reach, where the floor stands half a margin higher.
+        // smoothstep(0.5) = 0.5 within its reach, where the floor stands half a margin higher
+        // (the points are far outside the hull).
         assert_eq!(far.strength[0], 1.0);
         assert!(
             (near.strength[0] - 0.5).abs() < 1e-12,
