@@ -452,16 +452,19 @@ mod tests {
         );
     }
 
+    /// A patch of four markers on the front of a unit cylinder, from height 0 to 1.
+    const PATCH: [[f64; 3]; 4] = [
+        [0.0, 0.0, 1.0],
+        [0.3, 0.0, 0.95],
+        [0.0, 1.0, 1.0],
+        [0.3, 1.0, 0.95],
+    ];
+
     #[test]
     fn the_strength_rises_linearly_beyond_the_hull() {
-        // A patch of markers on the front of a unit cylinder, its top edge at height 1; skin
-        // straight above it, and three points that centre the mesh's box on the axis.
-        let markers = vec![
-            [0.0, 0.0, 1.0],
-            [0.3, 0.0, 0.95],
-            [0.0, 1.0, 1.0],
-            [0.3, 1.0, 0.95],
-        ];
+        // The patch, its top edge at height 1; skin straight above it, and three points that
+        // centre the mesh's box on the axis.
+        let markers = PATCH.to_vec();
         let (x, margin) = (0.15f64, 0.5);
         let z = (1.0 - x * x).sqrt();
         let above: Vec<f64> = (0..=10).map(|k| 0.05 * f64::from(k)).collect();
@@ -481,12 +484,7 @@ mod tests {
 
     #[test]
     fn skin_below_the_floor_is_left_to_the_face() {
-        let markers = vec![
-            [0.0, 0.0, 1.0],
-            [0.3, 0.0, 0.95],
-            [0.0, 1.0, 1.0],
-            [0.3, 1.0, 0.95],
-        ];
+        let markers = PATCH.to_vec();
         let positions = vec![[0.0, 3.0, 1.0], [0.0, -3.0, 1.0]];
         let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), 0.5);
         assert_eq!(a.strength, vec![1.0, 0.0]);
