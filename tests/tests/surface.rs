@@ -101,7 +101,9 @@ fn geodesic_rbf_halves_the_lip_error_of_euclidean_rbf() {
     assert!(report
         .warnings
         .iter()
-        .any(|w| w.contains("740 vertices in 15 piece(s)") && w.contains("component 1: 166")));
+        .any(|w| w.contains("740 vertices in 15 piece(s)")
+            && w.contains("ride the skin beside them")
+            && w.contains("component 1: 166")));
 }
 
 #[test]
@@ -176,6 +178,16 @@ fn the_rbf_deformer_refuses_masks_and_anchoring_without_its_affine_part() {
             .warnings
             .iter()
             .any(|w| w.contains("no corner reshaping")),
+        "{:?}",
+        baked.report.warnings
+    );
+    // Its mouth interior evaluates distances, which do not reach it along the skin.
+    assert!(
+        baked
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("740 vertices") && w.contains("use Euclidean distances")),
         "{:?}",
         baked.report.warnings
     );

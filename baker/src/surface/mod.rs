@@ -338,8 +338,15 @@ pub(crate) fn dense_weights(
             .take(3)
             .map(|(c, count)| format!("component {c}: {count}"))
             .collect();
+        // The linear deformer's weights for them are those of the skin beside them
+        // ([`interior::ride_beside`]); the RBF deformer evaluates their distances.
+        let how = if config.deformer == crate::DeformerKind::Rbf {
+            "use Euclidean distances"
+        } else {
+            "ride the skin beside them (a tooth as one piece; on the jaw's side, the jaw)"
+        };
         warnings.push(format!(
-            "{} vertices in {} piece(s) of the mesh that not every marker reaches along the surface use Euclidean distances (largest: {}{})",
+            "{} vertices in {} piece(s) of the mesh that not every marker reaches along the surface {how} (largest: {}{})",
             d.fallback.len(),
             pieces.len(),
             listed.join(", "),
