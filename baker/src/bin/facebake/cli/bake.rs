@@ -46,8 +46,8 @@ pub struct BakeArgs {
     #[arg(long)]
     pub allow_outside_asset: bool,
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
-    /// the lips and eyelids can part) or hybrid (geodesic near the mouth and eyes, Euclidean
-    /// elsewhere) or pbw (paper 002's proximity-based weighting on geodesics blended half and
+    /// the lips and eyelids can part) or hybrid (geodesic within a marker spacing of the mouth
+    /// and eyes, Euclidean beyond) or pbw (paper 002's proximity-based weighting on geodesics blended half and
     /// half with the geodesic RBF). Default: geodesic (euclidean with `--deformer planar`,
     /// whose bones blend triangle frames, not distances). Every method bakes the linear deformer
     /// masked, with static anchoring and the exponential radial function, width factor 1.5 (the
@@ -110,8 +110,7 @@ pub struct BakeArgs {
     /// a forehead marker, 33 mm unanchored, against 0.34 with the linear deformer).
     #[arg(long, value_parser = deformer_parser())]
     pub deformer: Option<DeformerKind>,
-    /// Radial function φ (default: gaussian for euclidean, exponential for geodesic and
-    /// hybrid).
+    /// Radial function φ (default: exponential, every method; the papers' RBF is gaussian).
     #[arg(long, value_enum)]
     pub radial: Option<RadialArg>,
     /// Radial width in mesh units (default: --width-factor × the mean nearest-marker distance;
@@ -119,7 +118,7 @@ pub struct BakeArgs {
     #[arg(long, value_name = "W", value_parser = parse_positive)]
     pub width: Option<f64>,
     /// Width as a multiple of the mean nearest-marker distance, when --width is not given
-    /// (default: 0.75 for euclidean, 1 for geodesic and hybrid).
+    /// (default: 1.5, every method; the papers' RBF is 0.75).
     #[arg(long, value_name = "F", value_parser = parse_positive)]
     pub width_factor: Option<f64>,
     /// Leave out the affine term of the RBF system.
