@@ -76,7 +76,8 @@ pub struct SurfaceOptions {
 
 impl Default for SurfaceOptions {
     /// Heat-method geodesics; hybrid region and decay [`HYBRID_REACH`] × spacing; masks at full strength
-    /// within 0.5 × spacing of the opening, fading over 1 × spacing; PBW half and half; across
+    /// within 0.5 × spacing of the opening, fading over 1 × spacing; PBW's local share
+    /// [`PBW_ALPHA`]; across
     /// the rims, [`RIM_ACROSS`].
     fn default() -> Self {
         Self {
@@ -86,7 +87,7 @@ impl Default for SurfaceOptions {
             mask_plateau_factor: 0.5,
             mask_decay_factor: 1.0,
             mask_side_factor: 0.0,
-            pbw_alpha: 0.5,
+            pbw_alpha: PBW_ALPHA,
             ridge: None,
             corners: true,
             rim_across: RIM_ACROSS,
@@ -101,6 +102,16 @@ impl Default for SurfaceOptions {
 /// 0.558, 1.93× (unmasked 1 flip, not 15); 1.5 / 1: 1, 0.553, 1.92×, the geodesic default's
 /// figures, which a wider region tends to.
 pub const HYBRID_REACH: f64 = 1.0;
+
+/// PBW's share of its local (proximity) weights in paper 002's blend (eq 11), the rest the
+/// global RBF on geodesics; the paper leaves α open. On FaceCap's truth with the JawMoCap
+/// layout and on JawMoCap, masked (`--test structure`), α = 0.25 / 0.5 / 0.75 with the prior's
+/// re-fit: truth 2.17× / 2.89× / 4.11×, flips 4 / 13 / 18, eyelids 1.2 / 1.6 / 2.0 mm, face
+/// mean 0.605 / 0.654 / 0.716 mm; JawMoCap 1.91× / 2.72× / 3.27×, flips 2 / 6 / 13. Shrunk,
+/// α = **0.25** / 0.5: truth **1.94×** / 3.15×, flips **2** / 12, eyelids 1.0 / 1.4 mm, face
+/// mean 0.581 / 0.628 mm; JawMoCap **1.85×** / 2.30×, flips **0** / 2. The local weights
+/// interpolate linearly between a vertex's nearest markers, so their share is what folds.
+pub const PBW_ALPHA: f64 = 0.25;
 
 /// How far a mask fades out at an opening's corners for distances along the skin, × the mean
 /// marker spacing (see [`SurfaceOptions::mask_side_factor`]). Where the two sides' distances
@@ -220,12 +231,10 @@ impl BakeOptions {
             // Measured on both takes (docs/measurements.md): shrinking is continuous where a
             // vertex's kept set changes and keeps the skull stiller. Since the skin beside the
             // mouth's corrections gives way to them, the hybrid distances gain from it too
-            // (JawMoCap drift 0.70 → 0.13 mm, truth 2.24× → 1.99×, 18 → 15 flips); the PBW
-            // weights stretch more with it (truth 2.89 → 3.15×), so they keep the prior's re-fit.
-            refit: match method {
-                Method::Geodesic | Method::Euclidean | Method::Hybrid => Refit::Shrink,
-                Method::Pbw => Refit::Prior,
-            },
+            // (JawMoCap drift 0.70 → 0.13 mm, truth 2.24× → 1.99×, 18 → 15 flips); so do the
+            // PBW weights at their share of [`PBW_ALPHA`] (at half, they stretched more with
+            // it: truth 2.89 → 3.15×).
+            refit: Refit::Shrink,
             surface: SurfaceOptions {
                 mask_side_factor: match method {
                     Method::Euclidean => MASK_SIDE_EUCLIDEAN,

@@ -1224,8 +1224,8 @@ fn rim_across_changes_the_rig_and_takes_only_fractions() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("must be at most 1"));
 }
 
-/// The default shrinks the kept weights (`--refit shrink`), as `--method hybrid` does;
-/// `--refit prior` re-fits them, as `--method pbw` does by default.
+/// The default shrinks the kept weights (`--refit shrink`), as every method does; `--refit
+/// prior` re-fits them.
 #[test]
 fn the_default_shrinks_the_kept_weights() {
     let dir = temp_dir("refit");
@@ -1242,8 +1242,13 @@ fn the_default_shrinks_the_kept_weights() {
             &["--method", "hybrid", "--refit", "shrink"]
         )
     );
+    // Every method shrinks them, PBW too (at its quarter share, options::PBW_ALPHA).
     let pbw = baked("pbw.fbk", &["--method", "pbw"]);
     assert_eq!(
+        pbw,
+        baked("pbw_shrink.fbk", &["--method", "pbw", "--refit", "shrink"])
+    );
+    assert_ne!(
         pbw,
         baked("pbw_prior.fbk", &["--method", "pbw", "--refit", "prior"])
     );
