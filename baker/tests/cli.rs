@@ -741,6 +741,48 @@ fn the_default_bake_is_masked_unless_told_otherwise() {
     assert_eq!(masked, 0);
 }
 
+/// A layout with no marker on the lips (or the lids) still bakes by default: that opening is
+/// not masked, and the bake says so.
+#[test]
+fn an_opening_without_markers_either_side_is_left_unmasked_and_said() {
+    let dir = temp_dir("unmasked_openings");
+    let text = std::fs::read_to_string(fixture("facecap_jawmocap_layout.toml")).unwrap();
+    let markers = text.split("[groups]").next().unwrap();
+    let without = |prefixes: &[&str]| -> String {
+        markers
+            .lines()
+            .filter(|l| !prefixes.iter().any(|p| l.starts_with(p)))
+            .map(|l| format!("{l}\n"))
+            .collect()
+    };
+    let warnings = |name: &str, layout: String| {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, layout).unwrap();
+        let out = bake(
+            &mesh_path(),
+            &path,
+            &dir.join(format!("{name}.fbk")),
+            &["--json"],
+        );
+        json_ok(&out)["report"]["warnings"].to_string()
+    };
+    let lips = warnings("no_lips", without(&["Mouth_"]));
+    assert!(lips.contains("the lips are not masked"), "{lips}");
+    assert!(!lips.contains("the eyelids are not masked"), "{lips}");
+    let lids = ["Mouth_", "Leye_Up", "Leye_Down", "Reye_Up", "Reye_Down"];
+    let neither = warnings("neither", without(&lids));
+    assert!(neither.contains("the lips are not masked"), "{neither}");
+    assert!(neither.contains("the eyelids are not masked"), "{neither}");
+    assert_eq!(
+        neither.matches("not masked").count(),
+        2,
+        "said once each: {neither}"
+    );
+    // The bundled layout's groups mask both: no such warning.
+    let all = warnings("all", text.clone());
+    assert!(!all.contains("not masked"), "{all}");
+}
+
 /// `--method euclidean` keeps the default's anchoring and kernel and masks the openings; the
 /// papers' bare Euclidean RBF is still there with the flags that undo each.
 #[test]

@@ -285,8 +285,10 @@ struct DeformerBake {
 /// has a capture.
 pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError> {
     let auto;
+    let mut unmasked = Vec::new();
     let scene = if options.masks && scene.groups.is_empty() {
         auto = scene.with_groups_from_openings()?;
+        unmasked = crate::surface::masks::unmasked_openings(&auto.groups);
         &auto
     } else {
         scene
@@ -339,6 +341,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     })?;
     let dropped = &d.output.dropped;
     let mut warnings = d.warnings;
+    warnings.extend(unmasked);
     if options.deformer == DeformerKind::Rbf {
         warnings.push(
             if options.anchoring.is_some() {

@@ -166,7 +166,35 @@ pub fn groups_from_openings(
             }
         }
     }
+    // A mask keeps one side's markers off the other side: with no marker on a side it has
+    // nothing to keep apart (see [`unmasked_openings`]).
+    groups.retain(|g| !g.upper.is_empty() && !g.lower.is_empty());
     Ok(groups)
+}
+
+/// The lips' markers found from the openings, upper and lower ([`groups_from_openings`]'s
+/// "mouth"); both empty when the mesh has no openings or no marker sits on both lips.
+pub fn lips_from_openings(
+    mesh: &crate::model::FaceMesh,
+    markers: &[[f64; 3]],
+) -> (Vec<usize>, Vec<usize>) {
+    groups_from_openings(mesh, markers)
+        .ok()
+        .and_then(|g| g.into_iter().find(|g| g.name == "mouth"))
+        .map_or_else(Default::default, |g| (g.upper, g.lower))
+}
+
+/// The masks [`groups_from_openings`] can find ("mouth", "eyes") that `groups` lacks, each
+/// with why: no marker above or below the opening's rim.
+pub fn unmasked_openings(groups: &[MarkerGroups]) -> Vec<String> {
+    [
+        ("mouth", "the lips are not masked: no marker sits over the mouth's span both above and below its rim"),
+        ("eyes", "the eyelids are not masked: no marker sits over the eyes' span both above and below their rims"),
+    ]
+    .into_iter()
+    .filter(|(name, _)| !groups.iter().any(|g| g.name == *name))
+    .map(|(_, why)| format!("{why} (a layout's [groups] can name the markers of each side)"))
+    .collect()
 }
 
 /// Which side of the opening with rim `rim` the point `p` is on, if it is in the opening's
@@ -488,8 +516,11 @@ mod tests {
         let err = groups_from_openings(&disk, &[[0.0; 3]]).unwrap_err();
         assert!(matches!(err, MaskError::NoFaceOpenings(_)), "{err}");
         assert!(err.to_string().contains("openings"), "{err}");
-        // FaceCap has them.
+        // FaceCap has them; with no marker on either side of them, there is nothing to mask.
         let face = head();
-        assert_eq!(groups_from_openings(face, &[]).unwrap().len(), 2);
+        let none = groups_from_openings(face, &[]).unwrap();
+        assert!(none.is_empty());
+        assert_eq!(unmasked_openings(&none).len(), 2);
+        assert_eq!(lips_from_openings(face, &[]), (Vec::new(), Vec::new()));
     }
 }

@@ -526,8 +526,9 @@ pub(crate) fn dense_weights(
             );
             // The skin past the mouth's corners, balanced between the lips' markers (found from
             // the openings, as masks without a layout's groups are).
-            if let (Some(opening), Ok(groups)) = (mouth, masks::groups_from_openings(mesh, &rest)) {
-                let lips = (groups[0].upper.as_slice(), groups[0].lower.as_slice());
+            if let Some(opening) = mouth {
+                let (upper, lower) = masks::lips_from_openings(mesh, &rest);
+                let lips = (upper.as_slice(), lower.as_slice());
                 figures.balanced_vertices = corners::balance_past_mouth_corners(
                     &mut dense,
                     &geometry.openings[opening],
@@ -543,9 +544,7 @@ pub(crate) fn dense_weights(
     let pieces = interior::Piece::all(&unreachable, &mesh.positions, spacing);
     let jaw = mouth.map(|opening| {
         // The lower lip's markers, found from the openings as the balance above finds them.
-        let lower_lip = masks::groups_from_openings(mesh, &rest)
-            .map(|g| g[0].lower.clone())
-            .unwrap_or_default();
+        let lower_lip = masks::lips_from_openings(mesh, &rest).1;
         interior::Jaw::new(
             &rest,
             geometry.openings[opening].centre,

@@ -432,18 +432,23 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         scene.control_triangles = layout.triangles.clone();
     }
     let mut mask_groups = Vec::new();
-    let mut unmasked = None;
+    let mut unmasked = Vec::new();
     if options.masks {
         scene.groups = layout.groups.clone();
         scene.sides = side_rule(args, &mesh, &scene.groups)?;
         let source = if scene.groups.is_empty() {
             match scene.with_groups_from_openings() {
-                Ok(found) => scene = found,
+                Ok(found) => {
+                    // Said here, since the bake is then given the groups found.
+                    unmasked = facebake::surface::masks::unmasked_openings(&found.groups);
+                    options.masks &= !found.groups.is_empty();
+                    scene = found;
+                }
                 Err(e) if !args.masks_asked() => {
                     // The default's masks need groups; a mesh without the openings to find
                     // them from bakes unmasked, and says so.
                     options.masks = false;
-                    unmasked = Some(format!(
+                    unmasked.push(format!(
                         "baked without masks (the lips and lids may move together): the layout \
                          has no [groups] and {e}"
                     ));
