@@ -550,7 +550,7 @@ pub struct Pinned {
 /// The default bake's figures on FaceCap's truth with the JawMoCap layout (`--test structure`,
 /// `--test other_faces`). Unmasked (the default until 2026-12-02): the same but 1.93× and
 /// eyelids 0.91 mm. The flip is a sliver (0.39 mm high) beside the right corner of the mouth in
-/// `blend 9`, masked or not.
+/// `blend 1` (frame 9), masked or not.
 pub const DEFAULT_ON_TRUTH: Pinned = Pinned {
     drift_mm: 0.34,
     lips_mm: 6.8,

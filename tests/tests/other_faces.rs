@@ -185,7 +185,7 @@ fn jaw(q: [f64; 3]) -> [f64; 3] {
 /// Measured 2026-12-02, masked (the default). Every face meets the bars for static drift (0.5 mm), eyelids
 /// (1.5 mm) and skin mean (0.6 mm), and misses the lips as FaceCap does (near the corners,
 /// which no lip marker sees part). FaceCap keeps its one sliver flip (beside the right corner of
-/// the mouth in the pout), the heavier jaw one flip in the open funnel, the wider face none.
+/// the mouth in `blend 1`), the heavier jaw one flip in the open funnel, the wider face none.
 /// The narrower, longer face is the hardest: under the lower lip two 1.5 mm-high triangles,
 /// which the truth's jaw-open folds nearly flat, turn over; in the smile one cheek edge
 /// stretches 2.01× (2.04× unmasked); in the surprise two triangles at the outer end of the right brow turn over,

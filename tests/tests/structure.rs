@@ -10,7 +10,7 @@
 //! weights shrunk, `sparsify::Refit::Shrink`) and the eyelids on the truth (asserted: 0.91 mm,
 //! with the corners of the lids and lips reshaped, `surface::corners`, and the rims riding their
 //! markers, `surface::distances`), and misses the rest on the truth (lips off by up to 6.8 mm,
-//! one sliver flipped beside a corner of the mouth in a pout); tighten them as the bake
+//! one sliver flipped beside a corner of the mouth in `blend 1`); tighten them as the bake
 //! improves. Planar bones as `bake --deformer planar` bakes them (masked) keep every JawMoCap
 //! edge under 2× with no
 //! flip. Run with `-- --nocapture` to see them all.
