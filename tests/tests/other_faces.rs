@@ -182,16 +182,18 @@ fn jaw(q: [f64; 3]) -> [f64; 3] {
     [q[0] * (1.0 + 0.15 * s), q[1], q[2] + 0.06 * s]
 }
 
-/// Measured 2026-12-02, masked (the default). Every face meets the bars for static drift (0.5 mm), eyelids
-/// (1.5 mm) and skin mean (0.6 mm), and misses the lips as FaceCap does (near the corners,
-/// which no lip marker sees part). FaceCap keeps its one sliver flip (beside the right corner of
-/// the mouth in `blend 1`), the heavier jaw one flip in the open funnel, the wider face none.
-/// The narrower, longer face is the hardest: under the lower lip two 1.5 mm-high triangles,
-/// which the truth's jaw-open folds nearly flat, turn over; in the smile one cheek edge
-/// stretches 2.01× (2.04× unmasked); in the surprise two triangles at the outer end of the right brow turn over,
-/// where the anchoring that holds the temple meets the brow marker's pull (the truth lifts that
-/// skin 5.7 mm, the rig 0.2 mm beside 7.4 mm). A wider anchoring margin does not help there:
-/// 1.0 spacings moves the static skin 0.48–0.80 mm and keeps the flips.
+/// Measured 2026-12-02, masked (the default). Every face meets the bars for static
+/// drift (0.5 mm), eyelids (1.5 mm) and skin mean (0.6 mm), and misses the lips as FaceCap does
+/// (near the corners, which no lip marker sees part). FaceCap keeps its one sliver flip (beside
+/// the right corner of the mouth in `blend 1`), the heavier jaw one flip in the open funnel and
+/// the same sliver, the wider face none. The narrower, longer face is the hardest: under the
+/// lower lip two 1.5 mm-high triangles, which the truth's jaw-open folds nearly flat, turn over
+/// (the inner rim lags the lip's front); in the smile one cheek edge stretches 2.01× (2.04×
+/// unmasked). Its surprise turned two triangles over at the outer end of the right brow, where
+/// the anchoring that holds the temple met the brow marker's pull (the truth lifts that skin
+/// 5.7 mm, the rig held it at 0.2 mm beside 7.4 mm), until the anchoring rose linearly
+/// (`surface::anchoring::HULL_RISE`); a wider smoothstep (1.0 spacings) had moved the static
+/// skin 0.48–0.80 mm and kept them.
 #[test]
 fn other_proportions_bake_as_well_as_facecap() {
     let faces: [(&str, HeadMap, Pinned, f64); 4] = [
