@@ -31,7 +31,9 @@ pub mod surface;
 
 pub use bake::{bake, BakeError, BakeReport, Baked, Reference, Scene};
 pub use deformer::DeformerKind;
-pub use options::{BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, RIM_ACROSS};
+pub use options::{
+    BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, HYBRID_REACH, PBW_ALPHA, RIM_ACROSS,
+};
 pub use rbf::{RadialFunction, SolveError};
 pub use sparsify::{Refit, SparsifyError};
 pub use stages::{HeadMarkers, RetargetKind, StagesConfig};

@@ -75,10 +75,9 @@ pub struct SurfaceOptions {
 }
 
 impl Default for SurfaceOptions {
-    /// Heat-method geodesics; hybrid region and decay [`HYBRID_REACH`] × spacing; masks at full strength
-    /// within 0.5 × spacing of the opening, fading over 1 × spacing; PBW's local share
-    /// [`PBW_ALPHA`]; across
-    /// the rims, [`RIM_ACROSS`].
+    /// Heat-method geodesics; hybrid region and decay [`HYBRID_REACH`] × spacing; masks at
+    /// full strength within 0.5 × spacing of the opening, fading over 1 × spacing; PBW's local
+    /// share [`PBW_ALPHA`]; across the rims, [`RIM_ACROSS`].
     fn default() -> Self {
         Self {
             geodesic: GeodesicMethod::Heat,

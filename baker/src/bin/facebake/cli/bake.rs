@@ -47,9 +47,10 @@ pub struct BakeArgs {
     pub allow_outside_asset: bool,
     /// Distance the RBF is built on: euclidean (straight line), geodesic (along the skin, so
     /// the lips and eyelids can part) or hybrid (geodesic within a marker spacing of the mouth
-    /// and eyes, Euclidean beyond) or pbw (paper 002's proximity-based weighting on geodesics, a quarter, blended
-    /// with three quarters of the geodesic RBF). Default: geodesic (euclidean with `--deformer planar`,
-    /// whose bones blend triangle frames, not distances). Every method bakes the linear deformer
+    /// and eyes, Euclidean beyond) or pbw (paper 002's proximity-based weighting on geodesics,
+    /// a quarter, blended with three quarters of the geodesic RBF). Default: geodesic
+    /// (euclidean with `--deformer planar`, whose bones blend triangle frames, not distances).
+    /// Every method bakes the linear deformer
     /// masked, with static anchoring and the exponential radial function, width factor 1.5 (the
     /// papers' bare Euclidean RBF: `--method euclidean --no-masks --no-anchoring --deformer rbf
     /// --radial gaussian --width-factor 0.75`).
