@@ -286,18 +286,7 @@ fn jawmocap_take(map: HeadMap) -> TakeMetrics {
 #[test]
 fn jawmocap_plays_on_other_proportions() {
     let faces: [(&str, HeadMap, Pinned); 4] = [
-        (
-            "FaceCap",
-            unwarped,
-            Pinned {
-                drift_mm: 0.0,
-                lips_mm: 40.9,
-                eyelids_mm: 12.0,
-                stretch: 1.92,
-                over_2x: 0,
-                flipped: 0,
-            },
-        ),
+        ("FaceCap", unwarped, facebake_tests::DEFAULT_ON_JAWMOCAP),
         (
             "wider and shorter",
             wide,

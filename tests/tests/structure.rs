@@ -22,7 +22,7 @@ use facebake::{BakeOptions, Method};
 use facebake_runtime::{PlayState, Rig};
 use facebake_tests::{
     bake_scene, facecap_default, fixture, guard, jawmocap_rig_with, layout_benchmark, Pinned,
-    DEFAULT_ON_TRUTH,
+    DEFAULT_ON_JAWMOCAP, DEFAULT_ON_TRUTH,
 };
 
 /// The FaceCap regions, found once per test binary.
@@ -539,16 +539,8 @@ fn jawmocap_every_method() {
         (
             Method::Geodesic,
             true,
-            // The default (masked; 1.96× unmasked). 1.98× before the masks faded out at the
-            // corners.
-            Pinned {
-                drift_mm: 0.0,
-                lips_mm: 40.9,
-                eyelids_mm: 12.0,
-                stretch: 1.92,
-                over_2x: 0,
-                flipped: 0,
-            },
+            // The default. 1.98× before the masks faded out at the corners.
+            DEFAULT_ON_JAWMOCAP,
         ),
         (
             Method::Hybrid,
@@ -641,22 +633,14 @@ fn jawmocap_through_the_demo_rig() {
     guard(
         "JawMoCap, the default capture rig (no truth: lips and eyelids are the widest aperture)",
         &take,
-        &Pinned {
-            // 0.42 before the kept weights were shrunk (sparsify::Refit::Shrink), 0.37 before the
-            // anchoring's hull left out the held head markers (surface::anchoring::hull_markers).
-            drift_mm: 0.0,
-            // 36.0 before the rims rode their markers: the widest opening, not an error.
-            lips_mm: 40.9,
-            // 11.7 before the lids near their corners took more of the lid markers' motion
-            // (surface::corners): the widest opening, not an error.
-            eyelids_mm: 12.0,
-            // 2.03× (1 edge, in 80 frames) before the skin past the mouth's corners was
-            // balanced between the lips (surface::corners::balance_past_mouth_corners); 1.96×
-            // before the default was masked.
-            stretch: 1.92,
-            over_2x: 0,
-            flipped: 0,
-        },
+        // Static drift 0.42 mm before the kept weights were shrunk (sparsify::Refit::Shrink),
+        // 0.37 before the anchoring's hull left out the held head markers
+        // (surface::anchoring::hull_markers); lips open 36.0 mm before the rims rode their
+        // markers; eyelids open 11.7 mm before the lids near their corners took more of the lid
+        // markers' motion (surface::corners); 2.03× (1 edge, in 80 frames) before the skin past
+        // the mouth's corners was balanced between the lips
+        // (surface::corners::balance_past_mouth_corners).
+        &DEFAULT_ON_JAWMOCAP,
     );
     // The bars on JawMoCap: no edge over 2× and no flip in any frame.
     assert_eq!(take.frames_over_limit, 0, "{take}");

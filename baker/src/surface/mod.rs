@@ -498,6 +498,9 @@ pub(crate) fn dense_weights(
         None => dense,
     };
     let mut dense = dense;
+    // The lips' markers found from the openings, as masks without a layout's groups find them:
+    // the corners' balance and the jaw's lower lip.
+    let (upper_lip, lower_lip) = masks::lips_from_openings(mesh, &rest);
     let mut vertical = vec![Vec::new(); dense.len()];
     let mut give_way = vec![0.0; dense.len()];
     let corners =
@@ -524,11 +527,9 @@ pub(crate) fn dense_weights(
                 &markers,
                 corrections,
             );
-            // The skin past the mouth's corners, balanced between the lips' markers (found from
-            // the openings, as masks without a layout's groups are).
+            // The skin past the mouth's corners, balanced between the lips' markers.
             if let Some(opening) = mouth {
-                let (upper, lower) = masks::lips_from_openings(mesh, &rest);
-                let lips = (upper.as_slice(), lower.as_slice());
+                let lips = (upper_lip.as_slice(), lower_lip.as_slice());
                 figures.balanced_vertices = corners::balance_past_mouth_corners(
                     &mut dense,
                     &geometry.openings[opening],
@@ -543,8 +544,6 @@ pub(crate) fn dense_weights(
     let unreachable = geometry.pieces_of(&d.fallback);
     let pieces = interior::Piece::all(&unreachable, &mesh.positions, spacing);
     let jaw = mouth.map(|opening| {
-        // The lower lip's markers, found from the openings as the balance above finds them.
-        let lower_lip = masks::lips_from_openings(mesh, &rest).1;
         interior::Jaw::new(
             &rest,
             geometry.openings[opening].centre,
