@@ -1133,9 +1133,15 @@ fn planar_bakes_take_control_triangles_from_the_layout() {
     assert_eq!(j["report"]["deformer"], "planar");
     assert_eq!(
         j["report"]["planar"]["triangles"],
-        serde_json::json!([[0, 1, 3], [0, 3, 6], [28, 30, 12], [29, 34, 36], [1, 2, 20]]),
-        "the layout's triangles by marker index, then the skull's bone (of the forehead markers \
-         and the inner corners of the eyes, the largest: ForeHead_L, ForeHead_R, Reye_Inside)"
+        serde_json::json!([
+            [0, 1, 3],
+            [0, 3, 6],
+            [28, 30, 12],
+            [29, 34, 36],
+            [0, 16, 20]
+        ]),
+        "the layout's triangles by marker index, then the skull's bone (the middle forehead \
+         marker and the inner corners of the eyes: ForeHead_M, Leye_Inside, Reye_Inside)"
     );
     let blob = std::fs::read(dir.join("planar.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);

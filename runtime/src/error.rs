@@ -8,7 +8,7 @@ use crate::fixed::{
     LINEAR_WEIGHT_ABS_SUM_MAX, MAX_INFLUENCES, MAX_ROW_SHIFT, MAX_WEIGHT_FRAC_BITS,
     MIN_ROW_SHIFT, MIN_WEIGHT_FRAC_BITS,
 };
-use crate::records::{Bytes, MAX_MARKERS, MAX_MARKER_PAIRS, MAX_TRIANGLES, SECTION_ALIGN, VERSION};
+use crate::records::{Bytes, MAX_MARKERS, MAX_MARKER_PAIRS, MAX_TRIANGLES, OLDEST_VERSION, SECTION_ALIGN, VERSION};
 
 /// Why a byte string is not a loadable rig. Every variant is a distinct failure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,13 +179,6 @@ pub enum LoadError {
         /// The triangle index it names.
         triangle: u16,
     },
-    /// A planar influence has a region code above 6.
-    BadRegion {
-        /// The vertex the influence belongs to.
-        vertex: usize,
-        /// The region code.
-        region: u8,
-    },
     /// The normals section's vertex index width is neither 2 nor 4 bytes.
     BadIndexWidth {
         /// The width in the blob.
@@ -257,7 +250,10 @@ impl core::fmt::Display for LoadError {
             Self::TrailingBytes { extra } => write!(f, "{extra} unexpected bytes after the rig payload"),
             Self::BadMagic => f.write_str("not a facebake rig blob (bad magic)"),
             Self::UnsupportedVersion { found } => {
-                write!(f, "rig format version {found} is not supported (this runtime reads {VERSION})")
+                write!(
+                    f,
+                    "rig format version {found} is not supported (this runtime reads {OLDEST_VERSION} to {VERSION})"
+                )
             }
             Self::BadReserved => f.write_str("reserved header field is not zero"),
             Self::ChecksumMismatch { stored, computed } => write!(
@@ -339,9 +335,6 @@ impl core::fmt::Display for LoadError {
                 f,
                 "vertex {vertex} is influenced by control triangle {triangle}, which does not exist"
             ),
-            Self::BadRegion { vertex, region } => {
-                write!(f, "vertex {vertex} has an influence with region code {region} (0..=6)")
-            }
             Self::BadIndexWidth { found } => {
                 write!(f, "normals section vertex indices are {found} bytes wide, not 2 or 4")
             }

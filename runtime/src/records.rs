@@ -40,8 +40,12 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
-/// The format version this crate reads and writes.
-pub const VERSION: u16 = 8;
+/// The format version this crate writes (and the newest it reads).
+pub const VERSION: u16 = 9;
+/// The oldest format version this crate reads: version 9 added the planar centroid region
+/// (code 7, [`crate::deformer::planar::CENTROID_REGION`]) and changed nothing else, so a
+/// version 8 blob is a version 9 blob that does not use it.
+pub const OLDEST_VERSION: u16 = 8;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 

@@ -417,9 +417,12 @@ fn check(options: &BakeOptions) -> Result<(), BakeError> {
 /// inner corners of the eyes), the three of them spanning the largest triangle as the skull's
 /// bone, and every vertex's anchoring strength beyond the markers' hull above the mouth. `None`
 /// on a mesh whose openings are not a mouth and two eyes, or with fewer than three such markers.
-/// On the truth the bone of a forehead marker and the two canthi turns less in the frown than
-/// the forehead's three (static drift 1.50 mm, against 10.66); a capture rig keeps the
-/// forehead's, the head markers, which hold still (JawMoCap 0.33 mm; with the canthi 6.10).
+/// The bone translates with its corners' centroid. Without the rig's own head fit its corners
+/// are the two inner eye corners and the skull marker nearest the face's middle: on the truth
+/// (`--test structure`, 2026-12-02) static drift 0.43 mm, against 0.55 for the largest
+/// triangle of anchors (the side forehead markers and a canthus) and 0.45–0.59 for the other
+/// triangles (1.50 when the bone turned with the largest). A capture rig keeps the largest
+/// triangle of the head markers, which hold still (JawMoCap 0.28 mm).
 fn planar_anchor(
     mesh: &crate::model::FaceMesh,
     rest: &[[f64; 3]],
@@ -466,7 +469,30 @@ fn planar_anchor(
             }
         }
     }
-    let (triangle, _) = best.filter(|(_, s)| *s > 0.0)?;
+    let (largest, _) = best.filter(|(_, s)| *s > 0.0)?;
+    // The bone only translates with its triangle's centroid (`Region::Centroid`), so its
+    // corners are picked for how little expressions move them, not for the triangle's
+    // shape: with both eyes' inner corners anchored, the two corners and the skull marker
+    // nearest the face's middle.
+    let canthi: Vec<usize> = anchors
+        .iter()
+        .copied()
+        .filter(|m| !skull.contains(m))
+        .collect();
+    let middle = {
+        let mut xs: Vec<f64> = rest.iter().map(|p| p[0]).collect();
+        xs.sort_by(f64::total_cmp);
+        xs[xs.len() / 2]
+    };
+    let central = skull.iter().copied().min_by(|&a, &b| {
+        (rest[a][0] - middle)
+            .abs()
+            .total_cmp(&(rest[b][0] - middle).abs())
+    });
+    let triangle = match (canthi.as_slice(), central) {
+        (&[l, r], Some(m)) if area(&[m, l, r]) > 0.0 => [m, l, r],
+        _ => largest,
+    };
     let mouth = rims[0].iter().map(|p| p[1]).sum::<f64>() / rims[0].len().max(1) as f64;
     let strength = crate::surface::anchoring::static_anchoring(
         &mesh.positions,

@@ -276,7 +276,7 @@ pub fn records(
             let bits = match inf.region {
                 Region::Triangle => [26, 26, 24, 24],
                 Region::Edge(_) => [26, 24, 24, 24],
-                Region::Apex(_) => [24, 24, 24, 24],
+                Region::Apex(_) | Region::Centroid => [24, 24, 24, 24],
             };
             let mut coords = [0i32; 4];
             for ((c, x), b) in coords.iter_mut().zip(local).zip(bits) {
@@ -404,7 +404,7 @@ pub fn bake(
         }
     }
     if let Some((t, strength)) = skull {
-        for ((row, s), &strength) in all.iter_mut().zip(vertices).zip(strength) {
+        for (row, &strength) in all.iter_mut().zip(strength) {
             if strength <= 0.0 {
                 continue;
             }
@@ -416,10 +416,12 @@ pub fn bake(
                 i.weight *= (1.0 - strength) / total.max(f64::MIN_POSITIVE);
             }
             row.retain(|i| i.weight > 0.0);
-            let region = rest_frames[t].classify(s);
+            // Translated with the skull markers' centroid, not turned with their triangle:
+            // a small turn of three close markers (a brow's frown) would swing the back of
+            // the head by their distance to it.
             row.push(Influence {
                 triangle: t,
-                region,
+                region: Region::Centroid,
                 weight: strength,
             });
             row.sort_by(|a, b| b.weight.total_cmp(&a.weight));

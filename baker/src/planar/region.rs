@@ -12,6 +12,8 @@
 //! candidate R′_B,i and eq 4 settles it; a point beyond the two edges that meet at V_i
 //! (edges i − 1 and i) is a candidate R′_C,i and eq 5 settles it.
 
+use facebake_runtime::deformer::planar::CENTROID_REGION;
+
 use crate::mesh::{dot, norm, sub};
 
 /// A 3-vector.
@@ -47,32 +49,39 @@ pub enum Region {
     Edge(usize),
     /// The wedge beyond apex V_i: R_C,i.
     Apex(usize),
+    /// Anywhere, translated with the triangle's centroid without turning: R_T (not in the
+    /// paper; the static anchoring's skull bone, never found by [`Frame::classify`]).
+    Centroid,
 }
 
 impl Region {
-    /// The blob's region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i.
+    /// The blob's region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i, 7 = R_T.
     pub fn code(self) -> u8 {
         match self {
             Self::Triangle => 0,
             Self::Edge(i) => 1 + i as u8,
             Self::Apex(i) => 4 + i as u8,
+            Self::Centroid => CENTROID_REGION,
         }
     }
 
-    /// The region of a blob code (the loader has checked it is at most 6).
+    /// The region of a blob code (3 bits: every code names a region).
     pub fn from_code(code: u8) -> Self {
         match code {
             0 => Self::Triangle,
             1..=3 => Self::Edge(usize::from(code - 1)),
+            CENTROID_REGION => Self::Centroid,
             _ => Self::Apex(usize::from(code - 4) % 3),
         }
     }
 
-    /// The corner the region's frame is anchored at: O for R_A, V_i otherwise.
-    pub fn origin(self) -> usize {
+    /// The corner the region's frame is anchored at: O for R_A, V_i for R_B,i and R_C,i, none
+    /// for R_T (its origin is the centroid).
+    pub fn origin(self) -> Option<usize> {
         match self {
-            Self::Triangle => 0,
-            Self::Edge(i) | Self::Apex(i) => i,
+            Self::Triangle => Some(0),
+            Self::Edge(i) | Self::Apex(i) => Some(i),
+            Self::Centroid => None,
         }
     }
 }
@@ -158,10 +167,16 @@ impl Frame {
         }
     }
 
+    /// The centroid of the corners, R_T's origin.
+    pub fn centroid(&self) -> V3 {
+        scale(&add(&add(&self.v[0], &self.v[1]), &self.v[2]), 1.0 / 3.0)
+    }
+
     /// Distance from `s` to the part of the bone its region is measured from: the plane over
-    /// the triangle (R_A), edge i's segment (R_B,i) or corner V_i (R_C,i).
+    /// the triangle (R_A), edge i's segment (R_B,i), corner V_i (R_C,i) or the centroid (R_T).
     pub fn distance(&self, region: Region, s: &V3) -> f64 {
         match region {
+            Region::Centroid => norm(&sub(s, &self.centroid())),
             Region::Triangle => dot(&sub(s, &self.v[0]), &self.n).abs(),
             Region::Edge(i) => {
                 let l = norm(&self.e[i]);
@@ -175,9 +190,14 @@ impl Frame {
     /// Local coordinates of `s` in its region's rest frame, as the blob stores them (x, y, z, w;
     /// see the runtime's `PlanarDeformer`): R_A the affine coordinates along P − O and Q − O and the
     /// height; R_B,i the fraction along e_i, the distance along u_i and the height; R_C,i the
-    /// components along u_i and u_{i−1}, the height and the in-plane distance D_i(S) of eq 10.
+    /// components along u_i and u_{i−1}, the height and the in-plane distance D_i(S) of eq 10;
+    /// R_T the offset from the centroid.
     pub fn local(&self, region: Region, s: &V3) -> [f64; 4] {
         match region {
+            Region::Centroid => {
+                let d = sub(s, &self.centroid());
+                [d[0], d[1], d[2], 0.0]
+            }
             Region::Triangle => {
                 let (a, b) = self.affine(s);
                 [a, b, dot(&sub(s, &self.v[0]), &self.n), 0.0]
@@ -259,10 +279,14 @@ mod tests {
             [1.6, 0.0, 0.3],
             [0.1, 1.6, -0.3],
         ] {
+            let [dx, dy, dz, _] = f.local(Region::Centroid, &s);
+            let back = add(&f.centroid(), &[dx, dy, dz]);
+            assert!(norm(&sub(&back, &s)) < 1e-12, "{s:?} R_T → {back:?}");
             let region = f.classify(&s);
             let [x, y, z, w] = f.local(region, &s);
-            let o = f.v[region.origin()];
+            let o = f.v[region.origin().expect("classify finds a bone region")];
             let back = match region {
+                Region::Centroid => unreachable!("classify never finds R_T"),
                 Region::Triangle => add(
                     &add(&o, &scale(&f.e[0], x)),
                     &add(&scale(&sub(&f.v[2], &f.v[0]), y), &scale(&f.n, z)),

@@ -19,7 +19,10 @@
 //!    Q8.24 with rounding and saturation and added (saturating) to the region's origin marker. The vertex is the
 //!    weighted sum of those positions with Q1.15 weights that sum to exactly 2¹⁵, so a uniform
 //!    translation of every marker moves every vertex by exactly that translation. Apex regions
-//!    (R_C,i) normalise their in-plane direction once more (eq 10's scaling D/d).
+//!    (R_C,i) normalise their in-plane direction once more (eq 10's scaling D/d). The centroid
+//!    region (R_T, not in the paper) only translates: the sum of the triangle's three markers
+//!    (each below 2³¹ in magnitude) plus three times the stored offset, below 6 · 2³¹ in `i64`,
+//!    divided by three with rounding to nearest, saturated to `i32`.
 //!
 //! # Degenerate triangles
 //!
@@ -35,8 +38,9 @@
 //! # Cost
 //!
 //! `triangles × (frame build: 4 normalisations)` (twice that at worst, see above) plus
-//! `influences × (12 multiply-adds, 1 narrowing)` plus one normalisation per apex influence,
-//! plus per vertex three narrowings. No loop depends on marker data.
+//! `influences × (12 multiply-adds, 1 narrowing)` (a centroid influence takes fewer: additions
+//! and a division by three) plus one normalisation per apex influence, plus per vertex three
+//! narrowings. No loop depends on marker data.
 
 use serde::{Deserialize, Serialize};
 
@@ -54,8 +58,9 @@ use crate::sqrt::{normalize3, UNIT_FRAC_BITS};
 
 /// Fractional bits of a planar weight (Q1.15: one is 2¹⁵).
 pub const PLANAR_WEIGHT_FRAC_BITS: u8 = 15;
-/// Region codes of a planar influence: R_A, then R_B,0..2, then R_C,0..2.
-pub const PLANAR_REGIONS: u8 = 7;
+/// The region code of R_T, the triangle's centroid translated (no rotation): the last of the
+/// codes R_A = 0, R_B,i = 1 + i, R_C,i = 4 + i, R_T = 7, which fill the record's 3 bits.
+pub const CENTROID_REGION: u8 = 7;
 
 /// The planar deformer's section (planar bones, paper 000 §4.1–4.2): a control surface of marker
 /// triangles (layout: [`crate::format::RigData`]).
@@ -70,8 +75,13 @@ pub const PLANAR_REGIONS: u8 = 7;
 /// | R_A (eq 1) | O | O′ + x e₀′ + y (Q′ − O′) + z n′ | Q6.26 | Q6.26 | Q8.24 | 0 |
 /// | R_B,i (eq 9) | V_i | V_i′ + x e_i′ + y u_i′ + z n′ | Q6.26 | Q8.24 | Q8.24 | 0 |
 /// | R_C,i (eq 10) | V_i | V_i′ + w · unit(x u_i′ + y u_{i−1}′) + z n′ | Q8.24 | Q8.24 | Q8.24 | Q8.24 |
+/// | R_T | C = (O + P + Q) / 3 | C′ + (x, y, z) | Q8.24 | Q8.24 | Q8.24 | 0 |
 ///
 /// In R_C,i, w is the rest in-plane distance D_i(S) of eq 10, so the apex scaling D/d keeps it.
+/// R_T is not in the paper: the point keeps its rest offset from the triangle's centroid and
+/// does not turn with the triangle. The static anchoring's skull bone uses it, so that the
+/// skin beyond the markers follows the skull markers' mean motion and a small turn of a
+/// triangle of close markers is not magnified across the head.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlanarDeformer<'a> {
     /// Most influences any vertex has (K), in [1, 64].
@@ -94,8 +104,8 @@ pub struct PlanarDeformer<'a> {
 pub struct PlanarInfluence {
     /// Control triangle index.
     pub triangle: u16,
-    /// Region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i (anything above 6 is rejected by the
-    /// loader).
+    /// Region code: 0 = R_A, 1 + i = R_B,i, 4 + i = R_C,i, 7 = R_T (3 bits: every code is
+    /// valid).
     pub region: u8,
     /// Weight, Q1.15.
     pub weight: u16,
@@ -121,7 +131,7 @@ pub fn read_planar_influence(b: &[u8]) -> PlanarInfluence {
 /// triangle index does not fit 13 bits or the region 3 bits.
 #[cfg(feature = "format")]
 pub fn write_planar_influence(i: &PlanarInfluence) -> Option<[u8; PLANAR_INFLUENCE_BYTES]> {
-    if i.triangle > 0x1FFF || i.region > 7 {
+    if i.triangle > 0x1FFF || i.region > CENTROID_REGION {
         return None;
     }
     let mut b = [0u8; PLANAR_INFLUENCE_BYTES];
@@ -212,6 +222,20 @@ pub fn build_frame(p: &[[i32; 3]; 3]) -> Option<Frame> {
     }
     let e = wide.map(|e| e.map(|c| c.clamp(-EDGE_LIMIT, EDGE_LIMIT) as i32));
     Some(Frame { e, n, u })
+}
+
+/// Where a centroid influence (R_T) puts its vertex: the mean of the triangle's current
+/// corners `p` plus the stored offset (Q8.24), rounded to nearest (ties up), saturated.
+#[inline(always)]
+fn place_at_centroid(p: &[[i32; 3]; 3], coords: [i32; 4]) -> [i32; 3] {
+    [0, 1, 2].map(|c| {
+        // Four terms below 2^31 in magnitude, three of them counted thrice: below 6 · 2^31.
+        let sum = p.iter().map(|q| i64::from(q[c])).sum::<i64>() + 3 * i64::from(coords[c]);
+        // round(sum / 3) = floor((2 · sum + 3) / 6); 2 · sum + 3 < 2^35.
+        (2 * sum + 3)
+            .div_euclid(6)
+            .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    })
 }
 
 /// Rest position of marker `m` from the `marker_rest` section (validated: always present).
@@ -368,12 +392,15 @@ fn place_vertices(planar: &PlanarDeformer<'_>, frames: &Frames, out: &mut [[i32;
                 .0
                 .get(TRIANGLE_BYTES * t..TRIANGLE_BYTES * (t + 1))
                 .unwrap_or(&[0; TRIANGLE_BYTES]);
-            let corner = match inf.region {
-                0 => 0,
-                r => usize::from(r - 1) % 3,
+            let s = if inf.region == CENTROID_REGION {
+                place_at_centroid(&corners(current, tri), inf.coords)
+            } else {
+                let corner = match inf.region {
+                    0 => 0,
+                    r => usize::from(r - 1) % 3,
+                };
+                place(frame, inf.region, inf.coords, current(usize::from(tri[corner])))
             };
-            let origin = current(usize::from(tri[corner]));
-            let s = place(frame, inf.region, inf.coords, origin);
             let weight = i32::from(inf.weight);
             for c in 0..3 {
                 // ≤ 64 products of 2^15 and 2^31: below 2^52.
@@ -389,7 +416,7 @@ fn cost(planar: &PlanarDeformer<'_>, vertices: usize, markers: usize) -> Cost {
     let records = planar.influences.0.chunks_exact(PLANAR_INFLUENCE_BYTES);
     let influences = records.len();
     let apex = records
-        .filter(|r| read_planar_influence(r).region >= 4)
+        .filter(|r| (4..CENTROID_REGION).contains(&read_planar_influence(r).region))
         .count();
     let triangles = usize::from(planar.triangle_count);
     Cost {
@@ -462,12 +489,6 @@ fn validate(
                 return Err(LoadError::TriangleIndexOutOfRange {
                     vertex,
                     triangle: inf.triangle,
-                });
-            }
-            if inf.region >= PLANAR_REGIONS {
-                return Err(LoadError::BadRegion {
-                    vertex,
-                    region: inf.region,
                 });
             }
             sum += u32::from(inf.weight);

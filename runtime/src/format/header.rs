@@ -3,7 +3,7 @@
 //! ```text
 //! offset  size  field
 //!      0     8  magic  b"FACEBAKE"                 (MAGIC)
-//!      8     2  format version, u16 LE            (this crate reads VERSION only)
+//!      8     2  format version, u16 LE            (OLDEST_VERSION..=VERSION)
 //!     10     2  reserved, u16 LE, must be 0
 //!     12     4  payload length in bytes, u32 LE
 //!     16     4  CRC-32 (IEEE) of the payload, u32 LE
@@ -15,7 +15,8 @@
 
 use crate::checksum::crc32;
 use crate::error::LoadError;
-use crate::records::{HEADER_LEN, MAGIC, VERSION};
+use crate::records::{HEADER_LEN, MAGIC, OLDEST_VERSION, VERSION};
+use core::ops::RangeInclusive;
 
 // Where each header field starts.
 const VERSION_AT: usize = MAGIC.len();
@@ -62,12 +63,16 @@ fn le_u32(b: &[u8], at: usize) -> u32 {
 
 /// Check the header and checksum of a blob and return its payload.
 pub fn open(bytes: &[u8]) -> Result<&[u8], LoadError> {
-    open_sealed(bytes, &MAGIC, VERSION)
+    open_sealed(bytes, &MAGIC, OLDEST_VERSION..=VERSION)
 }
 
-/// [`open`] for another file sealed the same way under `magic` and `version` (a packed take):
-/// the errors are the header variants of [`LoadError`].
-pub fn open_sealed<'b>(bytes: &'b [u8], magic: &[u8; 8], version: u16) -> Result<&'b [u8], LoadError> {
+/// [`open`] for another file sealed the same way under `magic` and one of `versions` (a packed
+/// take): the errors are the header variants of [`LoadError`].
+pub fn open_sealed<'b>(
+    bytes: &'b [u8],
+    magic: &[u8; 8],
+    versions: RangeInclusive<u16>,
+) -> Result<&'b [u8], LoadError> {
     if bytes.len() < HEADER_LEN {
         return Err(LoadError::Truncated {
             expected: HEADER_LEN,
@@ -78,7 +83,7 @@ pub fn open_sealed<'b>(bytes: &'b [u8], magic: &[u8; 8], version: u16) -> Result
         return Err(LoadError::BadMagic);
     }
     let found = le_u16(bytes, VERSION_AT);
-    if found != version {
+    if !versions.contains(&found) {
         return Err(LoadError::UnsupportedVersion { found });
     }
     if le_u16(bytes, RESERVED_AT) != 0 {

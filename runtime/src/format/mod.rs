@@ -29,7 +29,7 @@ use crate::records::{Bytes, MAX_MARKERS, POSITION_BYTES, REST_BYTES};
 use crate::space::Space;
 use crate::stages::Stages;
 
-/// The payload of a rig blob (format version 8): every section, in encoding order.
+/// The payload of a rig blob (format version 9; version 8 is read too): every section, in encoding order.
 ///
 /// # Shared sections
 ///
@@ -157,9 +157,10 @@ use crate::stages::Stages;
 /// | `derivative_cutoff` | — | varint `u32`, Q16.16, in [1, 2²⁴]: 2π f_d / rate |
 ///
 /// Version 2 added the optional capture stages, version 3 their `head_tolerance`, `max_step`
-/// and `smoothing`, version 4 the `normals` section and the stages' `head_smoothing`; older
-/// blobs are rejected with [`LoadError::UnsupportedVersion`] (re-bake
-/// them).
+/// and `smoothing`, version 4 the `normals` section and the stages' `head_smoothing`, version
+/// 9 the planar deformer's centroid region (nothing else: version 8 blobs load as they are);
+/// blobs older than [`crate::records::OLDEST_VERSION`] are rejected with
+/// [`LoadError::UnsupportedVersion`] (re-bake them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigData<'a> {
     /// Rig units in the asset's space.

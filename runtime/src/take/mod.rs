@@ -236,8 +236,8 @@ impl<'a> Take<'a> {
     /// bytes present. Never panics; the work is linear in the bytes before the stream plus
     /// M² name comparisons.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, TakeLoadError> {
-        let payload =
-            header::open_sealed(bytes, &TAKE_MAGIC, TAKE_VERSION).map_err(TakeLoadError::Header)?;
+        let payload = header::open_sealed(bytes, &TAKE_MAGIC, TAKE_VERSION..=TAKE_VERSION)
+            .map_err(TakeLoadError::Header)?;
         let mut c = Cursor {
             bytes: payload,
             at: 0,

@@ -6,6 +6,7 @@
 //! * R_B,i (eq 9): `s = v_i + (S − V_i) (B_i^OPQ)⁻¹ B_i^opq`, rows of B_i = (e_i, u_i, n);
 //! * R_C,i (eq 10): `s = v_i + (S − V_i) (C_i^OPQ)⁻¹ Diag(D/d, D/d, 1) C_i^opq`, rows of
 //!   C_i = (u_i, u_{i−1}, n), D = ‖Π(S) − V_i‖, d = ‖(Π(S) − V_i)(C_i^OPQ)⁻¹ C_i^opq‖;
+//! * R_T (not in the paper): `s = c + (S − C)`, C and c the rest and current centroids;
 //!
 //! blended by the weights (eq 11). Row vectors times matrices, as in the paper. Nothing here is
 //! shared with the baker's local-coordinate code except the frame vectors, so the runtime (which
@@ -47,6 +48,8 @@ fn row_times(r: &V3, m: &M3) -> V3 {
 
 fn matrix(f: &Frame, region: Region) -> M3 {
     match region {
+        // A translation: the identity frame.
+        Region::Centroid => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         // Q − O = −e₂ (taken from the edges, so a degenerate triangle's rest fallback holds).
         Region::Triangle => [f.e[0], scale(&f.e[2], -1.0), f.n],
         Region::Edge(i) => [f.e[i], f.u[i], f.n],
@@ -64,7 +67,13 @@ pub fn is_degenerate(v: &[V3; 3]) -> bool {
 
 /// Where one bone puts `s` (eqs 1, 9, 10): `rest` and `now` are the triangle's frames.
 pub fn place(rest: &Frame, now: &Frame, region: Region, s: &V3) -> V3 {
-    let i = region.origin();
+    let centroid = |f: &Frame| {
+        let [a, b, c] = f.v;
+        [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
+    };
+    let Some(i) = region.origin() else {
+        return add(&centroid(now), &sub(s, &centroid(rest)));
+    };
     let (m_rest, m_now) = (matrix(rest, region), matrix(now, region));
     let Some(inv) = inverse(&m_rest) else {
         return add(&now.v[i], &sub(s, &rest.v[i]));
