@@ -99,6 +99,12 @@ impl FaceFrame {
         self.axes.map(|axis| dot(&axis, p))
     }
 
+    /// `p` (the face's axes) in file coordinates: the inverse of [`Self::local`].
+    pub fn file(&self, p: &[f64; 3]) -> [f64; 3] {
+        let [r, u, f] = self.axes;
+        [0, 1, 2].map(|i| r[i] * p[0] + u[i] * p[1] + f[i] * p[2])
+    }
+
     /// `points` (file coordinates) in the face's axes.
     pub fn points(&self, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
         points.iter().map(|p| self.local(p)).collect()

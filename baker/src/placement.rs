@@ -4,9 +4,9 @@
 //! them into the character's space, and each warped marker is projected onto the closest point
 //! of the character's skin.
 //!
-//! For the FaceCap head, [`facecap_landmarks`] finds seven landmarks from the mesh's own
-//! topology: the four eye corners and two mouth corners (x-extremes of the eye and lip boundary
-//! loops) and the nose tip (the skin's most forward vertex). The lip centre markers are not
+//! [`landmarks`] finds seven landmarks from the mesh's own shape: the four eye corners and two
+//! mouth corners (x-extremes of the eye and lip openings) and the nose tip (the skin's most
+//! forward vertex); [`place`] does the whole placement, in the face's own axes. The lip centre markers are not
 //! landmarks: FaceCap's lips are closed (the opening's top and bottom are 4 mm apart) while the
 //! capture's sit on the outer lips, 30 mm apart.
 
@@ -34,7 +34,7 @@ pub enum PlacementError {
     /// The landmarks cannot define a warp.
     #[error("the landmarks cannot define a warp: {0}")]
     Warp(#[from] crate::rbf::SolveError),
-    /// The mesh lacks a feature the FaceCap landmarks need.
+    /// The mesh lacks a feature the landmarks need.
     #[error("{0}")]
     Mesh(String),
 }
@@ -261,21 +261,16 @@ fn rim_sides(rim: &[u32], p: &[[f64; 3]], neighbours: &[Vec<u32>]) -> (Vec<u32>,
     }
 }
 
-/// The seven FaceCap landmarks for the thesis' marker layout, found from the mesh's topology
-/// (see the module docs). Vertices are glTF vertex indices.
-pub fn facecap_landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
+/// The seven landmarks of the thesis' marker layout, found from `mesh`'s own shape: the corners
+/// of the mouth and of each eye (the x-extremes of their openings, [`face_openings`]) and the
+/// nose tip (the skin's most forward vertex), read in the file's axes (+X the subject's left,
+/// +Y up, +Z forward; [`place`] reads any pose in the face's own). Vertices are glTF vertex
+/// indices.
+pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
+    let [lips, left_eye, right_eye] = face_openings(mesh)?;
     let topo = mesh.welded_topology();
     let p = &mesh.welded_positions;
     let original = mesh.welded_to_original();
-    let loops = topo.loops_of(0);
-    // Longest first: neck, lip opening, then the two eyes.
-    let [_, lips, eye_a, eye_b] = loops.as_slice() else {
-        return Err(PlacementError::Mesh(format!(
-            "{}: the skin has {} boundary loops, FaceCap's has 4 (neck, lips, two eyes)",
-            mesh.source.display(),
-            loops.len()
-        )));
-    };
     let extreme = |vs: &[u32], key: &dyn Fn(&[f64; 3]) -> f64, max: bool| -> u32 {
         let cmp = |a: &&u32, b: &&u32| key(&p[**a as usize]).total_cmp(&key(&p[**b as usize]));
         let v = if max {
@@ -286,20 +281,15 @@ pub fn facecap_landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError
         v.copied().unwrap_or(0)
     };
     let x = |q: &[f64; 3]| q[0];
-    let (left_eye, right_eye) = if p[eye_a.vertices[0] as usize][0] > 0.0 {
-        (eye_a, eye_b)
-    } else {
-        (eye_b, eye_a)
-    };
     let skin = topo.components.vertices_of(0);
     // The subject's left is +X (the capture's convention and FaceCap's).
     let marks: [(&str, u32); 7] = [
-        ("Mouth_Lend", extreme(&lips.vertices, &x, true)),
-        ("Mouth_Rend", extreme(&lips.vertices, &x, false)),
-        ("Leye_Outside", extreme(&left_eye.vertices, &x, true)),
-        ("Leye_Inside", extreme(&left_eye.vertices, &x, false)),
-        ("Reye_Outside", extreme(&right_eye.vertices, &x, false)),
-        ("Reye_Inside", extreme(&right_eye.vertices, &x, true)),
+        ("Mouth_Lend", extreme(&lips, &x, true)),
+        ("Mouth_Rend", extreme(&lips, &x, false)),
+        ("Leye_Outside", extreme(&left_eye, &x, true)),
+        ("Leye_Inside", extreme(&left_eye, &x, false)),
+        ("Reye_Outside", extreme(&right_eye, &x, false)),
+        ("Reye_Inside", extreme(&right_eye, &x, true)),
         ("NoseHead", extreme(&skin, &|q| q[2], true)),
     ];
     Ok(MarkerLayout {
@@ -315,6 +305,30 @@ pub fn facecap_landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError
         groups: Vec::new(),
         triangles: None,
     })
+}
+
+/// The actor's markers (`actor_names`, at their `actor_neutral` positions) placed on `mesh`, a
+/// face in any pose in its file: the [`landmarks`] at their vertices, the other markers warped
+/// through them onto the skin ([`place_from_landmarks`]), then the lip and eyelid markers put on
+/// the lips and lids ([`snap_to_features`]), all read in the face's own axes
+/// ([`crate::frame::FaceFrame`]). The actor's markers must include the seven landmarks' names.
+pub fn place(
+    mesh: &FaceMesh,
+    actor_names: &[String],
+    actor_neutral: &[[f64; 3]],
+) -> Result<MarkerLayout, PlacementError> {
+    let frame = crate::frame::FaceFrame::of(mesh);
+    let local = frame.mesh(mesh);
+    let marks = landmarks(&local)?;
+    let mut layout = place_from_landmarks(actor_names, actor_neutral, &marks, &local)?;
+    snap_to_features(&mut layout, &local)?;
+    for m in &mut layout.markers {
+        if let MarkerAnchor::Point(q) = m.anchor {
+            m.anchor = MarkerAnchor::Point(frame.file(&q));
+        }
+    }
+    layout.source = mesh.source.clone();
+    Ok(layout)
 }
 
 #[cfg(test)]
@@ -345,10 +359,7 @@ mod tests {
         let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None).unwrap();
         let cap = read_capture(&fixture("JawMoCap.trc")).unwrap();
         let neutral: Vec<[f64; 3]> = cap.frames[0].iter().map(|p| p.unwrap()).collect();
-        let landmarks = facecap_landmarks(&mesh).unwrap();
-        let mut layout =
-            place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh).unwrap();
-        snap_to_features(&mut layout, &mesh).unwrap();
+        let layout = place(&mesh, &cap.marker_names, &neutral).unwrap();
         let committed = read_layout(&fixture("facecap_jawmocap_layout.toml")).unwrap();
         assert_eq!(committed.markers.len(), 41);
         for (a, b) in layout.markers.iter().zip(&committed.markers) {

@@ -1367,3 +1367,68 @@ fn bake_with_a_capture_measures_the_rig_on_it() {
     let out = bake(&mesh_path(), &layout, &dir.join("none.fbk"), &["--json"]);
     assert!(json_ok(&out)["on_capture"].is_null());
 }
+
+/// `place` puts a capture's markers on a face mesh: on FaceCap, JawMoCap's markers land where
+/// the bundled layout has them (which `place` made), and the layout bakes. Bad input names the
+/// file: a capture without the landmarks' names, neutral frames past the take, a mesh without
+/// openings.
+#[test]
+fn place_writes_the_layout_bake_takes() {
+    let dir = temp_dir("place");
+    let layout = dir.join("placed.toml");
+    let capture = fixture("JawMoCap.trc");
+    let out = facebake(&[
+        "place",
+        "--mesh",
+        s(&mesh_path()),
+        "--capture",
+        s(&capture),
+        "-o",
+        s(&layout),
+        "--json",
+    ]);
+    let j = json_ok(&out);
+    assert_eq!(j["markers"], 41);
+    assert_eq!(j["landmarks"].as_array().unwrap().len(), 7);
+    assert_eq!(j["on_features"].as_array().unwrap().len(), 10);
+    assert_eq!(j["warped"], 24);
+    let placed = facebake::io::layout::read_layout(&layout).unwrap();
+    let bundled =
+        facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml")).unwrap();
+    assert_eq!(placed.markers.len(), bundled.markers.len());
+    for (a, b) in placed.markers.iter().zip(&bundled.markers) {
+        assert_eq!((&a.name, a.anchor), (&b.name, b.anchor), "{}", a.name);
+    }
+    // No groups: the bake finds them from the openings.
+    assert!(placed.groups.is_empty());
+    json_ok(&bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("rig.fbk"),
+        &["--json"],
+    ));
+
+    // A capture whose markers are not the thesis' names has no landmarks.
+    let renamed = dir.join("renamed.csv");
+    let mut cap = facebake::io::capture::read_capture(&capture).unwrap();
+    for n in &mut cap.marker_names {
+        n.insert_str(0, "X_");
+    }
+    write_csv(&renamed, &cap).unwrap();
+    let run = |mesh: &Path, capture: &Path, extra: &[&str]| {
+        let mut args = vec!["place", "--mesh", s(mesh), "--capture", s(capture), "-o"];
+        args.push(s(&layout));
+        args.extend_from_slice(extra);
+        facebake(&args)
+    };
+    let out = run(&mesh_path(), &renamed, &[]);
+    assert_bad_input(&out, "renamed.csv");
+    assert!(stderr(&out).contains("Mouth_Lend"), "{}", stderr(&out));
+    let out = run(&mesh_path(), &capture, &["--neutral", "5000"]);
+    assert_bad_input(&out, "JawMoCap.trc");
+    assert!(stderr(&out).contains("not inside"), "{}", stderr(&out));
+    let disk = fixture("mediapipe_canonical_face_model.glb");
+    let out = run(&disk, &capture, &[]);
+    assert_bad_input(&out, "mediapipe_canonical_face_model.glb");
+    assert!(stderr(&out).contains("openings"), "{}", stderr(&out));
+}

@@ -1,13 +1,13 @@
 //! Writes `fixtures/facecap_jawmocap_layout.toml`: JawMoCap's 41 markers placed on the FaceCap
-//! head from seven landmarks found from the mesh's topology, then the lip and eyelid markers
-//! onto the lips and lids (see `facebake::placement`). The
+//! head as `facebake place` places them, from seven landmarks found from the mesh's openings
+//! and nose, then the lip and eyelid markers onto the lips and lids (see `facebake::placement`). The
 //! test `placement::tests` checks the committed file against a fresh placement. The file ends
 //! with the lip and eyelid marker groups of the surface-aware masks.
 //! `cargo run -p facebake-tests --example facecap_layout`
 use facebake::io::capture::read_capture;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
-use facebake::placement::{facecap_landmarks, place_from_landmarks, snap_to_features};
+use facebake::placement::place;
 use facebake_tests::fixture;
 
 /// Which of JawMoCap's markers sit above and below the mouth and the eyes: the lip and eyelid
@@ -27,20 +27,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|p| p.ok_or("frame 0 has a missing marker"))
         .collect::<Result<_, _>>()?;
-    let landmarks = facecap_landmarks(&mesh)?;
-    let mut layout = place_from_landmarks(&cap.marker_names, &neutral, &landmarks, &mesh)?;
-    snap_to_features(&mut layout, &mesh)?;
+    let layout = place(&mesh, &cap.marker_names, &neutral)?;
     let out = fixture("facecap_jawmocap_layout.toml");
     write_layout(&out, &layout)?;
     // The discontinuity masks' marker groups (`facebake bake --masks`).
     let mut text = std::fs::read_to_string(&out)?;
     text.push_str(GROUPS);
     std::fs::write(&out, text)?;
-    println!(
-        "wrote {} ({} markers, {} landmarks)",
-        out.display(),
-        layout.markers.len(),
-        landmarks.markers.len()
-    );
+    println!("wrote {} ({} markers)", out.display(), layout.markers.len());
     Ok(())
 }

@@ -412,46 +412,7 @@ pub fn bake_stages(
             real.len()
         )));
     }
-    let range = config.neutral.clone();
-    if range.is_empty() || range.end > capture.frame_count() {
-        return Err(StagesError::NeutralRange {
-            file,
-            start: range.start,
-            end: range.end,
-            frames: capture.frame_count(),
-        });
-    }
-    // The neutral frames, the capture's markers in rig order, metres.
-    let neutral_frames: Vec<Vec<[f64; 3]>> = range
-        .clone()
-        .map(|f| {
-            real.iter()
-                .zip(&real_columns)
-                .map(|(&j, &c)| {
-                    capture.frames[f][c].ok_or_else(|| StagesError::NeutralIncomplete {
-                        file: file.clone(),
-                        name: marker_names[j].clone(),
-                        frame: f,
-                    })
-                })
-                .collect()
-        })
-        .collect::<Result<_, _>>()?;
-    for (frame, markers) in range.clone().zip(&neutral_frames) {
-        check_neutral_frame(markers).map_err(|(i, distance, median)| {
-            StagesError::NeutralOutlier {
-                file: file.clone(),
-                name: marker_names[real[i]].clone(),
-                frame,
-                distance_mm: distance * 1000.0,
-                median_mm: median * 1000.0,
-            }
-        })?;
-    }
-    let count = neutral_frames.len() as f64;
-    let real_neutral: Vec<[f64; 3]> = (0..real.len())
-        .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
-        .collect();
+    let real_neutral = neutral_pose(capture, &real_columns, config.neutral.clone())?;
     let actor_space = space_for(&real_neutral);
     let half_extent = f64::from(actor_space.half_extent);
     if !(ACTOR_HALF_EXTENT_MIN_M..=ACTOR_HALF_EXTENT_MAX_M).contains(&half_extent) {
@@ -702,7 +663,7 @@ pub fn bake_stages(
         head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
         head_markers_picked: picked,
         head_spread,
-        neutral_frames: range,
+        neutral_frames: config.neutral.clone(),
         unused_capture_markers: capture
             .marker_names
             .iter()
@@ -745,6 +706,60 @@ pub const NEUTRAL_OUTLIER_FACTOR: f64 = 10.0;
 pub const ACTOR_HALF_EXTENT_MIN_M: f64 = 0.01;
 /// Largest actor half extent accepted, metres.
 pub const ACTOR_HALF_EXTENT_MAX_M: f64 = 1.0;
+
+/// The actor's neutral pose: each of `capture`'s marker `columns` averaged over the `range`
+/// frames (in the capture's units). Every such marker must be present in every one of those
+/// frames, and none may be a ghost (further from every other marker than
+/// [`NEUTRAL_OUTLIER_FACTOR`] × their median nearest-neighbour distance), each failure an
+/// error naming the file, the marker and the frame.
+pub fn neutral_pose(
+    capture: &Capture,
+    columns: &[usize],
+    range: Range<usize>,
+) -> Result<Vec<[f64; 3]>, StagesError> {
+    let file = capture.source.display().to_string();
+    if range.is_empty() || range.end > capture.frame_count() {
+        return Err(StagesError::NeutralRange {
+            file,
+            start: range.start,
+            end: range.end,
+            frames: capture.frame_count(),
+        });
+    }
+    let name = |c: usize| capture.marker_names.get(c).cloned().unwrap_or_default();
+    let neutral_frames: Vec<Vec<[f64; 3]>> = range
+        .clone()
+        .map(|f| {
+            columns
+                .iter()
+                .map(|&c| {
+                    capture.frames[f].get(c).copied().flatten().ok_or_else(|| {
+                        StagesError::NeutralIncomplete {
+                            file: file.clone(),
+                            name: name(c),
+                            frame: f,
+                        }
+                    })
+                })
+                .collect()
+        })
+        .collect::<Result<_, _>>()?;
+    for (frame, markers) in range.zip(&neutral_frames) {
+        check_neutral_frame(markers).map_err(|(i, distance, median)| {
+            StagesError::NeutralOutlier {
+                file: file.clone(),
+                name: name(columns[i]),
+                frame,
+                distance_mm: distance * 1000.0,
+                median_mm: median * 1000.0,
+            }
+        })?;
+    }
+    let count = neutral_frames.len() as f64;
+    Ok((0..columns.len())
+        .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
+        .collect())
+}
 
 /// Checks one neutral frame by robust statistics: `Err((marker, its nearest-neighbour distance,
 /// the median of those distances))` for the first marker further than [`NEUTRAL_OUTLIER_FACTOR`]

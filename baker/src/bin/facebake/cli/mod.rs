@@ -20,6 +20,7 @@ mod inspect;
 mod mask_images;
 mod mocap;
 mod pack;
+mod place;
 mod play;
 mod render;
 mod values;
@@ -98,6 +99,10 @@ pub enum Command {
     MaskImages(mask_images::MaskImagesArgs),
     /// Draw played frames (and a rig's markers) as PNG contact sheets; report structure metrics.
     Render(render::RenderArgs),
+    /// Place a capture's markers on a face mesh (landmarks from its openings and nose, the rest
+    /// warped from the actor, lip and eyelid markers on the lips and lids): a layout for `bake`.
+    #[command(after_help = EXIT_CODES)]
+    Place(place::PlaceArgs),
 }
 
 /// Why a command failed. Every variant's message names the file it is about.
@@ -118,6 +123,9 @@ pub enum CliError {
     /// An animated GLB could not be written.
     #[error(transparent)]
     GltfAnim(#[from] GltfAnimError),
+    /// A capture's neutral pose is unusable (the message names the capture).
+    #[error(transparent)]
+    Neutral(#[from] facebake::stages::StagesError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -203,6 +211,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Compensate(a) => compensate::run(&a),
         Command::MaskImages(a) => mask_images::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Place(a) => place::run(&a),
     }
 }
 

@@ -1,0 +1,126 @@
+//! `facebake place`: a capture's markers placed on a face mesh, written as a layout for `bake`.
+
+use std::ops::Range;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use super::bake::parse_frames;
+use super::{emit, parse_units, print_json, CliError};
+use facebake::io::capture::read_capture_with_units;
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::write_layout;
+use facebake::model::{MarkerAnchor, Units};
+use facebake::placement::{place, PlacementError, FEATURE_MARKERS};
+use facebake::stages::neutral_pose;
+
+/// Arguments of `facebake place`.
+#[derive(Debug, Args)]
+pub struct PlaceArgs {
+    /// The face mesh (.glb or .gltf): its skin must have the mouth and both eyes open.
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Which mesh of the file (default: the first).
+    #[arg(long, value_name = "NAME")]
+    pub mesh_name: Option<String>,
+    /// The actor's capture (C3D, TRC, CSV or a packed take) with the thesis' marker names: the
+    /// corners of the mouth and eyes and the nose tip (`Mouth_Lend`, `Mouth_Rend`,
+    /// `Leye_Outside`, `Leye_Inside`, `Reye_Outside`, `Reye_Inside`, `NoseHead`) are the
+    /// landmarks, found on the mesh from its openings and its most forward point.
+    #[arg(long, value_name = "CAPTURE")]
+    pub capture: PathBuf,
+    /// Units of the capture's numbers, overriding what the file says.
+    #[arg(long, value_name = "UNITS", value_parser = parse_units)]
+    pub capture_units: Option<Units>,
+    /// The actor's neutral pose: a frame `N` or a range `A..B` averaged (0-based, B excluded),
+    /// as `bake --capture` takes it: every marker present in every frame, none a ghost.
+    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames)]
+    pub neutral: Range<usize>,
+    /// The layout to write (.toml or .json).
+    #[arg(short, long, value_name = "LAYOUT")]
+    pub output: PathBuf,
+    /// Print a JSON summary on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `place` wrote.
+#[derive(Debug, Serialize)]
+pub struct PlaceSummary {
+    /// The layout file.
+    pub layout: PathBuf,
+    /// Markers placed (every marker of the capture).
+    pub markers: usize,
+    /// Markers at a landmark's vertex, found from the mesh's shape.
+    pub landmarks: Vec<String>,
+    /// Lip and eyelid markers put on their lip or lid.
+    pub on_features: Vec<String>,
+    /// Markers warped from the actor through the landmarks onto the skin.
+    pub warped: usize,
+}
+
+/// Run `facebake place`.
+pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
+    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
+    let capture = read_capture_with_units(&args.capture, args.capture_units)?;
+    let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
+    let neutral = neutral_pose(&capture, &columns, args.neutral.clone())?;
+    let layout = place(&mesh, &capture.marker_names, &neutral).map_err(|e| match e {
+        // The capture lacks a landmark's marker; anything else is about the mesh.
+        PlacementError::UnknownLandmark(_) => CliError::input(&args.capture, e.to_string()),
+        _ => CliError::input(
+            &args.mesh,
+            format!("placing {}: {e}", args.capture.display()),
+        ),
+    })?;
+    write_layout(&args.output, &layout)?;
+    let mut landmarks = Vec::new();
+    let mut on_features = Vec::new();
+    for m in &layout.markers {
+        if let MarkerAnchor::Vertex(_) = m.anchor {
+            if FEATURE_MARKERS.iter().any(|f| f.0 == m.name) {
+                on_features.push(m.name.clone());
+            } else {
+                landmarks.push(m.name.clone());
+            }
+        }
+    }
+    let summary = PlaceSummary {
+        layout: args.output.clone(),
+        markers: layout.markers.len(),
+        warped: layout.markers.len() - landmarks.len() - on_features.len(),
+        landmarks,
+        on_features,
+    };
+    if args.json {
+        print_json(&summary);
+    } else {
+        let mut out = String::new();
+        outln!(
+            out,
+            "placed {} markers on {} → {}",
+            summary.markers,
+            args.mesh.display(),
+            summary.layout.display()
+        );
+        outln!(
+            out,
+            "  landmarks (from the openings and the nose): {}",
+            summary.landmarks.join(", ")
+        );
+        outln!(
+            out,
+            "  on their lip or lid: {}",
+            summary.on_features.join(", ")
+        );
+        outln!(
+            out,
+            "  warped from the actor onto the skin: {}",
+            summary.warped
+        );
+        emit(&out);
+    }
+    Ok(ExitCode::SUCCESS)
+}
