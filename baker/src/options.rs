@@ -72,12 +72,17 @@ pub struct SurfaceOptions {
     /// ([`crate::surface::distances::shorten_across_rims`]; 1 leaves distances as measured;
     /// surface distances and the linear deformer only).
     pub rim_across: f64,
+    /// How far from each corner of the mouth the skin past it is balanced between the lips, ×
+    /// mean marker spacing ([`crate::surface::corners::balance_past_mouth_corners`]; linear
+    /// deformer, with the corners reshaped).
+    pub past_corner_reach: f64,
 }
 
 impl Default for SurfaceOptions {
     /// Heat-method geodesics; hybrid region and decay [`HYBRID_REACH`] × spacing; masks at
     /// full strength within 0.5 × spacing of the opening, fading over 1 × spacing; PBW's local
-    /// share [`PBW_ALPHA`]; across the rims, [`RIM_ACROSS`].
+    /// share [`PBW_ALPHA`]; across the rims, [`RIM_ACROSS`]; the balance past the mouth's
+    /// corners over [`PAST_CORNER_REACH`] × spacing.
     fn default() -> Self {
         Self {
             geodesic: GeodesicMethod::Heat,
@@ -90,6 +95,7 @@ impl Default for SurfaceOptions {
             ridge: None,
             corners: true,
             rim_across: RIM_ACROSS,
+            past_corner_reach: PAST_CORNER_REACH,
         }
     }
 }
@@ -125,8 +131,24 @@ pub const MASK_SIDE_SURFACE: f64 = 1.0;
 /// [`MASK_SIDE_SURFACE`] for Euclidean distances, which do not keep the lips apart unmasked, so
 /// the hand-over is short: `bake --method euclidean` at 0 / 0.1 / 0.25 / 0.5 / 1: truth flips
 /// 3 / 2 / 2 / 2 / 2, lips 7.0 / 7.0 / 7.0 / 8.8 / 13.6 mm; JawMoCap 2.36× (118 frames) / 2.74×
-/// (129) / **2.18× (108)** / 2.15× (106) / 2.02× (77).
+/// (129) / **2.18× (108)** / 2.15× (106) / 2.02× (77), before the balance past the mouth's
+/// corners reached [`PAST_CORNER_REACH_EUCLIDEAN`] (1.86× (0) at 0.25).
 pub const MASK_SIDE_EUCLIDEAN: f64 = 0.25;
+
+/// How far from a mouth corner (its rim's end), in mean marker spacings, the skin past it is
+/// balanced between the lips ([`crate::surface::corners::balance_past_mouth_corners`]), for
+/// distances along the skin ([`SurfaceOptions::past_corner_reach`]). At 0.4 the default
+/// measured the same on both takes but for the lip band's p99 (4.21 → 4.24 mm, `--test
+/// structure`).
+pub const PAST_CORNER_REACH: f64 = 0.3;
+
+/// [`PAST_CORNER_REACH`] for Euclidean distances, whose masks fade over a quarter of the
+/// spacing the surface distances' do ([`MASK_SIDE_EUCLIDEAN`]), so that more of the skin
+/// wrapping round a corner is left to the balance. Measured 2026-12-02 (`--test
+/// structure`): at 0.3 `--method euclidean` stretched a 1 mm edge just past FaceCap's right
+/// corner of the mouth 2.18× in 108 of JawMoCap's frames, at 0.35 1.99×, at **0.4**–0.45
+/// 1.86× (none over 2×), the truth unchanged (1.89×, 2 flips); at 0.5 the truth flips one more.
+pub const PAST_CORNER_REACH_EUCLIDEAN: f64 = 0.4;
 
 /// How much of a distance measured across a lip or lid (from a marker worn on it towards the
 /// opening's rim) counts, by default. On FaceCap's truth the inner rim of the lower lip moves
@@ -238,6 +260,10 @@ impl BakeOptions {
                 mask_side_factor: match method {
                     Method::Euclidean => MASK_SIDE_EUCLIDEAN,
                     Method::Geodesic | Method::Hybrid | Method::Pbw => MASK_SIDE_SURFACE,
+                },
+                past_corner_reach: match method {
+                    Method::Euclidean => PAST_CORNER_REACH_EUCLIDEAN,
+                    Method::Geodesic | Method::Hybrid | Method::Pbw => PAST_CORNER_REACH,
                 },
                 ..SurfaceOptions::default()
             },

@@ -219,34 +219,28 @@ pub fn reshape(
     figures
 }
 
-/// How far from a mouth corner (its rim's end), in mean marker spacings, the skin past it is
-/// balanced between the lips ([`balance_past_mouth_corners`]).
-pub const PAST_CORNER_REACH: f64 = 0.3;
-
 /// Past a corner of the mouth the skin belongs to neither lip, but a surface interpolation
 /// still gives the skin just below the mouth line's extension more of the lower lip's markers
 /// and the skin just above more of the upper's: when the jaw drops 40 mm, a 1 mm edge there
-/// stretched 2.03× on JawMoCap (in 80 of its 1590 frames). So within [`PAST_CORNER_REACH`] ×
-/// `spacing` of each corner, and past it (fading in over [`FADE_IN`] of the mouth's width as
-/// the reshaping fades out), a vertex's total weight on the `upper` markers and on the `lower`
+/// stretched 2.03× on JawMoCap (in 80 of its 1590 frames). So within `reach` of each corner
+/// ([`crate::PAST_CORNER_REACH`] × the mean marker spacing by default), and past it (fading in
+/// over [`FADE_IN`] of the mouth's width as the reshaping fades out), a vertex's total weight on the `upper` markers and on the `lower`
 /// ones are made equal, each the mean of the two, scaling the markers within each side alike;
-/// the weights still sum to what they did. JawMoCap then stretches no edge past 2× (1.97×), and
-/// the truth's one flipped triangle (a sliver beside a corner in a pout) is gone; reach 0.3 to
-/// 0.6 spacings and fades of 0.02 to 0.05 of the width measure the same on JawMoCap. Returns the
-/// vertices changed.
+/// the weights still sum to what they did. JawMoCap then stretched no edge past 2× (1.97×, the
+/// default of the time); Euclidean distances take the wider
+/// [`crate::PAST_CORNER_REACH_EUCLIDEAN`]. Returns the vertices changed.
 pub fn balance_past_mouth_corners(
     dense: &mut [Vec<f64>],
     opening: &Opening,
     welded_positions: &[[f64; 3]],
     positions: &[[f64; 3]],
     (upper, lower): (&[usize], &[usize]),
-    spacing: f64,
+    reach: f64,
 ) -> usize {
     let rim = match RimEnds::of(opening, welded_positions) {
-        Some(rim) if !upper.is_empty() && !lower.is_empty() && spacing > 0.0 => rim,
+        Some(rim) if !upper.is_empty() && !lower.is_empty() && reach > 0.0 => rim,
         _ => return 0,
     };
-    let reach = PAST_CORNER_REACH * spacing;
     let mut changed = 0;
     for (corner, axis) in rim.corners() {
         for (weights, p) in dense.iter_mut().zip(positions) {
@@ -496,7 +490,7 @@ mod tests {
             &mesh.welded_positions,
             &mesh.positions,
             (&upper, &lower),
-            10.0,
+            crate::PAST_CORNER_REACH * 10.0,
         );
         assert!(changed > 0);
         let side = |w: &[f64], s: &[usize]| s.iter().map(|&m| w[m]).sum::<f64>();

@@ -536,7 +536,7 @@ pub(crate) fn dense_weights(
                     welded,
                     positions,
                     lips,
-                    spacing,
+                    config.surface.past_corner_reach * spacing,
                 );
             }
             figures
