@@ -32,8 +32,8 @@ pub mod surface;
 pub use bake::{bake, BakeError, BakeReport, Baked, Reference, Scene};
 pub use deformer::DeformerKind;
 pub use options::{
-    BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, HYBRID_REACH, PAST_CORNER_REACH,
-    PAST_CORNER_REACH_EUCLIDEAN, PBW_ALPHA, RIM_ACROSS,
+    BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, HYBRID_REACH, MASK_SIDE_EUCLIDEAN,
+    MASK_SIDE_SURFACE, PAST_CORNER_REACH, PAST_CORNER_REACH_EUCLIDEAN, PBW_ALPHA, RIM_ACROSS,
 };
 pub use rbf::{RadialFunction, SolveError};
 pub use sparsify::{Refit, SparsifyError};
