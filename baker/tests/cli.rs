@@ -1385,10 +1385,15 @@ fn place_writes_the_layout_bake_takes() {
         s(&capture),
         "-o",
         s(&layout),
+        "--marker-sheet",
+        s(&dir.join("markers.png")),
         "--json",
     ]);
     let j = json_ok(&out);
     assert_eq!(j["markers"], 41);
+    // The picture of where they went: the rest mesh front and side, twice the panel size.
+    let (w, h) = png_size(&dir.join("markers.png"));
+    assert!(w >= 1000 && h >= 500, "{w}×{h}");
     assert_eq!(j["landmarks"].as_array().unwrap().len(), 7);
     assert_eq!(j["on_features"].as_array().unwrap().len(), 10);
     assert_eq!(j["warped"], 24);

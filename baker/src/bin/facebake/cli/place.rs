@@ -8,11 +8,12 @@ use clap::Args;
 use serde::Serialize;
 
 use super::bake::parse_frames;
+use super::render::write_marker_sheet;
 use super::{emit, parse_units, print_json, CliError};
 use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
-use facebake::model::{MarkerAnchor, Units};
+use facebake::model::{place_markers, MarkerAnchor, Units, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::placement::{place, PlacementError, FEATURE_MARKERS};
 use facebake::stages::neutral_pose;
 
@@ -41,6 +42,10 @@ pub struct PlaceArgs {
     /// The layout to write (.toml or .json).
     #[arg(short, long, value_name = "LAYOUT")]
     pub output: PathBuf,
+    /// Also draw the placed markers on the mesh here (PNG, front and side, each named), to see
+    /// that each sits where the actor wore it.
+    #[arg(long, value_name = "PNG")]
+    pub marker_sheet: Option<PathBuf>,
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
@@ -59,6 +64,8 @@ pub struct PlaceSummary {
     pub on_features: Vec<String>,
     /// Markers warped from the actor through the landmarks onto the skin.
     pub warped: usize,
+    /// The marker sheet, if one was drawn.
+    pub marker_sheet: Option<PathBuf>,
 }
 
 /// Run `facebake place`.
@@ -76,6 +83,18 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         ),
     })?;
     write_layout(&args.output, &layout)?;
+    if let Some(path) = &args.marker_sheet {
+        let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
+        let names: Vec<String> = placed.iter().map(|m| m.name.clone()).collect();
+        let at: Vec<[f64; 3]> = placed.iter().map(|m| m.position).collect();
+        let title = format!(
+            "{} markers of {} placed on {}",
+            names.len(),
+            args.capture.display(),
+            args.mesh.display()
+        );
+        write_marker_sheet(path, title, &mesh, &names, &at)?;
+    }
     let mut landmarks = Vec::new();
     let mut on_features = Vec::new();
     for m in &layout.markers {
@@ -93,6 +112,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         warped: layout.markers.len() - landmarks.len() - on_features.len(),
         landmarks,
         on_features,
+        marker_sheet: args.marker_sheet.clone(),
     };
     if args.json {
         print_json(&summary);
@@ -120,6 +140,9 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             "  warped from the actor onto the skin: {}",
             summary.warped
         );
+        if let Some(path) = &summary.marker_sheet {
+            outln!(out, "  marker sheet → {}", path.display());
+        }
         emit(&out);
     }
     Ok(ExitCode::SUCCESS)
