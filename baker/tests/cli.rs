@@ -1437,3 +1437,44 @@ fn place_writes_the_layout_bake_takes() {
     assert_bad_input(&out, "mediapipe_canonical_face_model.glb");
     assert!(stderr(&out).contains("openings"), "{}", stderr(&out));
 }
+
+/// A take whose first frames miss a marker (a dropout at the start, as real captures have)
+/// still bakes by default: the neutral pose is its first complete frame, and the bake says so.
+/// Asked for frame 0, it refuses, naming the marker and the frame.
+#[test]
+fn a_take_starting_with_a_dropout_bakes_from_its_first_complete_frame() {
+    let dir = temp_dir("dropout");
+    let mut cap = facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).unwrap();
+    cap.frames[0][5] = None;
+    cap.frames[1][7] = None;
+    let csv = dir.join("dropout.csv");
+    write_csv(&csv, &cap).unwrap();
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let rig = dir.join("rig.fbk");
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--capture", s(&csv), "--json"],
+    );
+    let j = json_ok(&out);
+    let warnings = j["report"]["warnings"].to_string();
+    assert!(
+        warnings.contains("its neutral pose is frame 2"),
+        "{warnings}"
+    );
+    let neutral = &j["report"]["stages"]["neutral_frames"];
+    assert_eq!((&neutral["start"], &neutral["end"]), (&2.into(), &3.into()));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--capture", s(&csv), "--neutral", "0"],
+    );
+    assert_bad_input(&out, "dropout.csv");
+    assert!(
+        stderr(&out).contains("missing in neutral frame 0"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -315,14 +315,20 @@ fn bake_capture_ghost_neutral_marker() {
             })
             .collect()
     });
+    // Asked for frame 0 as the neutral pose, the bake refuses it, naming the ghost.
     bad_input(
-        &bake_capture(&dir, &ghost, &[]),
+        &bake_capture(&dir, &ghost, &["--neutral", "0"]),
         &[
             "ghost.trc",
             "marker \"Chin\" in neutral frame 0",
             "ghost sample",
         ],
     );
+    // By default it takes the first frame without one, and says so.
+    let out = bake_capture(&dir, &ghost, &[]);
+    succeeded(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("its neutral pose is frame 1"), "{stderr}");
     // The clean take bakes.
     let out = bake_capture(&dir, &fixture("JawMoCap.trc"), &[]);
     succeeded(&out);

@@ -342,6 +342,14 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let dropped = &d.output.dropped;
     let mut warnings = d.warnings;
     warnings.extend(unmasked);
+    if let Some(st) = &stages {
+        let first = st.report.neutral_frames.start;
+        if options.stages.neutral == crate::stages::Neutral::FirstComplete && first > 0 {
+            warnings.push(format!(
+                "the capture's first {first} frame(s) lack a marker or hold a ghost: its neutral pose is frame {first} (--neutral chooses another)"
+            ));
+        }
+    }
     if options.deformer == DeformerKind::Rbf {
         warnings.push(
             if options.anchoring.is_some() {

@@ -96,8 +96,8 @@ const PROVISIONAL_MAX_DISPLACEMENT: f64 = 64.0;
 /// How to bake the capture stages.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StagesConfig {
-    /// Frames averaged into the actor's neutral pose (frame 0 by default).
-    pub neutral: Range<usize>,
+    /// The actor's neutral pose: by default the capture's first complete frame.
+    pub neutral: Neutral,
     /// Head markers.
     pub head: HeadMarkers,
     /// Largest plausible displacement of a compensated marker from neutral, as a fraction of the
@@ -145,7 +145,7 @@ pub struct StagesConfig {
 impl Default for StagesConfig {
     fn default() -> Self {
         Self {
-            neutral: 0..1,
+            neutral: Neutral::FirstComplete,
             head: HeadMarkers::MostRigid(4),
             max_displacement: None,
             retarget: RetargetKind::Proportional,
@@ -412,7 +412,7 @@ pub fn bake_stages(
             real.len()
         )));
     }
-    let real_neutral = neutral_pose(capture, &real_columns, config.neutral.clone())?;
+    let (real_neutral, neutral_frames) = neutral_pose(capture, &real_columns, &config.neutral)?;
     let actor_space = space_for(&real_neutral);
     let half_extent = f64::from(actor_space.half_extent);
     if !(ACTOR_HALF_EXTENT_MIN_M..=ACTOR_HALF_EXTENT_MAX_M).contains(&half_extent) {
@@ -663,7 +663,7 @@ pub fn bake_stages(
         head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
         head_markers_picked: picked,
         head_spread,
-        neutral_frames: config.neutral.clone(),
+        neutral_frames,
         unused_capture_markers: capture
             .marker_names
             .iter()
@@ -707,17 +707,47 @@ pub const ACTOR_HALF_EXTENT_MIN_M: f64 = 0.01;
 /// Largest actor half extent accepted, metres.
 pub const ACTOR_HALF_EXTENT_MAX_M: f64 = 1.0;
 
-/// The actor's neutral pose: each of `capture`'s marker `columns` averaged over the `range`
-/// frames (in the capture's units). Every such marker must be present in every one of those
-/// frames, and none may be a ghost (further from every other marker than
-/// [`NEUTRAL_OUTLIER_FACTOR`] × their median nearest-neighbour distance), each failure an
-/// error naming the file, the marker and the frame.
+/// Which frames of a capture are the actor's neutral pose.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Neutral {
+    /// The first frame in which every marker used is present and none is a ghost (a capture
+    /// that starts with a dropout still bakes).
+    FirstComplete,
+    /// These frames (0-based, end excluded), averaged: every marker used must be present in
+    /// each, none a ghost.
+    Frames(Range<usize>),
+}
+
+/// The actor's neutral pose and the frames it was taken from: each of `capture`'s marker
+/// `columns` averaged over the `neutral` frames (in the capture's units). Every such marker
+/// must be present in every one of those frames, and none may be a ghost (further from every
+/// other marker than [`NEUTRAL_OUTLIER_FACTOR`] × their median nearest-neighbour distance);
+/// [`Neutral::FirstComplete`] takes the first frame that passes (when none does, frame 0's
+/// failure is the error). Each failure is an error naming the file (and the marker and the
+/// frame).
 pub fn neutral_pose(
     capture: &Capture,
     columns: &[usize],
-    range: Range<usize>,
-) -> Result<Vec<[f64; 3]>, StagesError> {
+    neutral: &Neutral,
+) -> Result<(Vec<[f64; 3]>, Range<usize>), StagesError> {
     let file = capture.source.display().to_string();
+    let range = match neutral {
+        Neutral::Frames(range) => range.clone(),
+        Neutral::FirstComplete => {
+            let complete = |f: &Vec<Option<[f64; 3]>>| -> Option<Vec<[f64; 3]>> {
+                columns
+                    .iter()
+                    .map(|&c| f.get(c).copied().flatten())
+                    .collect()
+            };
+            let first = capture.frames.iter().position(|f| {
+                complete(f).is_some_and(|markers| check_neutral_frame(&markers).is_ok())
+            });
+            // None passes: frame 0's own failure below says what is wrong.
+            let f = first.unwrap_or(0);
+            f..f + 1
+        }
+    };
     if range.is_empty() || range.end > capture.frame_count() {
         return Err(StagesError::NeutralRange {
             file,
@@ -744,7 +774,7 @@ pub fn neutral_pose(
                 .collect()
         })
         .collect::<Result<_, _>>()?;
-    for (frame, markers) in range.zip(&neutral_frames) {
+    for (frame, markers) in range.clone().zip(&neutral_frames) {
         check_neutral_frame(markers).map_err(|(i, distance, median)| {
             StagesError::NeutralOutlier {
                 file: file.clone(),
@@ -756,9 +786,10 @@ pub fn neutral_pose(
         })?;
     }
     let count = neutral_frames.len() as f64;
-    Ok((0..columns.len())
+    let pose = (0..columns.len())
         .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
-        .collect())
+        .collect();
+    Ok((pose, range))
 }
 
 /// Checks one neutral frame by robust statistics: `Err((marker, its nearest-neighbour distance,

@@ -19,7 +19,7 @@ use facebake::model::{
     place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
 use facebake::stages::temporal::SmoothingConfig;
-use facebake::stages::HeadSmoothing;
+use facebake::stages::{HeadSmoothing, Neutral};
 use facebake::surface::SideRule;
 use facebake::{
     BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
@@ -144,9 +144,10 @@ pub struct BakeArgs {
     /// Units of the capture's numbers, overriding what the file says.
     #[arg(long, value_name = "UNITS", value_parser = parse_units, requires = "capture")]
     pub capture_units: Option<Units>,
-    /// The actor's neutral pose: a frame `N` or a range `A..B` averaged (0-based, B excluded).
-    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames, requires = "capture")]
-    pub neutral: Range<usize>,
+    /// The actor's neutral pose: `auto` (the capture's first frame with every marker present
+    /// and none a ghost), a frame `N` or a range `A..B` averaged (0-based, B excluded).
+    #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral, requires = "capture")]
+    pub neutral: Neutral,
     /// Head markers for compensation: comma-separated names, `auto` (the 4 most rigid over
     /// the capture), `auto:N`, or `none` (the capture is already head-stabilised). Once the
     /// head's motion is taken out, the head markers hold still: the rig does not deform the
@@ -846,8 +847,16 @@ fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
     out
 }
 
-/// Parse `--neutral`: `N` or `A..B`.
-pub fn parse_frames(s: &str) -> Result<Range<usize>, String> {
+/// Parse `--neutral`: `auto` (the capture's first complete frame), `N` or `A..B`.
+pub fn parse_neutral(s: &str) -> Result<Neutral, String> {
+    if s.trim() == "auto" {
+        return Ok(Neutral::FirstComplete);
+    }
+    parse_frames(s).map(Neutral::Frames)
+}
+
+/// Parse a frame `N` or a range `A..B` (0-based, B excluded, not empty).
+fn parse_frames(s: &str) -> Result<Range<usize>, String> {
     let num = |t: &str| {
         t.trim()
             .parse::<usize>()
@@ -981,5 +990,14 @@ mod tests {
     fn neutral_frame_numbers_never_overflow() {
         assert!(super::parse_frames("18446744073709551615").is_err());
         assert_eq!(super::parse_frames("7"), Ok(7..8));
+        assert_eq!(
+            super::parse_neutral("auto"),
+            Ok(super::Neutral::FirstComplete)
+        );
+        assert_eq!(
+            super::parse_neutral("2..5"),
+            Ok(super::Neutral::Frames(2..5))
+        );
+        assert!(super::parse_neutral("5..5").is_err());
     }
 }

@@ -8,13 +8,13 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::bake::{parse_frames, parse_head};
+use super::bake::{parse_head, parse_neutral};
 use super::{emit, parse_units, print_json, CliError};
 use facebake::io::capture::{read_capture_with_units, write_csv};
 use facebake::model::{Capture, Units};
 use facebake::pivot::{estimate_pivot, PivotEstimate};
 use facebake::stages::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
-use facebake::stages::HeadMarkers;
+use facebake::stages::{neutral_pose, HeadMarkers, Neutral};
 
 /// Arguments of `facebake compensate`.
 #[derive(Debug, Args)]
@@ -25,9 +25,10 @@ pub struct CompensateArgs {
     /// Units of the capture's numbers, overriding what the file says.
     #[arg(long, value_name = "UNITS", value_parser = parse_units)]
     pub capture_units: Option<Units>,
-    /// The neutral pose the frames are brought back to: a frame `N` or a range `A..B` averaged.
-    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames)]
-    pub neutral: Range<usize>,
+    /// The neutral pose the frames are brought back to: `auto` (the first frame with every
+    /// marker present and none a ghost), a frame `N` or a range `A..B` averaged.
+    #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
+    pub neutral: Neutral,
     /// Head markers: comma-separated names, `auto` (the 4 most rigid) or `auto:N`.
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head)]
     pub head_markers: HeadMarkers,
@@ -62,6 +63,8 @@ pub struct CompensateSummary {
     pub frames: usize,
     /// Its units.
     pub units: String,
+    /// The frames taken as the neutral pose.
+    pub neutral_frames: Range<usize>,
     /// Head markers used.
     pub head_markers: Vec<String>,
     /// The fit used.
@@ -84,29 +87,8 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let bad = |m: String| CliError::input(&args.capture, m);
     let n = capture.marker_names.len();
-    let range = args.neutral.clone();
-    if range.end > capture.frame_count() {
-        return Err(bad(format!(
-            "neutral frames {range:?} are past the capture's {} frames",
-            capture.frame_count()
-        )));
-    }
-    let neutral: Vec<[f64; 3]> = (0..n)
-        .map(|j| {
-            let mut sum = [0.0; 3];
-            for f in range.clone() {
-                let p = capture.frames[f][j].ok_or_else(|| {
-                    bad(format!(
-                        "marker {:?} is missing in neutral frame {f}",
-                        capture.marker_names[j]
-                    ))
-                })?;
-                (0..3).for_each(|c| sum[c] += p[c] / range.len() as f64);
-            }
-            Ok(sum)
-        })
-        .collect::<Result<_, CliError>>()?;
     let all: Vec<usize> = (0..n).collect();
+    let (neutral, range) = neutral_pose(&capture, &all, &args.neutral)?;
     let complete = facebake::stages::complete_sample(&capture, &all);
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
@@ -181,6 +163,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
         capture: args.capture.clone(),
         frames: capture.frame_count(),
         units: capture.units.to_string(),
+        neutral_frames: range,
         head_markers: head
             .iter()
             .map(|&h| capture.marker_names[h].clone())
@@ -198,11 +181,12 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
         let mut text = String::new();
         outln!(
             text,
-            "compensated {} ({} frames, {}) with head markers {}",
+            "compensated {} ({} frames, {}) with head markers {}, back to the neutral frames {:?}",
             summary.capture.display(),
             summary.frames,
             summary.units,
-            summary.head_markers.join(", ")
+            summary.head_markers.join(", "),
+            summary.neutral_frames
         );
         outln!(
             text,

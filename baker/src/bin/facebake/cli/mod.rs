@@ -125,7 +125,7 @@ pub enum CliError {
     GltfAnim(#[from] GltfAnimError),
     /// A capture's neutral pose is unusable (the message names the capture).
     #[error(transparent)]
-    Neutral(#[from] facebake::stages::StagesError),
+    NeutralPose(#[from] facebake::stages::StagesError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

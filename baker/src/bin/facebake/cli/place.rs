@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use super::bake::parse_frames;
+use super::bake::parse_neutral;
 use super::render::write_marker_sheet;
 use super::{emit, parse_units, print_json, CliError};
 use facebake::io::capture::read_capture_with_units;
@@ -15,7 +15,7 @@ use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
 use facebake::model::{place_markers, MarkerAnchor, Units, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::placement::{place, PlacementError, FEATURE_MARKERS};
-use facebake::stages::neutral_pose;
+use facebake::stages::{neutral_pose, Neutral};
 
 /// Arguments of `facebake place`.
 #[derive(Debug, Args)]
@@ -35,10 +35,11 @@ pub struct PlaceArgs {
     /// Units of the capture's numbers, overriding what the file says.
     #[arg(long, value_name = "UNITS", value_parser = parse_units)]
     pub capture_units: Option<Units>,
-    /// The actor's neutral pose: a frame `N` or a range `A..B` averaged (0-based, B excluded),
-    /// as `bake --capture` takes it: every marker present in every frame, none a ghost.
-    #[arg(long, value_name = "FRAMES", default_value = "0", value_parser = parse_frames)]
-    pub neutral: Range<usize>,
+    /// The actor's neutral pose, as `bake --capture` takes it: `auto` (the first frame with
+    /// every marker present and none a ghost), a frame `N` or a range `A..B` averaged (0-based,
+    /// B excluded).
+    #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
+    pub neutral: Neutral,
     /// The layout to write (.toml or .json).
     #[arg(short, long, value_name = "LAYOUT")]
     pub output: PathBuf,
@@ -64,6 +65,8 @@ pub struct PlaceSummary {
     pub on_features: Vec<String>,
     /// Markers warped from the actor through the landmarks onto the skin.
     pub warped: usize,
+    /// The capture's frames taken as the actor's neutral pose.
+    pub neutral_frames: Range<usize>,
     /// The marker sheet, if one was drawn.
     pub marker_sheet: Option<PathBuf>,
 }
@@ -73,7 +76,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
-    let neutral = neutral_pose(&capture, &columns, args.neutral.clone())?;
+    let (neutral, neutral_frames) = neutral_pose(&capture, &columns, &args.neutral)?;
     let layout = place(&mesh, &capture.marker_names, &neutral).map_err(|e| match e {
         // The capture lacks a landmark's marker; anything else is about the mesh.
         PlacementError::UnknownLandmark(_) => CliError::input(&args.capture, e.to_string()),
@@ -113,6 +116,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         landmarks,
         on_features,
         marker_sheet: args.marker_sheet.clone(),
+        neutral_frames,
     };
     if args.json {
         print_json(&summary);
@@ -120,10 +124,11 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         let mut out = String::new();
         outln!(
             out,
-            "placed {} markers on {} → {}",
+            "placed {} markers on {} → {} (the actor's neutral pose: frames {:?})",
             summary.markers,
             args.mesh.display(),
-            summary.layout.display()
+            summary.layout.display(),
+            summary.neutral_frames
         );
         outln!(
             out,
