@@ -1440,7 +1440,8 @@ fn place_writes_the_layout_bake_takes() {
 
 /// A take whose first frames miss a marker (a dropout at the start, as real captures have)
 /// still bakes by default: the neutral pose is its first complete frame, and the bake says so.
-/// Asked for frame 0, it refuses, naming the marker and the frame.
+/// Asked for frame 0, it refuses, naming the marker and the frame. A marker never seen is
+/// rebuilt from its neighbours.
 #[test]
 fn a_take_starting_with_a_dropout_bakes_from_its_first_complete_frame() {
     let dir = temp_dir("dropout");
@@ -1474,6 +1475,39 @@ fn a_take_starting_with_a_dropout_bakes_from_its_first_complete_frame() {
     assert_bad_input(&out, "dropout.csv");
     assert!(
         stderr(&out).contains("missing in neutral frame 0"),
+        "{}",
+        stderr(&out)
+    );
+
+    // A marker lost for the whole take is rebuilt from its neighbours, as a virtual one, and
+    // said; a marker the take does not have at all is an error that says what to do.
+    let name = cap.marker_names[9].clone();
+    for f in &mut cap.frames {
+        f[9] = None;
+    }
+    write_csv(&csv, &cap).unwrap();
+    let j = json_ok(&bake(
+        &mesh_path(),
+        &layout,
+        &rig,
+        &["--capture", s(&csv), "--json"],
+    ));
+    assert_eq!(
+        j["report"]["stages"]["unsampled_markers"],
+        serde_json::json!([name])
+    );
+    assert!(j["report"]["warnings"]
+        .to_string()
+        .contains("no sample in the capture"));
+    cap.marker_names.remove(9);
+    for f in &mut cap.frames {
+        f.remove(9);
+    }
+    write_csv(&csv, &cap).unwrap();
+    let out = bake(&mesh_path(), &layout, &rig, &["--capture", s(&csv)]);
+    assert_bad_input(&out, "dropout.csv");
+    assert!(
+        stderr(&out).contains("--virtual-markers"),
         "{}",
         stderr(&out)
     );

@@ -343,6 +343,11 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let mut warnings = d.warnings;
     warnings.extend(unmasked);
     if let Some(st) = &stages {
+        for name in &st.report.unsampled_markers {
+            warnings.push(format!(
+                "marker {name:?} has no sample in the capture: it is rebuilt from its neighbours every frame (as --virtual-markers does)"
+            ));
+        }
         let first = st.report.neutral_frames.start;
         if options.stages.neutral == crate::stages::Neutral::FirstComplete && first > 0 {
             warnings.push(format!(

@@ -168,7 +168,9 @@ impl Default for StagesConfig {
 pub enum StagesError {
     /// A rig marker the capture does not have.
     #[error(
-        "{file}: the capture has no marker {name:?}, which the layout places on the character"
+        "{file}: the capture has no marker {name:?}, which the layout places on the character \
+         (name it in --virtual-markers to rebuild it from its neighbours every frame, or leave \
+         it out of the layout)"
     )]
     MissingMarker {
         /// The capture file.
@@ -272,6 +274,8 @@ pub struct StagesReport {
     pub unused_capture_markers: Vec<String>,
     /// Rig markers the capture does not have, rebuilt from their neighbours every frame.
     pub virtual_markers: Vec<String>,
+    /// Of those, the markers whose column has no sample in any frame.
+    pub unsampled_markers: Vec<String>,
     /// Rig markers pinned at rest every frame.
     pub anchor_markers: Vec<String>,
     /// Actor half extent, metres.
@@ -374,11 +378,23 @@ pub fn bake_stages(
     let capture = &capture.in_metres();
     let file = capture.source.display().to_string();
     // Each rig marker's column in the capture; `None` for a virtual marker (one the capture
-    // never has, rebuilt from its neighbours every frame).
+    // never has, rebuilt from its neighbours every frame), and for a column without a single
+    // sample (a marker lost for the whole take), which is rebuilt the same way.
+    let sampled = |c: usize| {
+        capture
+            .frames
+            .iter()
+            .any(|f| f.get(c).is_some_and(Option::is_some))
+    };
+    let mut unsampled = Vec::new();
     let columns: Vec<Option<usize>> = marker_names
         .iter()
         .map(|name| match capture.marker_index(name) {
             _ if config.anchor_markers.contains(name) => Ok(None),
+            Some(c) if !sampled(c) => {
+                unsampled.push(name.clone());
+                Ok(None)
+            }
             Some(c) => Ok(Some(c)),
             None if config.virtual_markers.contains(name) => Ok(None),
             None => Err(StagesError::MissingMarker {
@@ -675,6 +691,7 @@ pub fn bake_stages(
             .filter(|&j| columns[j].is_none() && !config.anchor_markers.contains(&marker_names[j]))
             .map(|j| marker_names[j].clone())
             .collect(),
+        unsampled_markers: unsampled,
         actor_half_extent: f64::from(actor_space.half_extent),
         units: original_units.symbol().to_string(),
         retarget: config.retarget,
