@@ -16,7 +16,7 @@
 
 use facebake::ground_truth::GroundTruth;
 use facebake::metrics::{Regions, TakeMetrics};
-use facebake::model::{FaceMesh, MarkerLayout};
+use facebake::model::{FaceMesh, MarkerAnchor, MarkerLayout};
 use facebake::surface::evaluate::Benchmark;
 use facebake::{bake, BakeOptions, Scene};
 use facebake_runtime::Rig;
@@ -311,5 +311,52 @@ fn jawmocap_plays_alike_on_a_turned_head() {
         assert!(take.static_drift_mm.0 <= 0.5, "{label}: {take}");
         assert_eq!(take.frames_over_limit, 0, "{label}: {take}");
         assert_eq!(take.flipped.0, 0, "{label}: {take}");
+    }
+}
+
+/// `facebake place` reads the face in its own axes: on FaceCap turned, rolled, scaled and moved
+/// in its file, JawMoCap's markers land where the bundled layout (its upright placement) puts
+/// them, carried by the same pose: the same vertices for the landmarks and the lip and eyelid
+/// markers, the warped ones within 0.1 mm.
+#[test]
+fn placement_is_the_same_in_any_pose() {
+    let capture = facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture");
+    let neutral: Vec<[f64; 3]> = capture.frames[0]
+        .iter()
+        .map(|p| p.expect("complete"))
+        .collect();
+    let upright = layout();
+    let poses = [
+        Pose::turned([0.0, 1.0, 0.0], 0.35),
+        Pose::turned([0.0, 0.0, 1.0], 0.2),
+        Pose {
+            scale: 100.0,
+            shift: [1.3, -0.4, 2.0],
+            ..Pose::turned([1.0, 0.0, 0.0], 0.1)
+        },
+    ];
+    for pose in poses {
+        let mesh = pose.mesh(&facecap());
+        let placed =
+            facebake::placement::place(&mesh, &capture.marker_names, &neutral).expect("placed");
+        let mut worst: f64 = 0.0;
+        for (a, b) in placed.markers.iter().zip(&upright.markers) {
+            assert_eq!(a.name, b.name);
+            match (a.anchor, b.anchor) {
+                (MarkerAnchor::Vertex(u), MarkerAnchor::Vertex(v)) => {
+                    assert_eq!(u, v, "{}", a.name);
+                }
+                (MarkerAnchor::Point(p), MarkerAnchor::Point(q)) => {
+                    let d = facebake::mesh::distance(&pose.back(p), &q);
+                    worst = worst.max(d);
+                }
+                _ => panic!("{}: anchored differently", a.name),
+            }
+        }
+        println!(
+            "placed in a pose: warped markers within {:.4} mm",
+            worst * 1000.0
+        );
+        assert!(worst < 1e-4, "{:.4} mm", worst * 1000.0);
     }
 }

@@ -225,7 +225,8 @@ pub fn build_frame(p: &[[i32; 3]; 3]) -> Option<Frame> {
 }
 
 /// Where a centroid influence (R_T) puts its vertex: the mean of the triangle's current
-/// corners `p` plus the stored offset (Q8.24), rounded to nearest (ties up), saturated.
+/// corners `p` plus the stored offset (Q8.24), rounded to nearest (a third is never halfway),
+/// saturated.
 #[inline(always)]
 fn place_at_centroid(p: &[[i32; 3]; 3], coords: [i32; 4]) -> [i32; 3] {
     [0, 1, 2].map(|c| {
@@ -575,6 +576,24 @@ mod tests {
             [0, i32::MAX, i32::MAX],
         ];
         assert!(build_frame(&far).is_some());
+    }
+
+    #[test]
+    fn the_centroid_region_translates_with_the_corners_mean() {
+        let tri = [[3 * ONE, 0, -6], [0, 3 * ONE, 0], [0, 0, 3 * ONE]];
+        // The centroid (ONE, ONE, ONE − 2) plus the offset.
+        assert_eq!(
+            place_at_centroid(&tri, [5, -7, 2, 0]),
+            [ONE + 5, ONE - 7, ONE]
+        );
+        // Means of a third round to the nearest integer, either sign.
+        assert_eq!(place_at_centroid(&[[1, -1, 2], [1, -1, 0], [0; 3]], [0; 4]), [1, -1, 1]);
+        assert_eq!(place_at_centroid(&[[1, -1, 0], [0; 3], [0; 3]], [0; 4]), [0, 0, 0]);
+        // Extreme corners and offsets saturate instead of wrapping.
+        let far = [[i32::MAX; 3]; 3];
+        assert_eq!(place_at_centroid(&far, [i32::MAX; 4]), [i32::MAX; 3]);
+        let near = [[i32::MIN; 3]; 3];
+        assert_eq!(place_at_centroid(&near, [i32::MIN; 4]), [i32::MIN; 3]);
     }
 
     #[test]
