@@ -312,18 +312,31 @@ pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
 /// through them onto the skin ([`place_from_landmarks`]), then the lip and eyelid markers put on
 /// the lips and lids ([`snap_to_features`]), all read in the face's own axes
 /// ([`crate::frame::FaceFrame`]). The actor's markers must include the seven landmarks' names.
+/// `pins` (marker name, glTF vertex) put markers where the user knows they belong: each is a
+/// landmark of the warp too (replacing a found one of the same name) and is not snapped.
 pub fn place(
     mesh: &FaceMesh,
     actor_names: &[String],
     actor_neutral: &[[f64; 3]],
+    pins: &[(String, u32)],
 ) -> Result<MarkerLayout, PlacementError> {
     let frame = crate::frame::FaceFrame::of(mesh);
     let local = frame.mesh(mesh);
-    let marks = landmarks(&local)?;
+    let mut marks = landmarks(&local)?;
+    for (name, vertex) in pins {
+        marks.markers.retain(|m| m.name != *name);
+        marks.markers.push(LayoutMarker {
+            name: name.clone(),
+            anchor: MarkerAnchor::Vertex(*vertex),
+            stiffness: 1.0,
+        });
+    }
     let mut layout = place_from_landmarks(actor_names, actor_neutral, &marks, &local)?;
     snap_to_features(&mut layout, &local)?;
     for m in &mut layout.markers {
-        if let MarkerAnchor::Point(q) = m.anchor {
+        if let Some((_, vertex)) = pins.iter().find(|(name, _)| *name == m.name) {
+            m.anchor = MarkerAnchor::Vertex(*vertex);
+        } else if let MarkerAnchor::Point(q) = m.anchor {
             m.anchor = MarkerAnchor::Point(frame.file(&q));
         }
     }
@@ -359,7 +372,7 @@ mod tests {
         let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None).unwrap();
         let cap = read_capture(&fixture("JawMoCap.trc")).unwrap();
         let neutral: Vec<[f64; 3]> = cap.frames[0].iter().map(|p| p.unwrap()).collect();
-        let layout = place(&mesh, &cap.marker_names, &neutral).unwrap();
+        let layout = place(&mesh, &cap.marker_names, &neutral, &[]).unwrap();
         let committed = read_layout(&fixture("facecap_jawmocap_layout.toml")).unwrap();
         assert_eq!(committed.markers.len(), 41);
         for (a, b) in layout.markers.iter().zip(&committed.markers) {

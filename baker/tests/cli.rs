@@ -1432,6 +1432,22 @@ fn place_writes_the_layout_bake_takes() {
     let out = run(&mesh_path(), &capture, &["--neutral", "5000"]);
     assert_bad_input(&out, "JawMoCap.trc");
     assert!(stderr(&out).contains("not inside"), "{}", stderr(&out));
+    // A pin puts a marker at a vertex (and anchors the warp); a pin past the mesh's vertices or
+    // naming no marker of the capture is bad input.
+    let j = json_ok(&run(
+        &mesh_path(),
+        &capture,
+        &["--pin", "Chin=802", "--json"],
+    ));
+    assert_eq!(j["pinned"], serde_json::json!(["Chin"]));
+    let pinned = facebake::io::layout::read_layout(&layout).unwrap();
+    let chin = pinned.markers.iter().find(|m| m.name == "Chin").unwrap();
+    assert_eq!(chin.anchor, facebake::model::MarkerAnchor::Vertex(802));
+    let out = run(&mesh_path(), &capture, &["--pin", "Chin=99999999"]);
+    assert_bad_input(&out, "FaceCapHeadGeneric.glb");
+    let out = run(&mesh_path(), &capture, &["--pin", "Nope=5"]);
+    assert_bad_input(&out, "JawMoCap.trc");
+    assert!(stderr(&out).contains("Nope"), "{}", stderr(&out));
     let disk = fixture("mediapipe_canonical_face_model.glb");
     let out = run(&disk, &capture, &[]);
     assert_bad_input(&out, "mediapipe_canonical_face_model.glb");

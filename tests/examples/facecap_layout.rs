@@ -27,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|p| p.ok_or("frame 0 has a missing marker"))
         .collect::<Result<_, _>>()?;
-    let layout = place(&mesh, &cap.marker_names, &neutral)?;
+    let layout = place(&mesh, &cap.marker_names, &neutral, &[])?;
     let out = fixture("facecap_jawmocap_layout.toml");
     write_layout(&out, &layout)?;
     // The discontinuity masks' marker groups (`facebake bake --masks`).

@@ -601,3 +601,15 @@ pub fn layout_mapped(
     }
     moved
 }
+
+/// The bundled JawMoCap capture and its neutral pose (frame 0, complete), as `facebake place`
+/// takes them.
+pub fn jawmocap_neutral() -> (facebake::model::Capture, Vec<[f64; 3]>) {
+    let capture =
+        facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("JawMoCap reads");
+    let neutral = capture.frames[0]
+        .iter()
+        .map(|p| p.expect("JawMoCap's frame 0 is complete"))
+        .collect();
+    (capture, neutral)
+}

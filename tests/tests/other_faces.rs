@@ -410,11 +410,7 @@ fn the_truth_through_the_capture_stages() {
 /// the anchors' mean).
 #[test]
 fn placement_finds_the_markers_on_other_faces() {
-    let capture = facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture");
-    let neutral: Vec<[f64; 3]> = capture.frames[0]
-        .iter()
-        .map(|p| p.expect("frame 0 is complete"))
-        .collect();
+    let (capture, neutral) = facebake_tests::jawmocap_neutral();
     let upright = facecap();
     // Per face: the placed markers' mean and largest distance from the warped layout's (mm),
     // and the default bake's figures on the truth and on JawMoCap.
@@ -499,7 +495,7 @@ fn placement_finds_the_markers_on_other_faces() {
     for (label, map, mean_mm, worst_mm, pinned, on_jawmocap) in faces {
         let warp = Warp::of(&upright, map);
         let truth = GroundTruth::new(warp.mesh(&upright), FACECAP_MARKERS, 6).expect("truth");
-        let layout = facebake::placement::place(&truth.mesh, &capture.marker_names, &neutral)
+        let layout = facebake::placement::place(&truth.mesh, &capture.marker_names, &neutral, &[])
             .expect("placed");
         let placed = facebake::model::place_markers(
             &layout,
@@ -546,4 +542,56 @@ fn placement_finds_the_markers_on_other_faces() {
         assert!(t.eyelids_mm.unwrap().0 <= 1.5, "{label}: {t}");
         assert!(skin <= 0.6, "{label}: {skin}");
     }
+}
+
+/// What no landmark sees, a pin gives: on the heavier-jawed face the chin's markers land 6.0–11.8
+/// mm from the warped layout's; with `Chin` pinned to the vertex under the warped layout's (`place
+/// --pin Chin=V`), which also anchors the warp, every chin marker is within 6.5 mm and `Chin`
+/// itself within the vertex spacing (measured 2026-12-02: 2.0 mm; the others 5.1–6.2).
+#[test]
+fn a_pinned_chin_brings_the_chin_markers_onto_a_heavier_jaw() {
+    let (capture, neutral) = facebake_tests::jawmocap_neutral();
+    let upright = facecap();
+    let warp = Warp::of(&upright, jaw);
+    let mesh = warp.mesh(&upright);
+    let warped = placed_on(&warp, &mesh);
+    let chin = warped
+        .iter()
+        .find(|m| m.name == "Chin")
+        .expect("Chin")
+        .position;
+    let nearest = (0..mesh.positions.len())
+        .min_by(|&a, &b| {
+            let d = |v: usize| facebake::mesh::distance(&mesh.positions[v], &chin);
+            d(a).total_cmp(&d(b))
+        })
+        .expect("vertices");
+    let chin_errors = |pins: &[(String, u32)]| -> Vec<(String, f64)> {
+        let layout = facebake::placement::place(&mesh, &capture.marker_names, &neutral, pins)
+            .expect("placed");
+        let placed = facebake::model::place_markers(
+            &layout,
+            &mesh,
+            facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+        )
+        .expect("on the mesh");
+        placed
+            .iter()
+            .zip(&warped)
+            .filter(|(a, _)| a.name.starts_with("Chin"))
+            .map(|(a, b)| {
+                let d = facebake::mesh::distance(&a.position, &b.position) * 1000.0;
+                (a.name.clone(), d)
+            })
+            .collect()
+    };
+    let free = chin_errors(&[]);
+    let pinned = chin_errors(&[("Chin".to_string(), nearest as u32)]);
+    println!("chin markers from the warped layout: free {free:?}, Chin pinned {pinned:?}");
+    assert!(free.iter().any(|(_, d)| *d > 8.0), "{free:?}");
+    assert!(pinned.iter().all(|(_, d)| *d < 6.5), "{pinned:?}");
+    assert!(pinned
+        .iter()
+        .find(|(n, _)| n == "Chin")
+        .is_some_and(|(_, d)| *d < 3.0));
 }

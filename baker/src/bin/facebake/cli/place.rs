@@ -40,6 +40,10 @@ pub struct PlaceArgs {
     /// B excluded).
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
     pub neutral: Neutral,
+    /// A marker put at a glTF vertex of the mesh, as `NAME=VERTEX` (repeatable): where you know
+    /// it belongs (a chin, which no landmark sees). It also anchors the warp of the others.
+    #[arg(long = "pin", value_name = "NAME=VERTEX", value_parser = parse_pin)]
+    pub pins: Vec<(String, u32)>,
     /// The layout to write (.toml or .json).
     #[arg(short, long, value_name = "LAYOUT")]
     pub output: PathBuf,
@@ -52,6 +56,21 @@ pub struct PlaceArgs {
     pub json: bool,
 }
 
+/// Parse `--pin NAME=VERTEX`.
+fn parse_pin(s: &str) -> Result<(String, u32), String> {
+    let (name, vertex) = s
+        .split_once('=')
+        .ok_or_else(|| format!("{s:?}: expected NAME=VERTEX"))?;
+    let vertex = vertex
+        .trim()
+        .parse::<u32>()
+        .map_err(|_| format!("{s:?}: {vertex:?} is not a vertex index"))?;
+    if name.trim().is_empty() {
+        return Err(format!("{s:?}: no marker name"));
+    }
+    Ok((name.trim().to_string(), vertex))
+}
+
 /// What `place` wrote.
 #[derive(Debug, Serialize)]
 pub struct PlaceSummary {
@@ -61,6 +80,8 @@ pub struct PlaceSummary {
     pub markers: usize,
     /// Markers at a landmark's vertex, found from the mesh's shape.
     pub landmarks: Vec<String>,
+    /// Markers put at the vertices `--pin` gave.
+    pub pinned: Vec<String>,
     /// Lip and eyelid markers put on their lip or lid.
     pub on_features: Vec<String>,
     /// Markers warped from the actor through the landmarks onto the skin.
@@ -77,14 +98,28 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
     let (neutral, neutral_frames) = neutral_pose(&capture, &columns, &args.neutral)?;
-    let layout = place(&mesh, &capture.marker_names, &neutral).map_err(|e| match e {
-        // The capture lacks a landmark's marker; anything else is about the mesh.
-        PlacementError::UnknownLandmark(_) => CliError::input(&args.capture, e.to_string()),
-        _ => CliError::input(
+    if let Some((name, vertex)) = args
+        .pins
+        .iter()
+        .find(|(_, v)| *v as usize >= mesh.positions.len())
+    {
+        return Err(CliError::input(
             &args.mesh,
-            format!("placing {}: {e}", args.capture.display()),
-        ),
-    })?;
+            format!(
+                "--pin {name}={vertex}: the mesh has {} vertices",
+                mesh.positions.len()
+            ),
+        ));
+    }
+    let layout =
+        place(&mesh, &capture.marker_names, &neutral, &args.pins).map_err(|e| match e {
+            // The capture lacks a landmark's marker; anything else is about the mesh.
+            PlacementError::UnknownLandmark(_) => CliError::input(&args.capture, e.to_string()),
+            _ => CliError::input(
+                &args.mesh,
+                format!("placing {}: {e}", args.capture.display()),
+            ),
+        })?;
     write_layout(&args.output, &layout)?;
     if let Some(path) = &args.marker_sheet {
         let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
@@ -100,8 +135,12 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     }
     let mut landmarks = Vec::new();
     let mut on_features = Vec::new();
+    let pinned: Vec<String> = args.pins.iter().map(|(n, _)| n.clone()).collect();
     for m in &layout.markers {
         if let MarkerAnchor::Vertex(_) = m.anchor {
+            if pinned.contains(&m.name) {
+                continue;
+            }
             if FEATURE_MARKERS.iter().any(|f| f.0 == m.name) {
                 on_features.push(m.name.clone());
             } else {
@@ -112,7 +151,8 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let summary = PlaceSummary {
         layout: args.output.clone(),
         markers: layout.markers.len(),
-        warped: layout.markers.len() - landmarks.len() - on_features.len(),
+        warped: layout.markers.len() - landmarks.len() - on_features.len() - pinned.len(),
+        pinned,
         landmarks,
         on_features,
         marker_sheet: args.marker_sheet.clone(),
@@ -145,6 +185,9 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             "  warped from the actor onto the skin: {}",
             summary.warped
         );
+        if !summary.pinned.is_empty() {
+            outln!(out, "  pinned: {}", summary.pinned.join(", "));
+        }
         if let Some(path) = &summary.marker_sheet {
             outln!(out, "  marker sheet → {}", path.display());
         }
