@@ -492,11 +492,7 @@ fn planar_anchor(
         .copied()
         .filter(|m| !skull.contains(m))
         .collect();
-    let middle = {
-        let mut xs: Vec<f64> = rest.iter().map(|p| p[0]).collect();
-        xs.sort_by(f64::total_cmp);
-        xs[xs.len() / 2]
-    };
+    let middle = crate::surface::anchoring::middle_x(rest);
     let central = skull.iter().copied().min_by(|&a, &b| {
         (rest[a][0] - middle)
             .abs()

@@ -105,6 +105,13 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
     chosen
 }
 
+/// The face's middle across it: the markers' median x (0 without markers).
+pub(crate) fn middle_x(markers: &[[f64; 3]]) -> f64 {
+    let mut xs: Vec<f64> = markers.iter().map(|p| p[0]).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.get(xs.len() / 2).copied().unwrap_or(0.0)
+}
+
 /// The markers anchored skin follows: the `skull` markers and, unless the rig fits the head
 /// itself (`head_fit`), each eye's inner-corner marker.
 ///
@@ -128,11 +135,7 @@ pub fn anchor_markers(
     if head_fit || markers.is_empty() {
         return chosen;
     }
-    let middle = {
-        let mut xs: Vec<f64> = markers.iter().map(|p| p[0]).collect();
-        xs.sort_by(f64::total_cmp);
-        xs[xs.len() / 2]
-    };
+    let middle = middle_x(markers);
     for rim in eye_rims {
         let ends = [
             rim.iter().min_by(|a, b| a[0].total_cmp(&b[0])),

@@ -98,19 +98,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
     let (neutral, neutral_frames) = neutral_pose(&capture, &columns, &args.neutral)?;
-    if let Some((name, vertex)) = args
-        .pins
-        .iter()
-        .find(|(_, v)| *v as usize >= mesh.positions.len())
-    {
-        return Err(CliError::input(
-            &args.mesh,
-            format!(
-                "--pin {name}={vertex}: the mesh has {} vertices",
-                mesh.positions.len()
-            ),
-        ));
-    }
+    // A pin is a landmark: `place` checks its vertex (PlacementError::BadVertex).
     let layout =
         place(&mesh, &capture.marker_names, &neutral, &args.pins).map_err(|e| match e {
             // The capture lacks a landmark's marker; anything else is about the mesh.
