@@ -32,8 +32,9 @@ pub mod surface;
 pub use bake::{bake, BakeError, BakeReport, Baked, Reference, Scene};
 pub use deformer::DeformerKind;
 pub use options::{
-    BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, HYBRID_REACH, MASK_SIDE_EUCLIDEAN,
-    MASK_SIDE_SURFACE, PAST_CORNER_REACH, PAST_CORNER_REACH_EUCLIDEAN, PBW_ALPHA, RIM_ACROSS,
+    default_k, BakeOptions, Method, SurfaceOptions, ANCHORING_MARGIN, DEFAULT_K, HYBRID_REACH,
+    MASK_SIDE_EUCLIDEAN, MASK_SIDE_SURFACE, PAST_CORNER_REACH, PAST_CORNER_REACH_EUCLIDEAN,
+    PBW_ALPHA, RBF_K, RIM_ACROSS,
 };
 pub use rbf::{RadialFunction, SolveError};
 pub use sparsify::{Refit, SparsifyError};

@@ -831,7 +831,26 @@ fn euclidean_is_masked_and_anchored_unless_told_otherwise() {
         &dir.join("rbf.fbk"),
         &["--method", "euclidean", "--deformer", "rbf", "--json"],
     );
-    assert_eq!(json_ok(&out)["report"]["deformer"], "rbf");
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["deformer"], "rbf");
+    // Every radial term (41 markers): its wide default kernel does not decay within 8, and the
+    // bake says what keeping 8 drops.
+    assert_eq!(j["report"]["k"], 41);
+    assert_eq!(j["report"]["max_dropped_mass"], 0.0);
+    assert!(!j["report"]["warnings"].to_string().contains("radial mass"));
+    let out = bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("rbf8.fbk"),
+        &["--deformer", "rbf", "-k", "8", "--json"],
+    );
+    let j = json_ok(&out);
+    assert_eq!(j["report"]["k"], 8);
+    let warnings = j["report"]["warnings"].to_string();
+    assert!(
+        warnings.contains("keeping K = 8 radial terms per vertex drops 29 %"),
+        "{warnings}"
+    );
 }
 
 #[test]

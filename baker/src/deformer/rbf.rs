@@ -81,10 +81,12 @@ pub(crate) fn bake(
         .map(|phi: Vec<f64>| {
             let kept = sparsify::top_k(&phi, k);
             let total: f64 = phi.iter().map(|x| x.abs()).sum();
-            dropped.push(
-                1.0 - kept.iter().map(|&i| phi[i].abs()).sum::<f64>()
-                    / total.max(f64::MIN_POSITIVE),
-            );
+            // A vertex whose radial terms the anchoring faded out entirely drops nothing.
+            dropped.push(if total > 0.0 {
+                1.0 - kept.iter().map(|&i| phi[i].abs()).sum::<f64>() / total
+            } else {
+                0.0
+            });
             kept.into_iter()
                 .map(|i| (i, phi[i]))
                 .collect::<sparsify::SparseRow>()
