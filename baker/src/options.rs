@@ -70,7 +70,7 @@ pub struct SurfaceOptions {
     /// Across a lip or lid, between the opening's rim and a marker worn on it, distances count
     /// this fraction of their length, so that the rim moves with the marker in front of it
     /// ([`crate::surface::distances::shorten_across_rims`]; 1 leaves distances as measured;
-    /// surface distances and the linear deformer only).
+    /// surface distances, the linear and RBF deformers).
     pub rim_across: f64,
     /// How far from each corner of the mouth the skin past it is balanced between the lips, ×
     /// mean marker spacing ([`crate::surface::corners::balance_past_mouth_corners`]; linear
@@ -177,7 +177,8 @@ pub const DEFAULT_K: usize = 8;
 /// `bake --deformer rbf` on FaceCap's truth with the JawMoCap layout / on JawMoCap):
 /// K = 8: 3.48× stretch, 57 flipped triangles / 5.27×, 11 flips; 16: 2.59×, 3 / 2.10×, 1;
 /// 24: 2.39×, 2 / 1.97×, 1; 32: 2.17×, 2; **all 41**: 2.17×, 2 / 2.01×, 1, face mean error
-/// 1.03 → 0.575 mm. The cost: K multiply-adds per vertex and axis (`facebake inspect`: 361,143
+/// 1.03 → 0.575 mm (then with distances shortened across the rims, as the linear deformer's:
+/// 2.16×, 2 / 2.01×, 1). The cost: K multiply-adds per vertex and axis (`facebake inspect`: 361,143
 /// a frame on FaceCap with 41 markers, against 94,437 at K = 8 and the linear deformer's
 /// 64,656). The papers' narrow Gaussian (0.75 spacings, [`BakeOptions::default`]) decays fast
 /// enough for K = 8 (within 0.1 mm of its dense RBF, p99).

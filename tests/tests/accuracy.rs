@@ -148,7 +148,7 @@ fn the_default_rig_against_its_own_dense_weights() {
 /// its dense RBF within quantisation. Its dense form is closer to the truth than the unanchored
 /// one (measured 2026-11-27: mean 0.888 against 1.008 mm). K = 8 of its terms approximated it
 /// badly (measured 2026-12-02 on these 40 markers: sparse vs dense p99 7.79 mm, the truth's
-/// mean error 1.78 mm); with all 40, 0.005 mm and 0.883 mm.
+/// mean error 1.77 mm); with all 40, 0.005 mm and 0.871 mm.
 #[test]
 fn the_anchored_rbf_deformer_matches_its_reference() {
     let (truth, _) = facecap_default();

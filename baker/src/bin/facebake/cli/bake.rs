@@ -69,8 +69,8 @@ pub struct BakeArgs {
     pub no_corners: bool,
     /// Across a lip or lid, between the opening's rim and a marker worn on it, count this
     /// fraction of a distance, so that the rim moves with the marker in front of it rather than
-    /// with the next one along (default 0.2; 1 measures distances as they are). Linear
-    /// deformer, surface distances.
+    /// with the next one along (default 0.2; 1 measures distances as they are). Linear and RBF
+    /// deformers, surface distances.
     #[arg(long, value_name = "F", value_parser = parse_fraction)]
     pub rim_across: Option<f64>,
     /// Mask (upper/lower lip, upper/lower eyelid): markers of one side of an opening may not
@@ -108,8 +108,8 @@ pub struct BakeArgs {
     /// built automatically) (default: linear). The RBF deformer has no masks and no corner
     /// reshaping; anchored, its affine part is the anchor markers' mean translation and its
     /// radial terms fade beyond the markers (33 mm of skull motion on FaceCap's truth
-    /// unanchored); it keeps every radial term unless -k says otherwise (on the truth 2.17× and
-    /// 2 flipped triangles, at K = 8 3.48× and 57).
+    /// unanchored); it keeps every radial term unless -k says otherwise (on the truth 2.16× and
+    /// 2 flipped triangles, at K = 8 3.47× and 58).
     #[arg(long, value_parser = deformer_parser())]
     pub deformer: Option<DeformerKind>,
     /// Radial function φ (default: exponential, every method; the papers' RBF is gaussian).
