@@ -165,23 +165,23 @@ pub const ANCHORING_MARGIN: f64 = 0.8;
 
 /// Influences per vertex of the linear deformer and of planar bones when the user names none:
 /// the runtime's cost is K multiply-adds per vertex and axis, and the Cortex-M4 budget frame
-/// (`firmware/`) is at 96 % of its limit at 8.
+/// (`firmware/`) is at 96 % of its goal at 8.
 pub const DEFAULT_K: usize = 8;
 
 /// Radial terms per vertex of the RBF deformer when the user names none: all of them, up to the
 /// format's 64, so that the rig plays the dense RBF it was solved for (to quantisation). The
 /// radial function its defaults use (the exponential at 1.5 mean marker spacings) is still a
-/// third of its peak at two spacings, and the coefficients it multiplies alternate in sign, so
+/// quarter of its peak at two spacings, and the coefficients it multiplies alternate in sign, so
 /// keeping the largest few terms of a vertex drops real signal and, where the kept set
 /// changes between neighbours, tears the skin. Measured 2026-12-02 (`--test structure`,
 /// `bake --deformer rbf` on FaceCap's truth with the JawMoCap layout / on JawMoCap):
 /// K = 8: 3.48× stretch, 57 flipped triangles / 5.27×, 11 flips; 16: 2.59×, 3 / 2.10×, 1;
 /// 24: 2.39×, 2 / 1.97×, 1; 32: 2.17×, 2; **all 41**: 2.17×, 2 / 2.01×, 1, face mean error
 /// 1.03 → 0.575 mm (then with distances shortened across the rims, as the linear deformer's:
-/// 2.16×, 2 / 2.01×, 1). The cost: K multiply-adds per vertex and axis (`facebake inspect`: 361,143
-/// a frame on FaceCap with 41 markers, against 94,437 at K = 8 and the linear deformer's
-/// 64,656). The papers' narrow Gaussian (0.75 spacings, [`BakeOptions::default`]) decays fast
-/// enough for K = 8 (within 0.1 mm of its dense RBF, p99).
+/// 2.16×, 2 / 2.01×, 1). The cost: K multiply-adds per vertex and axis (`facebake inspect`:
+/// 361,143 a frame on FaceCap with 41 markers, against 94,437 at K = 8 and the linear
+/// deformer's 64,656). The papers' narrow Gaussian (0.75 spacings, [`BakeOptions::default`])
+/// decays fast enough for K = 8 (within 0.1 mm of its dense RBF, p99).
 pub const RBF_K: usize = 64;
 
 /// A deformer's influences per vertex when the user names none: [`RBF_K`] for the RBF
