@@ -340,6 +340,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         stages: stages.as_ref().map(|s| &s.bytes),
     })?;
     let dropped = &d.output.dropped;
+    let mean_dropped_mass = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
     let mut warnings = d.warnings;
     warnings.extend(unmasked);
     if let Some(st) = &stages {
@@ -364,12 +365,11 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             }
             .into(),
         );
-        let mean = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
-        if mean > RBF_DROPPED_WARNING {
+        if mean_dropped_mass > RBF_DROPPED_WARNING {
             warnings.push(format!(
                 "keeping K = {} radial terms per vertex drops {:.0} % of a vertex's radial mass on average: the coefficients alternate in sign, so the skin tears where neighbours keep different terms (on FaceCap's truth at K = 8: 3.5x stretch, 58 flipped triangles); leave out -k to keep every term",
                 options.k,
-                100.0 * mean
+                100.0 * mean_dropped_mass
             ));
         }
     }
@@ -381,7 +381,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         warnings,
         k: options.k.min(rest.len()),
         weight_frac_bits: d.output.frac_bits,
-        mean_dropped_mass: dropped.iter().sum::<f64>() / dropped.len().max(1) as f64,
+        mean_dropped_mass,
         max_dropped_mass: dropped.iter().copied().fold(0.0, f64::max),
         max_weight_rounding: d.output.rounding,
         max_matrix_rounding: d.output.matrix_rounding,

@@ -247,10 +247,8 @@ impl BakeArgs {
 
     pub fn options(&self) -> BakeOptions {
         let d = BakeOptions::for_method(self.method(), self.masks());
-        let d = match self.deformer {
-            Some(deformer) => d.with_deformer(deformer),
-            None => d,
-        };
+        let deformer = self.deformer.unwrap_or(d.deformer);
+        let d = d.with_deformer(deformer);
         BakeOptions {
             radial: self.radial.map_or(d.radial, Into::into),
             width: self.width.or(d.width),
