@@ -57,8 +57,16 @@ pub const BAR_WIDTH: usize = 90;
 
 /// Draw a vertical colour bar at (`x`, `y`), `height` pixels tall: `max_mm` at the top, 0 at
 /// the bottom, six labelled ticks (fifths of a [`nice_ceiling`] are round numbers), `title`
-/// above it.
-pub fn colour_bar(image: &mut Image, x: i64, y: i64, height: usize, max_mm: f64, title: &str) {
+/// above it. With `clipped` (larger values were drawn in the top colour) the top label reads
+/// `max_mm+`.
+pub fn colour_bar(
+    image: &mut Image,
+    (x, y): (i64, i64),
+    height: usize,
+    max_mm: f64,
+    clipped: bool,
+    title: &str,
+) {
     const STRIP: usize = 22;
     const INK: Rgb = [20, 20, 20];
     image.text(x, y - 3 * GLYPH_HEIGHT as i64 - 12, title, 1, INK);
@@ -71,10 +79,14 @@ pub fn colour_bar(image: &mut Image, x: i64, y: i64, height: usize, max_mm: f64,
         let t = f64::from(tick) / 5.0;
         let row = y + ((1.0 - t) * (height.max(2) - 1) as f64).round() as i64;
         image.fill_rect(x + STRIP as i64, row, 5, 1, INK);
+        let mut label = mm_text(t * max_mm);
+        if clipped && tick == 5 {
+            label.push('+');
+        }
         image.text(
             x + STRIP as i64 + 8,
             row - GLYPH_HEIGHT as i64,
-            &mm_text(t * max_mm),
+            &label,
             2,
             INK,
         );
@@ -113,11 +125,24 @@ mod tests {
     #[test]
     fn the_bar_runs_from_the_top_colour_to_the_bottom_colour() {
         let mut image = Image::new(120, 140, [255; 3]);
-        colour_bar(&mut image, 4, 30, 100, 20.0, "ERROR");
+        colour_bar(&mut image, (4, 30), 100, 20.0, false, "ERROR");
         assert_eq!(image.get(10, 30), Some(viridis(1.0)));
         assert_eq!(image.get(10, 129), Some(viridis(0.0)));
         // A tick label beside the top: some dark ink right of the strip.
         let inked = (30..80).any(|x| (20..40).any(|y| image.get(x, y) == Some([20, 20, 20])));
         assert!(inked);
+    }
+
+    #[test]
+    fn a_clipped_bar_says_so_at_the_top() {
+        let ink = |clipped| {
+            let mut image = Image::new(160, 140, [255; 3]);
+            colour_bar(&mut image, (4, 30), 100, 20.0, clipped, "ERROR");
+            (30..160)
+                .flat_map(|x| (18..42).map(move |y| (x, y)))
+                .filter(|&(x, y)| image.get(x, y) == Some([20, 20, 20]))
+                .count()
+        };
+        assert!(ink(true) > ink(false));
     }
 }

@@ -8,7 +8,10 @@
 //!
 //! * [`Sheet`]: chosen frames as rows. With a truth for every frame, each row shows truth,
 //!   result and the per-vertex error (front, then side); otherwise the result and its
-//!   displacement from rest. One colour scale for the whole sheet, with a bar labelled in mm.
+//!   displacement from rest. One colour scale for the whole sheet, with a bar labelled in mm:
+//!   up to the largest displacement, or for errors up to their
+//!   [`ERROR_SCALE_PERCENTILE`]th percentile, larger errors drawn in the top colour (a few
+//!   badly placed mouth-interior vertices would otherwise paint the whole skin dark).
 //! * [`MarkerSheet`]: the rest mesh with the markers as numbered dots and a legend of names, so
 //!   a misplaced marker is seen.
 
@@ -330,8 +333,7 @@ impl Sheet {
     pub fn render(&self) -> Image {
         let truth = self.has_truth();
         let heats: Vec<Vec<f64>> = self.frames.iter().map(|f| self.heat(f)).collect();
-        let largest = heats.iter().flatten().copied().fold(0.0, f64::max);
-        let max_mm = nice_ceiling(largest);
+        let (max_mm, clipped) = heat_scale(&heats, truth);
         let heat_name = if truth { "ERROR" } else { "DISPLACEMENT" };
         let mut columns: Vec<(View, &str)> = Vec::new();
         for view in [View::Front, View::Side] {
@@ -396,14 +398,49 @@ impl Sheet {
         let bar_height = (panel * self.frames.len().clamp(1, 2)).saturating_sub(60);
         colour_bar(
             &mut sheet,
-            (columns.len() * panel + 16) as i64,
-            (top + STRIP + 40) as i64,
+            (
+                (columns.len() * panel + 16) as i64,
+                (top + STRIP + 40) as i64,
+            ),
             bar_height,
             max_mm,
+            clipped,
             heat_name,
         );
         sheet
     }
+}
+
+/// The error heat maps' scale tops at this percentile of the sheet's errors (every vertex of
+/// every frame), rounded up to a [`nice_ceiling`]: on the demo's truth sheet 10 mm, where the
+/// largest error (the tongue, which no marker sees) would make it 50 mm and the skin's errors,
+/// mostly below 8 mm, would all look alike.
+pub const ERROR_SCALE_PERCENTILE: f64 = 95.0;
+
+/// The top of a sheet's colour scale for its per-frame heat values, and whether some value
+/// lies above it (drawn in the top colour): errors (`errors`) up to their
+/// [`ERROR_SCALE_PERCENTILE`]th percentile, displacements up to their largest, rounded up to a
+/// [`nice_ceiling`].
+pub fn heat_scale(heats: &[Vec<f64>], errors: bool) -> (f64, bool) {
+    let values = || heats.iter().flatten().copied().filter(|x| x.is_finite());
+    let largest = values().fold(0.0, f64::max);
+    let top = nice_ceiling(if errors {
+        percentile(values(), ERROR_SCALE_PERCENTILE)
+    } else {
+        largest
+    });
+    (top, largest > top)
+}
+
+/// The `p`th percentile (0–100, nearest rank) of `values`; 0 for none.
+fn percentile(values: impl Iterator<Item = f64>, p: f64) -> f64 {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let rank = ((p / 100.0) * v.len() as f64).ceil() as usize;
+    v[rank.clamp(1, v.len()) - 1]
 }
 
 /// A value in mm for a row label: one decimal, two below 1 mm.
@@ -564,6 +601,21 @@ mod tests {
         let lum = |c: Rgb| c.iter().map(|&x| u32::from(x)).sum::<u32>();
         // Bright at the top (values 10), dark at the bottom (values 0).
         assert!(lum(img.get(20, 4).unwrap()) > lum(img.get(20, 35).unwrap()) + 100);
+    }
+
+    #[test]
+    fn a_few_large_errors_do_not_set_the_scale_but_displacements_do() {
+        // 96 vertices off by up to 4 mm, four by 40 mm (a tongue): the errors' scale shows the
+        // skin's 4 mm and clips the four; the same values as displacements keep all of them.
+        let values: Vec<f64> = (0..100)
+            .map(|i| if i < 96 { f64::from(i) / 24.0 } else { 40.0 })
+            .collect();
+        let heats = vec![values];
+        assert_eq!(heat_scale(&heats, true), (5.0, true));
+        assert_eq!(heat_scale(&heats, false), (50.0, false));
+        assert_eq!(heat_scale(&[vec![0.0; 4]], true), (1.0, false));
+        assert_eq!(heat_scale(&[], true), (1.0, false));
+        assert_eq!(percentile([3.0, 1.0, 2.0].into_iter(), 50.0), 2.0);
     }
 
     #[test]
