@@ -139,6 +139,19 @@ pub const FEATURE_MARKERS: [(&str, Feature, bool, f64); 10] = [
 /// opening's width: on the lip's or lid's visible surface, clear of the rim.
 pub const FEATURE_OFFSET: f64 = 0.1;
 
+/// A feature marker goes on the skin vertex nearest its place: the cost of a vertex is its
+/// distance across the face from the place along the opening plus this many times its distance
+/// from [`FEATURE_OFFSET`] off the rim, for an eyelid marker. A lid is a few vertex rows tall,
+/// so the row matters more than the column: at 0.3 (the lips' weight) the wider face's lid
+/// markers went on the second row, 4.0–4.6 mm off the rim instead of 2.6, and its blink closed
+/// 1.5 mm short; at 1 (and 2) 0.8 mm, FaceCap and the other faces on the same vertices
+/// (`--test other_faces`).
+pub const LID_OFF_RIM_COST: f64 = 1.0;
+
+/// [`LID_OFF_RIM_COST`] for a lip marker. At 1 FaceCap's lower lip markers move to a row
+/// farther from the rim and the truth stretches an edge 2.10× (lips 7.2 mm against 6.8).
+pub const LIP_OFF_RIM_COST: f64 = 0.3;
+
 /// The mouth and eye openings of a face mesh's skin ([`crate::openings`]: its boundary loops
 /// less the cut, the eyes the two most alike), as loops of welded vertices: mouth, left eye
 /// (larger x), right eye.
@@ -213,7 +226,11 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
                 .filter(|&v| skin[v] == 0 && near[v] < far[v])
                 .filter(|&v| (near[v] - offset).abs() <= 0.5 * offset)
                 .min_by(|&a, &b| {
-                    let cost = |v: usize| (p[v][0] - x).abs() + 0.3 * (near[v] - offset).abs();
+                    let off_rim = match feature {
+                        Feature::Mouth => LIP_OFF_RIM_COST,
+                        Feature::LeftEye | Feature::RightEye => LID_OFF_RIM_COST,
+                    };
+                    let cost = |v: usize| (p[v][0] - x).abs() + off_rim * (near[v] - offset).abs();
                     cost(a).total_cmp(&cost(b))
                 })
                 .ok_or_else(|| {
