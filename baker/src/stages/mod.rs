@@ -270,6 +270,9 @@ pub struct StagesReport {
     pub head_spread: f64,
     /// Frames averaged into the neutral pose.
     pub neutral_frames: Range<usize>,
+    /// Markers missing from every frame's full set, taken into the neutral pose from the
+    /// nearest frame that has them ([`neutral_pose`]): "name (frame N)".
+    pub neutral_filled: Vec<String>,
     /// Capture markers the rig does not use.
     pub unused_capture_markers: Vec<String>,
     /// Rig markers the capture does not have, rebuilt from their neighbours every frame.
@@ -428,7 +431,9 @@ pub fn bake_stages(
             real.len()
         )));
     }
-    let (real_neutral, neutral_frames) = neutral_pose(capture, &real_columns, &config.neutral)?;
+    let neutral = neutral_pose(capture, &real_columns, &config.neutral)?;
+    let neutral_filled = neutral.filled_names(capture, &real_columns);
+    let (real_neutral, neutral_frames) = (neutral.pose, neutral.frames);
     let actor_space = space_for(&real_neutral);
     let half_extent = f64::from(actor_space.half_extent);
     if !(ACTOR_HALF_EXTENT_MIN_M..=ACTOR_HALF_EXTENT_MAX_M).contains(&half_extent) {
@@ -477,7 +482,7 @@ pub fn bake_stages(
                 .iter()
                 .filter_map(|j| real.iter().position(|r| r == j))
                 .collect();
-            let spread = spread_of(&complete_sample(capture, &real_columns), &in_real);
+            let spread = head_spread(capture, &real_columns, &in_real);
             (idx, false, spread)
         }
         HeadMarkers::MostRigid(size) => {
@@ -620,10 +625,13 @@ pub fn bake_stages(
                 .iter()
                 .filter_map(|j| real.iter().position(|r| r == j))
                 .collect();
+            // Over the frames that have every head marker (a take may never have them all).
+            let columns_of: Vec<usize> = in_real.iter().map(|&i| real_columns[i]).collect();
+            let neutral_of: Vec<[f64; 3]> = in_real.iter().map(|&i| real_neutral[i]).collect();
             let change = temporal::head_distance_change(
-                &complete_sample(capture, &real_columns),
-                &real_neutral,
-                &in_real,
+                &complete_sample(capture, &columns_of),
+                &neutral_of,
+                &(0..in_real.len()).collect::<Vec<_>>(),
             );
             (temporal::HEAD_TOLERANCE_FACTOR * change / half_extent)
                 .max(temporal::MIN_HEAD_TOLERANCE)
@@ -680,6 +688,7 @@ pub fn bake_stages(
         head_markers_picked: picked,
         head_spread,
         neutral_frames,
+        neutral_filled,
         unused_capture_markers: capture
             .marker_names
             .iter()
@@ -728,25 +737,60 @@ pub const ACTOR_HALF_EXTENT_MAX_M: f64 = 1.0;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Neutral {
     /// The first frame in which every marker used is present and none is a ghost (a capture
-    /// that starts with a dropout still bakes).
+    /// that starts with a dropout still bakes); when no frame has every marker, the first frame
+    /// with half of them, each missing one taken from the nearest frame that has it (see
+    /// [`neutral_pose`]).
     FirstComplete,
     /// These frames (0-based, end excluded), averaged: every marker used must be present in
     /// each, none a ghost.
     Frames(Range<usize>),
 }
 
-/// The actor's neutral pose and the frames it was taken from: each of `capture`'s marker
-/// `columns` averaged over the `neutral` frames (in the capture's units). Every such marker
-/// must be present in every one of those frames, and none may be a ghost (further from every
-/// other marker than [`NEUTRAL_OUTLIER_FACTOR`] × their median nearest-neighbour distance);
-/// [`Neutral::FirstComplete`] takes the first frame that passes (when none does, frame 0's
-/// failure is the error). Each failure is an error naming the file (and the marker and the
-/// frame).
+/// The actor's neutral pose (in the capture's units), the frames it was taken from, and the
+/// markers taken from other frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NeutralPose {
+    /// One position per marker column asked for.
+    pub pose: Vec<[f64; 3]>,
+    /// The frames averaged.
+    pub frames: Range<usize>,
+    /// Markers missing from the neutral frame, each taken from the nearest frame that has it:
+    /// (index into the columns asked for, that frame).
+    pub filled: Vec<(usize, usize)>,
+}
+
+impl NeutralPose {
+    /// The filled markers as "name (frame N)", `columns` and `capture` those it was made from.
+    pub fn filled_names(&self, capture: &Capture, columns: &[usize]) -> Vec<String> {
+        self.filled
+            .iter()
+            .map(|&(i, frame)| {
+                let name = columns
+                    .get(i)
+                    .and_then(|&c| capture.marker_names.get(c))
+                    .cloned()
+                    .unwrap_or_default();
+                format!("{name} (frame {frame})")
+            })
+            .collect()
+    }
+}
+
+/// The actor's neutral pose: each of `capture`'s marker `columns` averaged over the `neutral`
+/// frames. Every such marker must be present in every one of those frames, and none may be a
+/// ghost (further from every other marker than [`NEUTRAL_OUTLIER_FACTOR`] × their median
+/// nearest-neighbour distance). [`Neutral::FirstComplete`] takes the first frame that passes;
+/// when none does (an optical take loses some marker in every frame: with a fifth of the
+/// samples dropped at random, 41 markers are all there in one frame in 10,000), the first frame
+/// that has at least half the markers and no ghost among them, each missing marker taken from
+/// the nearest frame that has it, moved rigidly from that frame to this one by the markers both
+/// share (the head turns between them; the face barely changes in a few frames). Each failure
+/// is an error naming the file (and the marker and the frame).
 pub fn neutral_pose(
     capture: &Capture,
     columns: &[usize],
     neutral: &Neutral,
-) -> Result<(Vec<[f64; 3]>, Range<usize>), StagesError> {
+) -> Result<NeutralPose, StagesError> {
     let file = capture.source.display().to_string();
     let range = match neutral {
         Neutral::Frames(range) => range.clone(),
@@ -760,9 +804,17 @@ pub fn neutral_pose(
             let first = capture.frames.iter().position(|f| {
                 complete(f).is_some_and(|markers| check_neutral_frame(&markers).is_ok())
             });
-            // None passes: frame 0's own failure below says what is wrong.
-            let f = first.unwrap_or(0);
-            f..f + 1
+            match first {
+                Some(f) => f..f + 1,
+                None => match assembled_neutral(capture, columns) {
+                    Some(pose) => {
+                        return check_assembled(pose, capture, columns, &file);
+                    }
+                    // No frame has half the markers: frame 0's own failure below says what
+                    // is wrong.
+                    None => 0..1,
+                },
+            }
         }
     };
     if range.is_empty() || range.end > capture.frame_count() {
@@ -806,7 +858,95 @@ pub fn neutral_pose(
     let pose = (0..columns.len())
         .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
         .collect();
-    Ok((pose, range))
+    Ok(NeutralPose {
+        pose,
+        frames: range,
+        filled: Vec::new(),
+    })
+}
+
+/// [`neutral_pose`]'s pose for a take without a complete frame, before its ghost check: the
+/// first frame with at least half of `columns` present and no ghost among them, and each
+/// missing marker from the nearest frame that has it (the earlier on a tie), moved by the
+/// rigid motion ([`rigid::kabsch`]) that best takes the markers both frames have onto this
+/// frame's. A frame that shares fewer than three markers with it is passed over. `None` when
+/// no frame qualifies or a marker has no usable frame. At most frames × markers fits of
+/// markers points each.
+fn assembled_neutral(capture: &Capture, columns: &[usize]) -> Option<NeutralPose> {
+    let at = |f: usize, i: usize| capture.frames[f].get(columns[i]).copied().flatten();
+    let present =
+        |f: usize| -> Vec<usize> { (0..columns.len()).filter(|&i| at(f, i).is_some()).collect() };
+    let reference = (0..capture.frame_count()).find(|&f| {
+        let have = present(f);
+        2 * have.len() >= columns.len()
+            && have.len() >= 3
+            && check_neutral_frame(&have.iter().filter_map(|&i| at(f, i)).collect::<Vec<_>>())
+                .is_ok()
+    })?;
+    let have = present(reference);
+    let mut pose: Vec<[f64; 3]> = (0..columns.len())
+        .map(|i| at(reference, i).unwrap_or([0.0; 3]))
+        .collect();
+    let mut filled = Vec::new();
+    for i in (0..columns.len()).filter(|i| !have.contains(i)) {
+        // Frames in order of distance from the reference, the earlier first on a tie.
+        let order = (1..capture.frame_count()).flat_map(|d| {
+            [reference.checked_sub(d), Some(reference + d)]
+                .into_iter()
+                .flatten()
+                .filter(|&g| g < capture.frame_count())
+        });
+        let from = order.into_iter().find_map(|g| {
+            let source = at(g, i)?;
+            let shared: Vec<usize> = have
+                .iter()
+                .copied()
+                .filter(|&j| at(g, j).is_some())
+                .collect();
+            if shared.len() < 3 {
+                return None;
+            }
+            let there: Vec<[f64; 3]> = shared.iter().filter_map(|&j| at(g, j)).collect();
+            let here: Vec<[f64; 3]> = shared.iter().filter_map(|&j| at(reference, j)).collect();
+            let motion = rigid::kabsch(&there, &here).ok()?;
+            Some((g, motion.apply(&source)))
+        })?;
+        pose[i] = from.1;
+        filled.push((i, from.0));
+    }
+    Some(NeutralPose {
+        pose,
+        frames: reference..reference + 1,
+        filled,
+    })
+}
+
+/// The ghost check of an assembled neutral `pose` (see [`neutral_pose`]), its error naming the
+/// marker and the frame it came from.
+fn check_assembled(
+    pose: NeutralPose,
+    capture: &Capture,
+    columns: &[usize],
+    file: &str,
+) -> Result<NeutralPose, StagesError> {
+    match check_neutral_frame(&pose.pose) {
+        Ok(()) => Ok(pose),
+        Err((i, distance, median)) => Err(StagesError::NeutralOutlier {
+            file: file.to_string(),
+            name: capture
+                .marker_names
+                .get(columns[i])
+                .cloned()
+                .unwrap_or_default(),
+            frame: pose
+                .filled
+                .iter()
+                .find(|(m, _)| *m == i)
+                .map_or(pose.frames.start, |&(_, g)| g),
+            distance_mm: distance * 1000.0,
+            median_mm: median * 1000.0,
+        }),
+    }
 }
 
 /// Checks one neutral frame by robust statistics: `Err((marker, its nearest-neighbour distance,
@@ -839,6 +979,14 @@ pub fn complete_sample(capture: &Capture, columns: &[usize]) -> Vec<Vec<[f64; 3]
         .collect();
     let step = complete.len().div_ceil(600).max(1);
     complete.into_iter().step_by(step).collect()
+}
+
+/// [`spread_of`] the head markers (`head`, indices into `columns`) over the frames that have
+/// them all.
+fn head_spread(capture: &Capture, columns: &[usize], head: &[usize]) -> f64 {
+    let columns_of: Vec<usize> = head.iter().map(|&i| columns[i]).collect();
+    let all: Vec<usize> = (0..head.len()).collect();
+    spread_of(&complete_sample(capture, &columns_of), &all)
 }
 
 /// Mean standard deviation of the pairwise distances of `idx` over `frames`.
@@ -1007,4 +1155,89 @@ fn encode_proportional(p: &Proportional) -> Result<(u8, Vec<u8>, Vec<u8>), Stage
         }
     }
     Ok((shift, matrices, rest))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Five markers of a face-sized pattern, moved by `shift`, with `missing` dropped.
+    fn frame(shift: f64, missing: &[usize]) -> Vec<Option<[f64; 3]>> {
+        let pattern = [
+            [0.0, 0.0, 0.0],
+            [0.05, 0.0, 0.0],
+            [0.0, 0.05, 0.0],
+            [0.03, 0.03, 0.02],
+            [0.05, 0.05, 0.01],
+        ];
+        (0..pattern.len())
+            .map(|i| {
+                let p = pattern[i];
+                (!missing.contains(&i)).then_some([p[0] + shift, p[1], p[2] - shift])
+            })
+            .collect()
+    }
+
+    fn capture(frames: Vec<Vec<Option<[f64; 3]>>>) -> Capture {
+        Capture {
+            source: "take.trc".into(),
+            rate_hz: 60.0,
+            units: crate::model::Units::Metres,
+            marker_names: (0..5).map(|i| format!("m{i}")).collect(),
+            frames,
+        }
+    }
+
+    #[test]
+    fn a_take_without_a_complete_frame_fills_its_neutral_from_the_nearest_frames() {
+        // Frame 0 lacks marker 4, frame 1 marker 0, frame 2 marker 1; the head moves 1 cm a
+        // frame. Marker 4 comes from frame 1, moved back onto frame 0 exactly.
+        let take = capture(vec![frame(0.0, &[4]), frame(0.01, &[0]), frame(0.02, &[1])]);
+        let columns: Vec<usize> = (0..5).collect();
+        let n = neutral_pose(&take, &columns, &Neutral::FirstComplete).expect("assembled");
+        assert_eq!(n.frames, 0..1);
+        assert_eq!(n.filled, vec![(4, 1)]);
+        let expected = frame(0.0, &[]);
+        for (p, q) in n.pose.iter().zip(&expected) {
+            assert!(distance(p, &q.unwrap()) < 1e-12, "{p:?}");
+        }
+        // A complete frame wins when there is one, and nothing is filled.
+        let take = capture(vec![frame(0.0, &[4]), frame(0.01, &[])]);
+        let n = neutral_pose(&take, &columns, &Neutral::FirstComplete).expect("complete");
+        assert_eq!((n.frames, n.filled), (1..2, vec![]));
+    }
+
+    #[test]
+    fn a_marker_no_frame_can_fill_is_an_error_naming_it() {
+        // Marker 4 is never there (the stages leave such columns out; `compensate` passes
+        // every column): frame 0's own failure names it.
+        let take = capture(vec![frame(0.0, &[4]), frame(0.01, &[0, 4])]);
+        let columns: Vec<usize> = (0..5).collect();
+        match neutral_pose(&take, &columns, &Neutral::FirstComplete) {
+            Err(StagesError::NeutralIncomplete { name, frame, .. }) => {
+                assert_eq!((name.as_str(), frame), ("m4", 0));
+            }
+            other => panic!("{other:?}"),
+        }
+        // Fewer than half the markers in every frame: frame 0's failure too.
+        let take = capture(vec![frame(0.0, &[0, 1, 2]), frame(0.01, &[2, 3, 4])]);
+        assert!(matches!(
+            neutral_pose(&take, &columns, &Neutral::FirstComplete),
+            Err(StagesError::NeutralIncomplete { frame: 0, .. })
+        ));
+    }
+
+    #[test]
+    fn a_ghost_among_the_filled_markers_is_an_error_naming_its_frame() {
+        let mut ghost = frame(0.01, &[0]);
+        ghost[4] = Some([3.0, 3.0, 3.0]);
+        let take = capture(vec![frame(0.0, &[4]), ghost]);
+        let columns: Vec<usize> = (0..5).collect();
+        match neutral_pose(&take, &columns, &Neutral::FirstComplete) {
+            Err(StagesError::NeutralOutlier { name, frame, .. }) => {
+                assert_eq!((name.as_str(), frame), ("m4", 1));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }

@@ -65,6 +65,8 @@ pub struct CompensateSummary {
     pub units: String,
     /// The frames taken as the neutral pose.
     pub neutral_frames: Range<usize>,
+    /// Markers no neutral frame has, taken from the nearest frame that has them.
+    pub neutral_filled: Vec<String>,
     /// Head markers used.
     pub head_markers: Vec<String>,
     /// The fit used.
@@ -88,7 +90,9 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
     let bad = |m: String| CliError::input(&args.capture, m);
     let n = capture.marker_names.len();
     let all: Vec<usize> = (0..n).collect();
-    let (neutral, range) = neutral_pose(&capture, &all, &args.neutral)?;
+    let neutral = neutral_pose(&capture, &all, &args.neutral)?;
+    let neutral_filled = neutral.filled_names(&capture, &all);
+    let (neutral, range) = (neutral.pose, neutral.frames);
     let complete = facebake::stages::complete_sample(&capture, &all);
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
@@ -99,6 +103,11 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
                     .ok_or_else(|| bad(format!("no head marker named {h:?}")))
             })
             .collect::<Result<_, _>>()?,
+        HeadMarkers::MostRigid(_) if complete.is_empty() => {
+            return Err(bad(
+                "no frame has every marker, so the most rigid cannot be picked: name the head markers (--head-markers A,B,C)".into(),
+            ));
+        }
         HeadMarkers::MostRigid(k) => {
             most_rigid_subset(&complete, *k)
                 .map_err(|e| bad(format!("picking head markers: {e}")))?
@@ -164,6 +173,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
         frames: capture.frame_count(),
         units: capture.units.to_string(),
         neutral_frames: range,
+        neutral_filled,
         head_markers: head
             .iter()
             .map(|&h| capture.marker_names[h].clone())
@@ -188,6 +198,13 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             summary.head_markers.join(", "),
             summary.neutral_frames
         );
+        if !summary.neutral_filled.is_empty() {
+            outln!(
+                text,
+                "  neutral       no frame has every marker: taken from the nearest frames that have them: {}",
+                summary.neutral_filled.join(", ")
+            );
+        }
         outln!(
             text,
             "  head fit      RMS residual mean {:.4}, max {:.4} {}; {} frames held the previous fit",

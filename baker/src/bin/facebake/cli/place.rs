@@ -36,8 +36,9 @@ pub struct PlaceArgs {
     #[arg(long, value_name = "UNITS", value_parser = parse_units)]
     pub capture_units: Option<Units>,
     /// The actor's neutral pose, as `bake --capture` takes it: `auto` (the first frame with
-    /// every marker present and none a ghost), a frame `N` or a range `A..B` averaged (0-based,
-    /// B excluded).
+    /// every marker present and none a ghost, else the first with half of them and the others
+    /// from the nearest frames that have them), a frame `N` or a range `A..B` averaged
+    /// (0-based, B excluded).
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
     pub neutral: Neutral,
     /// A marker put at a glTF vertex of the mesh, as `NAME=VERTEX` (repeatable): where you know
@@ -88,6 +89,8 @@ pub struct PlaceSummary {
     pub warped: usize,
     /// The capture's frames taken as the actor's neutral pose.
     pub neutral_frames: Range<usize>,
+    /// Markers no neutral frame has, taken from the nearest frame that has them.
+    pub neutral_filled: Vec<String>,
     /// The marker sheet, if one was drawn.
     pub marker_sheet: Option<PathBuf>,
 }
@@ -97,7 +100,9 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
-    let (neutral, neutral_frames) = neutral_pose(&capture, &columns, &args.neutral)?;
+    let neutral = neutral_pose(&capture, &columns, &args.neutral)?;
+    let neutral_filled = neutral.filled_names(&capture, &columns);
+    let (neutral, neutral_frames) = (neutral.pose, neutral.frames);
     // A pin is a landmark: `place` checks its vertex (PlacementError::BadVertex).
     let layout =
         place(&mesh, &capture.marker_names, &neutral, &args.pins).map_err(|e| match e {
@@ -145,6 +150,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         on_features,
         marker_sheet: args.marker_sheet.clone(),
         neutral_frames,
+        neutral_filled,
     };
     if args.json {
         print_json(&summary);
@@ -158,6 +164,13 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             summary.layout.display(),
             summary.neutral_frames
         );
+        if !summary.neutral_filled.is_empty() {
+            outln!(
+                out,
+                "  no frame has every marker: taken from the nearest frames that have them: {}",
+                summary.neutral_filled.join(", ")
+            );
+        }
         outln!(
             out,
             "  landmarks (from the openings and the nose): {}",
