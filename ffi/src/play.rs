@@ -12,8 +12,9 @@ use crate::rig::{loaded, to_asset_in_place, FbRig};
 use crate::{FB_MARKER_WORDS, FB_MAX_MARKERS};
 
 /// What the capture stages carry from frame to frame for ONE character (last good marker
-/// displacements, last head fit), in storage the caller provides (`fb_play_state_size()` bytes
-/// aligned to `fb_play_state_align()`, about 3 KB). Opaque; nothing to free but the storage.
+/// displacements, each marker's offsets from its fill neighbours, last head fit), in storage
+/// the caller provides (`fb_play_state_size()` bytes aligned to `fb_play_state_align()`, about
+/// 23 KB). Opaque; nothing to free but the storage.
 /// Give each character (each stream of frames) its own, and do not use one from two threads at
 /// once.
 pub struct FbPlayState(Tagged<PlayState>);

@@ -261,11 +261,11 @@ fn bake_and_play(
 /// nearest frame that has it, moved rigidly onto frame 0 (`stages::neutral_pose`), says which,
 /// and the face holds: that neutral pose is within 0.5 mm of the clean take's frame 0 (the
 /// actor's markers move up to 0.7 mm from frame 0 to frame 1, head and all), the static skin
-/// within 0.05 mm and no triangle flips. Measured 2026-12-02: 9 markers taken from frames 1–2,
-/// at most 0.30 mm from the clean frame 0; stretch 2.00×, one edge just past 2× in the widest
-/// open frame, where a dropped lip marker is rebuilt from its neighbours (the clean take 1.92×;
-/// without the head motion 1.99×). Before, the bake refused the take: a marker missing in
-/// frame 0.
+/// within 0.05 mm, no triangle flips and no edge stretches past 2×. Measured 2026-12-02: 9
+/// markers taken from frames 1–2, at most 0.30 mm from the clean frame 0; stretch 1.92× as on
+/// the clean take (2.00×, one edge past 2×, while a dropped marker was rebuilt at its
+/// neighbours' mean rather than with its offsets from them). Before, the bake refused the take:
+/// a marker missing in frame 0.
 #[test]
 fn a_take_that_never_has_every_marker_still_bakes() {
     let bake = BakeOptions::product_default();
@@ -311,5 +311,36 @@ fn a_take_that_never_has_every_marker_still_bakes() {
         .any(|w| w.contains("no frame of the capture has every marker")));
     assert!(worst.static_drift_mm.0 <= 0.05, "{worst}");
     assert_eq!(worst.flipped.0, 0, "{worst}");
-    assert!(worst.max_stretch.0 <= 2.02, "{worst}");
+    assert!(worst.max_stretch.0 <= 2.0, "{worst}");
+}
+
+/// A dropped marker keeps its place among its neighbours (`facebake_runtime::stages::fill`):
+/// JawMoCap with the head moving and 5 % / 20 % of the samples dropped at random, played
+/// through the clean take's rig, against the clean take with the same head motion (every
+/// vertex of every frame past the smoothing's start-up). Measured 2026-12-02, the face's p99 /
+/// max error: 5 %: 0.27 / 0.96 mm (0.41 / 2.95 when a rebuilt marker took its neighbours'
+/// plain mean); 20 %: 1.15 / 5.22 mm (1.51 / 8.14), stretch 1.92× as the clean take (2.00×).
+#[test]
+fn dropped_markers_keep_their_place_among_their_neighbours() {
+    let bake = BakeOptions::product_default();
+    let j = jawmocap_rig_with(&bake, &StagesConfig::default());
+    let rig = Rig::from_bytes(&j.baked.blob).expect("rig loads");
+    let clean = moved_and_dropped(&j.capture.in_metres(), 0.0, false);
+    let want = play_take(&rig, &take(&j, &clean)).0;
+    let regions = facebake::metrics::Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
+    for (rate, p99, max) in [(0.05, 0.35, 1.5), (0.2, 1.3, 6.0)] {
+        let dropped = moved_and_dropped(&j.capture.in_metres(), rate, false);
+        let got = play_take(&rig, &take(&j, &dropped)).0;
+        let f = figures(&want[START_UP..], &got[START_UP..]);
+        let (_, worst) = regions.measure_take(&got, None, false);
+        println!(
+            "{:.0} % dropped: face vs the clean take p99 {:.2} max {:.2} mm; {worst}",
+            rate * 100.0,
+            f.p99,
+            f.max
+        );
+        assert!(f.p99 <= p99 && f.max <= max, "{rate}: {f:?}");
+        assert!(worst.max_stretch.0 <= 2.0, "{worst}");
+        assert_eq!(worst.flipped.0, 0, "{worst}");
+    }
 }

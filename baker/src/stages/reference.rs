@@ -8,8 +8,10 @@
 //!    `max_displacement` and fitting once more; the last good fit held when none is possible;
 //! 3. `plausibility`: a compensated marker further than `max_displacement` from
 //!    neutral is rejected; the head markers hold still (zero displacement);
-//! 4. `fill`: a missing marker moves with its present neighbours' weighted mean
-//!    displacement, else holds its last one (zero if never seen); a head marker stays at zero;
+//! 4. `fill`: a missing marker is put where its present neighbours say, each at its
+//!    displacement plus the marker's offset from it when both were last present (shrinking by
+//!    a 64th a frame of the gap), weighted; else it holds its last one (zero if never seen); a
+//!    head marker stays at zero;
 //! 5. `retarget`: the unquantised RBF map (or proportional scaling) to the
 //!    character's rig units.
 
@@ -59,8 +61,14 @@ pub struct FrameReportF64 {
 #[derive(Clone, Debug, Default)]
 pub struct StateF64 {
     last: Vec<Option<[f64; 3]>>,
+    /// Per marker, its offset from each of its fill neighbours (in `fill`'s order).
+    offsets: Vec<Vec<[f64; 3]>>,
     fit: Option<RigidTransform>,
 }
+
+/// The share of its offsets a missing marker loses each frame (the runtime's
+/// `fill::OFFSET_DECAY_SHIFT`).
+const OFFSET_DECAY: f64 = 1.0 / (1u32 << facebake_runtime::stages::fill::OFFSET_DECAY_SHIFT) as f64;
 
 /// Largest accepted input coordinate magnitude, actor units (the runtime's `INPUT_LIMIT`).
 const INPUT_LIMIT: f64 = 64.0;
@@ -89,6 +97,9 @@ impl StagesF64 {
     ) -> (Vec<[f64; 3]>, FrameReportF64) {
         let n = self.neutral.len();
         state.last.resize(n, None);
+        if state.offsets.len() != n {
+            state.offsets = self.fill.iter().map(|f| vec![[0.0; 3]; f.len()]).collect();
+        }
         let mut report = FrameReportF64::default();
         let mut actor = self.input(frame, &mut report);
         let fit = self.fit_head(state, &actor, &mut report);
@@ -201,22 +212,32 @@ impl StagesF64 {
         present: &[Option<[f64; 3]>],
         report: &mut FrameReportF64,
     ) -> Vec<[f64; 3]> {
+        let limit = self.max_displacement;
         (0..present.len())
             .map(|j| {
+                let offsets = &mut state.offsets[j];
                 if let Some(d) = present[j] {
                     state.last[j] = Some(d);
+                    for (o, &(k, _)) in offsets.iter_mut().zip(&self.fill[j]) {
+                        if let Some(n) = present[k] {
+                            *o = [0, 1, 2].map(|c| (d[c] - n[c]).clamp(-limit, limit));
+                        }
+                    }
                     return d;
                 }
                 let (mut acc, mut total) = ([0.0; 3], 0.0);
-                for &(k, w) in &self.fill[j] {
+                for (o, &(k, w)) in offsets.iter().zip(&self.fill[j]) {
                     if let Some(d) = present[k] {
                         total += w;
-                        (0..3).for_each(|c| acc[c] += w * d[c]);
+                        (0..3).for_each(|c| acc[c] += w * (d[c] + o[c]));
                     }
+                }
+                for o in offsets.iter_mut() {
+                    *o = o.map(|v| v * (1.0 - OFFSET_DECAY));
                 }
                 let d = if total > 0.0 {
                     report.rebuilt.push(j);
-                    acc.map(|a| a / total)
+                    acc.map(|a| (a / total).clamp(-limit, limit))
                 } else {
                     report.held.push(j);
                     state.last[j].unwrap_or([0.0; 3])
