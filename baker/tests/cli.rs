@@ -504,6 +504,16 @@ fn help_documents_the_exit_codes() {
     }
 }
 
+/// FaceCap's skull markers (with JawMoCap's layout) and its inner eye corners: what the anchoring
+/// follows without a capture, and the head markers a capture's fit uses.
+const SKULL_AND_CANTHI: [&str; 5] = [
+    "ForeHead_M",
+    "ForeHead_L",
+    "ForeHead_R",
+    "Leye_Inside",
+    "Reye_Inside",
+];
+
 #[test]
 fn demo_plays_the_capture_through_the_runtime_stages() {
     let (dir, summary) = demo();
@@ -511,13 +521,14 @@ fn demo_plays_the_capture_through_the_runtime_stages() {
     assert_eq!(m["frames"], 1590, "{m}");
     assert_eq!(m["markers"], 41);
     assert!(m["runtime_vs_f64_fraction"].as_f64().unwrap() < 2e-5, "{m}");
-    // The head markers the default picks among the skull markers: the forehead's three.
-    assert_eq!(
-        m["head_markers"],
-        serde_json::json!(["ForeHead_M", "ForeHead_L", "ForeHead_R"])
-    );
+    // The head markers the default picks among the skull markers and the inner eye corners:
+    // the forehead's three and both canthi.
+    assert_eq!(m["head_markers"], serde_json::json!(SKULL_AND_CANTHI));
+    // The inner eye corners are not as rigid to the forehead as its markers to each other:
+    // the fit's residual is 0.45 mm on average (0.13 mm with the forehead's three alone), and
+    // the head markers hold still, so it moves no skin.
     let residual = m["stages"]["head_residual_mean_mm"].as_f64().unwrap();
-    assert!((0.05..0.2).contains(&residual), "{m}");
+    assert!((0.3..0.6).contains(&residual), "{m}");
     let (doc, buffers, _) = gltf::import(dir.join("jawmocap_demo.glb")).expect("the GLB loads");
     let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
     let glb = &m["glb"];
@@ -870,13 +881,7 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     assert_eq!(j["report"]["deformer"], "linear");
     assert_eq!(
         j["report"]["surface"]["anchoring"]["markers"],
-        serde_json::json!([
-            "ForeHead_M",
-            "ForeHead_L",
-            "ForeHead_R",
-            "Leye_Inside",
-            "Reye_Inside"
-        ])
+        serde_json::json!(SKULL_AND_CANTHI)
     );
     assert_eq!(j["report"]["surface"]["openings"], 3);
     assert_eq!(j["report"]["surface"]["unreachable_vertices"], 740);

@@ -239,9 +239,25 @@ fn the_head_noise_gain_measures_how_well_the_head_markers_pin_the_pose() {
     };
     let forehead = gain(&["ForeHead_M", "ForeHead_L", "ForeHead_R"]);
     let with_nose = gain(&["ForeHead_M", "ForeHead_L", "ForeHead_R", "NoseTop"]);
-    println!("head noise gain: forehead {forehead:.2}, with the nose bridge {with_nose:.2}");
+    let with_canthi = gain(&[
+        "ForeHead_M",
+        "ForeHead_L",
+        "ForeHead_R",
+        "Leye_Inside",
+        "Reye_Inside",
+    ]);
+    let default = jawmocap_rig(&StagesConfig::default())
+        .stages_report()
+        .head_noise_gain
+        .expect("a head fit");
+    println!(
+        "head noise gain: forehead {forehead:.2}, with the nose bridge {with_nose:.2}, with the \
+         inner eye corners {with_canthi:.2} (the default's {default:.2})"
+    );
     assert!((6.0..7.0).contains(&forehead), "{forehead}");
     assert!((1.5..2.5).contains(&with_nose), "{with_nose}");
+    assert!(with_canthi < 2.0, "{with_canthi}");
+    assert_eq!(default, with_canthi);
 }
 
 /// Smoothing the head's pose lags a moving head: forced on, measured 2026-11-27, 2.91 mm at the

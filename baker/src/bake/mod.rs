@@ -301,18 +301,22 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let stages = match scene.capture {
         Some(capture) => {
             // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
-            // apart in space) and head markers among the skull markers, unless given.
-            let (distances, skull) = match &d.surface_markers {
+            // apart in space) and head markers among the skull markers and the inner eye
+            // corners, unless given.
+            let (distances, candidates) = match &d.surface_markers {
                 Some(m) => m.clone(),
                 None => {
-                    let (distances, skull) =
+                    let (distances, candidates) =
                         crate::surface::skin_markers(&scene.surface_input(), &options.surface)?;
-                    (distances, skull.iter().map(|&i| names[i].clone()).collect())
+                    (
+                        distances,
+                        candidates.iter().map(|&i| names[i].clone()).collect(),
+                    )
                 }
             };
             let mut config = options.stages.clone();
             config.marker_distances.get_or_insert(distances);
-            config.head_candidates.get_or_insert(skull);
+            config.head_candidates.get_or_insert(candidates);
             config
                 .face_axes
                 .get_or_insert_with(|| crate::frame::FaceFrame::of(scene.mesh));
@@ -613,8 +617,8 @@ fn bake_deformer(
     };
     let mut warnings = s.warnings;
     warnings.extend(condition_warning(s.condition));
-    let skull = s
-        .skull
+    let head_candidates = s
+        .head_candidates
         .iter()
         .map(|&i| scene.markers[i].name.clone())
         .collect();
@@ -631,7 +635,7 @@ fn bake_deformer(
             weights: s.dense,
             vertical: s.vertical,
         }),
-        surface_markers: Some((s.marker_distances, skull)),
+        surface_markers: Some((s.marker_distances, head_candidates)),
     })
 }
 

@@ -177,8 +177,8 @@ pub(crate) struct SurfaceBake {
     /// Marker-to-marker distances under the method's distance, asset units (rig marker order):
     /// along the skin for the geodesic methods.
     pub(crate) marker_distances: Vec<Vec<f64>>,
-    /// The markers that ride the skull ([`anchoring::skull_markers`]).
-    pub(crate) skull: Vec<usize>,
+    /// The markers a capture's head fit may use ([`head_candidates`]).
+    pub(crate) head_candidates: Vec<usize>,
     /// The RBF deformer's static anchoring (`None`: unanchored, the system's own map).
     pub(crate) rbf_anchoring: Option<RbfAnchoring>,
 }
@@ -417,15 +417,7 @@ pub(crate) fn dense_weights(
         ridge,
     )?;
     let condition = system.condition();
-    let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / n.max(1) as f64;
-    // The mouth: the lowest opening, when it is below the markers' mean height.
-    let mouth = geometry
-        .openings
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
-        .filter(|(_, o)| o.centre[1] < mean_height)
-        .map(|(i, _)| i);
+    let mouth = mouth_opening(&geometry, &rest);
     if mouth.is_none() {
         warnings.push(
             "the skin has no mouth opening (no boundary loop below the markers' mean height): distances along it cannot tell the lips apart, so they move together; cut the mouth open in the mesh, or give the lips' sides with --masks and --mask-sides or --mask-image"
@@ -437,12 +429,7 @@ pub(crate) fn dense_weights(
     let skull = anchoring::skull_markers(&rest, &rims, spacing);
     // Without the rig's own head fit the skin beyond the markers also follows the inner corners
     // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
-    let eyes: Vec<&[[f64; 3]]> = rims
-        .iter()
-        .enumerate()
-        .filter(|&(i, _)| Some(i) != mouth)
-        .map(|(_, r)| r.as_slice())
-        .collect();
+    let eyes = eye_rims(&rims, mouth);
     let anchors =
         anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
     // The RBF deformer cannot blend weights towards the anchor markers as the linear one does;
@@ -616,9 +603,55 @@ pub(crate) fn dense_weights(
         give_way,
         warnings,
         marker_distances,
-        skull,
+        head_candidates: anchoring::anchor_markers(
+            &rest,
+            &skull,
+            &eyes,
+            false,
+            corners::CORNER_REACH,
+        ),
         rbf_anchoring,
     })
+}
+
+/// The mouth: the lowest of `geometry`'s openings, when it is below the markers' (`rest`) mean
+/// height.
+fn mouth_opening(geometry: &SurfaceGeometry, rest: &[[f64; 3]]) -> Option<usize> {
+    let mean_height = rest.iter().map(|p| p[1]).sum::<f64>() / rest.len().max(1) as f64;
+    geometry
+        .openings
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.centre[1].total_cmp(&b.1.centre[1]))
+        .filter(|(_, o)| o.centre[1] < mean_height)
+        .map(|(i, _)| i)
+}
+
+/// The markers a capture's head fit may use: the skull markers
+/// ([`anchoring::skull_markers`]) and each eye's inner-corner marker
+/// ([`anchoring::anchor_markers`]). The medial canthi are tied to the bone by their tendons: on
+/// FaceCap's truth they move at most 0.68 mm over its 32 frames, the forehead markers 1.48 mm,
+/// and below the forehead they widen the fit's base: JawMoCap's three forehead markers alone
+/// magnified their jitter into the face (±0.5 mm: p99 4.52 mm unsmoothed, 1.28 mm with the head
+/// pose smoothed, which lags a moving head), with the inner eye corners 1.18 mm unsmoothed.
+fn head_candidates(
+    geometry: &SurfaceGeometry,
+    mesh: &FaceMesh,
+    rest: &[[f64; 3]],
+    skull: &[usize],
+) -> Vec<usize> {
+    let rims = rims_of(geometry, mesh);
+    let eyes = eye_rims(&rims, mouth_opening(geometry, rest));
+    anchoring::anchor_markers(rest, skull, &eyes, false, corners::CORNER_REACH)
+}
+
+/// The openings' rims but the `mouth`'s: the eyes'.
+fn eye_rims(rims: &[Vec<[f64; 3]>], mouth: Option<usize>) -> Vec<&[[f64; 3]]> {
+    rims.iter()
+        .enumerate()
+        .filter(|&(i, _)| Some(i) != mouth)
+        .map(|(_, r)| r.as_slice())
+        .collect()
 }
 
 /// A bake's input read in the face's own axes ([`crate::frame::FaceFrame`]); the input itself where
@@ -664,7 +697,7 @@ impl<'a> LocalInput<'a> {
 
 /// What the capture stages need from the skin for any deformer: the markers' distances to each
 /// other along the skin (asset units, symmetric; straight-line where no path joins them) and
-/// the skull markers ([`anchoring::skull_markers`]).
+/// the markers the head fit may use ([`head_candidates`]).
 pub(crate) fn skin_markers(
     input: &SurfaceInput<'_>,
     options: &SurfaceOptions,
@@ -691,7 +724,10 @@ pub(crate) fn skin_markers(
         .collect();
     let skull =
         anchoring::skull_markers(&rest, &rims_of(&geometry, input.mesh), mean_spacing(&rest));
-    Ok((distances, skull))
+    Ok((
+        distances,
+        head_candidates(&geometry, input.mesh, &rest, &skull),
+    ))
 }
 
 /// The openings' rims, as positions.

@@ -152,8 +152,9 @@ pub struct BakeArgs {
     /// range `A..B` averaged (0-based, B excluded).
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral, requires = "capture")]
     pub neutral: Neutral,
-    /// Head markers for compensation: comma-separated names, `auto` (the 4 most rigid over
-    /// the capture), `auto:N`, or `none` (the capture is already head-stabilised). Once the
+    /// Head markers for compensation: comma-separated names, `auto` (the 5 most rigid over
+    /// the capture of the skull markers and the inner eye corners), `auto:N`, or `none` (the
+    /// capture is already head-stabilised). Once the
     /// head's motion is taken out, the head markers hold still: the rig does not deform the
     /// skin around them by their fit residuals (noise, skin sliding over the skull).
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head, requires = "capture")]
@@ -931,7 +932,9 @@ pub fn parse_smoothing(s: &str) -> Result<SmoothingChoice, String> {
 pub fn parse_head(s: &str) -> Result<HeadMarkers, String> {
     match s.trim() {
         "none" => Ok(HeadMarkers::None),
-        "auto" => Ok(HeadMarkers::MostRigid(4)),
+        "auto" => Ok(HeadMarkers::MostRigid(
+            facebake::stages::DEFAULT_HEAD_MARKERS,
+        )),
         t => match t.strip_prefix("auto:") {
             Some(n) => n
                 .parse()

@@ -29,7 +29,7 @@ pub struct CompensateArgs {
     /// marker present and none a ghost), a frame `N` or a range `A..B` averaged.
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
     pub neutral: Neutral,
-    /// Head markers: comma-separated names, `auto` (the 4 most rigid) or `auto:N`.
+    /// Head markers: comma-separated names, `auto` (the 5 most rigid) or `auto:N`.
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head)]
     pub head_markers: HeadMarkers,
     /// The rigid fit: least squares over every present head marker (kabsch), or paper 003's
