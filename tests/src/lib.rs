@@ -613,3 +613,50 @@ pub fn jawmocap_neutral() -> (facebake::model::Capture, Vec<[f64; 3]>) {
         .collect();
     (capture, neutral)
 }
+
+/// `capture` in metres with seeded uniform jitter of ±`amplitude` (metres) on every coordinate.
+pub fn jittered(capture: &facebake::model::Capture, amplitude: f64) -> facebake::model::Capture {
+    let mut rng = facebake::ground_truth::SplitMix64(0x0015_5E14);
+    let mut noisy = capture.in_metres();
+    for sample in noisy.frames.iter_mut().flatten().flatten() {
+        for c in sample {
+            *c += amplitude * (2.0 * rng.unit() - 1.0);
+        }
+    }
+    noisy
+}
+
+/// `capture` (metres) with the head turning both ways about the capture's centre (up to 20°,
+/// up to 45°/s) and moving (up to 3 cm), and `dropped` of the samples removed (seeded; from
+/// frame 0 too with `from_the_start`): what a held-out take may bring.
+pub fn moved_and_dropped(
+    capture: &facebake::model::Capture,
+    dropped: f64,
+    from_the_start: bool,
+) -> facebake::model::Capture {
+    let mut capture = capture.clone();
+    let first: Vec<[f64; 3]> = capture.frames[0].iter().flatten().copied().collect();
+    let centre = [0, 1, 2].map(|c| first.iter().map(|p| p[c]).sum::<f64>() / first.len() as f64);
+    let mut rng = facebake::ground_truth::SplitMix64(0x0D20_9F5E);
+    let count = capture.frames.len();
+    for (i, frame) in capture.frames.iter_mut().enumerate() {
+        let t = i as f64 / count as f64;
+        let angle = 20f64.to_radians() * (60.0 * t).sin();
+        let shift = [
+            0.03 * (2.0 * t).sin(),
+            -0.01 * t,
+            0.02 * (3.0 * t).cos() - 0.02,
+        ];
+        for sample in frame.iter_mut() {
+            if (i > 0 || from_the_start) && rng.unit() < dropped {
+                *sample = None;
+            }
+            if let Some(p) = sample {
+                let local = [0, 1, 2].map(|c| p[c] - centre[c]);
+                let r = rotate([0.2, 1.0, 0.3], angle, local);
+                *p = [0, 1, 2].map(|c| r[c] + centre[c] + shift[c]);
+            }
+        }
+    }
+    capture
+}

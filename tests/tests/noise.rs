@@ -7,14 +7,15 @@
 //! percentile and 4 mm at the most. The smoothing's cost is stated too: how far the clean take's
 //! face moves when smoothed, and the lag when still. "Unsmoothed" is without either filter.
 
-use facebake::ground_truth::SplitMix64;
 use facebake::model::Capture;
 use facebake::BakeOptions;
 use facebake::{Scene, StagesConfig};
 use facebake_runtime::format::header::header_for;
 use facebake_runtime::format::RigData;
 use facebake_runtime::Rig;
-use facebake_tests::{jawmocap_rig_with, planar_product, play_take, JawMoCapRig};
+use facebake_tests::{
+    jawmocap_rig_with, moved_and_dropped, planar_product, play_take, JawMoCapRig,
+};
 
 /// Jitter amplitude: ±0.5 mm on every coordinate (JawMoCap's stages work in metres).
 const JITTER: f64 = 0.0005;
@@ -56,14 +57,7 @@ fn play(blob: &[u8], frames: &[Vec<Option<[f64; 3]>>]) -> Vec<Vec<[f64; 3]>> {
 
 /// The capture in metres with seeded uniform jitter of ±[`JITTER`] on every coordinate.
 fn jittered(capture: &Capture) -> Capture {
-    let mut rng = SplitMix64(0x0015_5E14);
-    let mut noisy = capture.in_metres();
-    for sample in noisy.frames.iter_mut().flatten().flatten() {
-        for c in sample {
-            *c += JITTER * (2.0 * rng.unit() - 1.0);
-        }
-    }
-    noisy
+    facebake_tests::jittered(capture, JITTER)
 }
 
 /// `capture`'s frames (metres) in the rig's marker order.
@@ -212,37 +206,6 @@ fn the_static_region_holds_under_jitter_head_motion_and_dropouts() {
         .is_empty());
     assert!(worst.static_drift_mm.0 <= 0.05, "{worst}");
     assert_eq!(worst.flipped.0, 0, "{worst}");
-}
-
-/// `capture` (metres) with the head turning both ways about the capture's centre (up to 20°,
-/// up to 45°/s) and moving (up to 3 cm), and `dropped` of the samples removed (seeded; from
-/// frame 0 too with `from_the_start`).
-fn moved_and_dropped(capture: &Capture, dropped: f64, from_the_start: bool) -> Capture {
-    let mut capture = capture.clone();
-    let first: Vec<[f64; 3]> = capture.frames[0].iter().flatten().copied().collect();
-    let centre = [0, 1, 2].map(|c| first.iter().map(|p| p[c]).sum::<f64>() / first.len() as f64);
-    let mut rng = SplitMix64(0x0D20_9F5E);
-    let count = capture.frames.len();
-    for (i, frame) in capture.frames.iter_mut().enumerate() {
-        let t = i as f64 / count as f64;
-        let angle = 20f64.to_radians() * (60.0 * t).sin();
-        let shift = [
-            0.03 * (2.0 * t).sin(),
-            -0.01 * t,
-            0.02 * (3.0 * t).cos() - 0.02,
-        ];
-        for sample in frame.iter_mut() {
-            if (i > 0 || from_the_start) && rng.unit() < dropped {
-                *sample = None;
-            }
-            if let Some(p) = sample {
-                let local = [0, 1, 2].map(|c| p[c] - centre[c]);
-                let r = facebake_tests::rotate([0.2, 1.0, 0.3], angle, local);
-                *p = [0, 1, 2].map(|c| r[c] + centre[c] + shift[c]);
-            }
-        }
-    }
-    capture
 }
 
 /// The default rig baked from `capture` on JawMoCap's FaceCap scene, and the structure over
