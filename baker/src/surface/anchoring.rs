@@ -165,7 +165,21 @@ pub fn anchor_markers(
     chosen
 }
 
+/// Without a head fit, how far the hull comes in from each anchor marker towards its nearest
+/// other marker (a brow's, for a forehead marker): the skin just beyond a forehead marker that
+/// an expression moves is anchored a little, not dragged with it. With `facebake place`'s
+/// markers on the wider face the frown moved `ForeHead_R` and the static skin 5 mm above it
+/// 0.54 mm; the skull markers left out of the hull (1), as capture rigs leave out their held
+/// head markers, held it (0.36 mm) but anchored the skin right above the brows, and the
+/// surprise, which lifts that skin 9–14 mm, folded two triangles over the heavier jaw's right
+/// brow. Measured 2026-12-02 (`--test other_faces`, `--test structure`), placed markers, static
+/// drift: wider 0.54 / **0.36** / 0.36 mm, heavier jaw 0.44 / **0.35** / 0.35, narrower 0.37
+/// throughout, at 0 / **0.3** / 0.5, with no flip added and FaceCap's own truth unchanged
+/// (0.34 mm, mean 0.553).
+pub const HULL_LOWERING: f64 = 0.3;
+
 /// The markers whose hull bounds the skin left to the face ([`static_anchoring`]): every
+/// marker, each anchor marker moved [`HULL_LOWERING`] of the way towards its nearest other
 /// marker, or with the rig's own head fit (`head_fit`) every marker but the `anchors`, when at
 /// least three remain.
 ///
@@ -190,7 +204,21 @@ pub fn hull_markers(markers: &[[f64; 3]], anchors: &[usize], head_fit: bool) -> 
     if head_fit && face.len() >= 3 {
         face
     } else {
-        markers.to_vec()
+        markers
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let nearest = face
+                    .iter()
+                    .min_by(|a, b| distance(a, p).total_cmp(&distance(b, p)));
+                match nearest {
+                    Some(q) if anchors.contains(&i) => {
+                        [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]))
+                    }
+                    _ => *p,
+                }
+            })
+            .collect()
     }
 }
 
@@ -397,16 +425,25 @@ mod tests {
     }
 
     #[test]
-    fn with_a_head_fit_the_hull_is_the_face_markers() {
+    fn the_hull_is_the_face_markers_and_the_lowered_anchors() {
         let markers = [
             [0.0, 0.0, 1.0],
             [1.0, 0.0, 1.0],
             [0.0, 1.0, 1.0],
             [0.0, 2.0, 1.0],
         ];
-        // Without a head fit, or with fewer than three face markers left: every marker.
-        assert_eq!(hull_markers(&markers, &[3], false), markers.to_vec());
-        assert_eq!(hull_markers(&markers, &[2, 3], true), markers.to_vec());
+        // Without a head fit every marker, an anchor marker lowered towards its nearest other
+        // marker: marker 3 towards marker 2, 1 below it.
+        let towards =
+            |p: [f64; 3], q: [f64; 3]| [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]));
+        let mut expected = markers.to_vec();
+        expected[3] = towards(markers[3], markers[2]);
+        assert_eq!(hull_markers(&markers, &[3], false), expected);
+        // With fewer than three face markers left, the same: markers 2 and 3 towards marker 0.
+        let mut expected = markers.to_vec();
+        expected[2] = towards(markers[2], markers[0]);
+        expected[3] = towards(markers[3], markers[0]);
+        assert_eq!(hull_markers(&markers, &[2, 3], true), expected);
         assert_eq!(hull_markers(&markers, &[3], true), markers[..3].to_vec());
     }
 
