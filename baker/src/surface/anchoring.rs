@@ -208,15 +208,14 @@ pub fn hull_markers(markers: &[[f64; 3]], anchors: &[usize], head_fit: bool) -> 
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                let nearest = face
-                    .iter()
-                    .min_by(|a, b| distance(a, p).total_cmp(&distance(b, p)));
-                match nearest {
-                    Some(q) if anchors.contains(&i) => {
-                        [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]))
-                    }
-                    _ => *p,
+                if !anchors.contains(&i) {
+                    return *p;
                 }
+                face.iter()
+                    .min_by(|a, b| distance(a, p).total_cmp(&distance(b, p)))
+                    .map_or(*p, |q| {
+                        [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]))
+                    })
             })
             .collect()
     }

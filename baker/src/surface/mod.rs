@@ -603,13 +603,7 @@ pub(crate) fn dense_weights(
         give_way,
         warnings,
         marker_distances,
-        head_candidates: anchoring::anchor_markers(
-            &rest,
-            &skull,
-            &eyes,
-            false,
-            corners::CORNER_REACH,
-        ),
+        head_candidates: head_candidates(&rest, &skull, &eyes),
         rbf_anchoring,
     })
 }
@@ -634,15 +628,8 @@ fn mouth_opening(geometry: &SurfaceGeometry, rest: &[[f64; 3]]) -> Option<usize>
 /// and below the forehead they widen the fit's base: JawMoCap's three forehead markers alone
 /// magnified their jitter into the face (±0.5 mm: p99 4.52 mm unsmoothed, 1.28 mm with the head
 /// pose smoothed, which lags a moving head), with the inner eye corners 1.18 mm unsmoothed.
-fn head_candidates(
-    geometry: &SurfaceGeometry,
-    mesh: &FaceMesh,
-    rest: &[[f64; 3]],
-    skull: &[usize],
-) -> Vec<usize> {
-    let rims = rims_of(geometry, mesh);
-    let eyes = eye_rims(&rims, mouth_opening(geometry, rest));
-    anchoring::anchor_markers(rest, skull, &eyes, false, corners::CORNER_REACH)
+fn head_candidates(rest: &[[f64; 3]], skull: &[usize], eyes: &[&[[f64; 3]]]) -> Vec<usize> {
+    anchoring::anchor_markers(rest, skull, eyes, false, corners::CORNER_REACH)
 }
 
 /// The openings' rims but the `mouth`'s: the eyes'.
@@ -722,12 +709,10 @@ pub(crate) fn skin_markers(
                 .collect()
         })
         .collect();
-    let skull =
-        anchoring::skull_markers(&rest, &rims_of(&geometry, input.mesh), mean_spacing(&rest));
-    Ok((
-        distances,
-        head_candidates(&geometry, input.mesh, &rest, &skull),
-    ))
+    let rims = rims_of(&geometry, input.mesh);
+    let skull = anchoring::skull_markers(&rest, &rims, mean_spacing(&rest));
+    let eyes = eye_rims(&rims, mouth_opening(&geometry, &rest));
+    Ok((distances, head_candidates(&rest, &skull, &eyes)))
 }
 
 /// The openings' rims, as positions.
