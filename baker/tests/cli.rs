@@ -710,6 +710,57 @@ fn compensate_writes_a_head_stabilised_capture() {
     );
 }
 
+/// `compensate --head-markers auto` on JawMoCap (which never raises a brow) takes brow markers
+/// for the skull when it only has the capture, and says so; given the mesh and the layout it
+/// picks among the skull markers and the inner eye corners found on the mesh, as `bake` does.
+#[test]
+fn compensate_picks_head_markers_on_the_skull_when_given_the_mesh() {
+    let dir = temp_dir("compensate_mesh");
+    let (take, out_csv) = (fixture("JawMoCap.trc"), dir.join("still.csv"));
+    let picked = |extra: &[&str]| {
+        let mut args = vec!["compensate", s(&take), "-o", s(&out_csv), "--json"];
+        args.extend_from_slice(extra);
+        let summary = json_ok(&facebake(&args));
+        let names: Vec<String> = summary["head_markers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n.as_str().unwrap().to_string())
+            .collect();
+        (
+            names,
+            summary["head_markers_from"].as_str().unwrap().to_string(),
+        )
+    };
+    let (alone, why) = picked(&[]);
+    assert!(alone.iter().any(|n| n.contains("brow")), "{alone:?}");
+    assert!(why.contains("without --mesh and --layout"), "{why}");
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let (on_mesh, why) = picked(&["--mesh", s(&mesh_path()), "--layout", s(&layout)]);
+    assert_eq!(
+        on_mesh,
+        [
+            "ForeHead_M",
+            "ForeHead_L",
+            "ForeHead_R",
+            "Leye_Inside",
+            "Reye_Inside"
+        ],
+        "{why}"
+    );
+    assert!(why.contains("skull markers and inner eye corners"), "{why}");
+    // The layout alone is refused by the argument parser: it needs the mesh.
+    let out = facebake(&[
+        "compensate",
+        s(&take),
+        "--layout",
+        s(&layout),
+        "-o",
+        s(&out_csv),
+    ]);
+    assert!(!out.status.success());
+}
+
 /// The default bake masks the lips and the eyelids (the layout's groups), every method does,
 /// and `--no-masks` leaves them out.
 #[test]

@@ -21,7 +21,7 @@ use crate::model::Capture;
 use crate::model::FaceMesh;
 use crate::model::MarkerGroups;
 use crate::model::PlacedMarker;
-use crate::options::{BakeOptions, Method};
+use crate::options::{BakeOptions, Method, SurfaceOptions};
 use crate::planar::{PlanarError, PlanarOptions, DEGENERATE_ANGLE_DEGREES};
 use crate::rbf::SolveError;
 use crate::sparsify::SparsifyError;
@@ -96,6 +96,17 @@ impl<'a> Scene<'a> {
             control_triangles: self.control_triangles.clone(),
             capture: self.capture,
         })
+    }
+
+    /// The markers a capture's head fit may choose from (`--head-markers auto`): the skull
+    /// markers and each eye's inner-corner marker, found from the mesh's openings; never a brow, cheek, jaw or lip marker, whatever a
+    /// take without those expressions makes look rigid. In rig order, by name.
+    pub fn head_candidates(&self, options: &SurfaceOptions) -> Result<Vec<String>, SurfaceError> {
+        let (_, candidates) = crate::surface::skin_markers(&self.surface_input(), options)?;
+        Ok(candidates
+            .iter()
+            .map(|&i| self.markers[i].name.clone())
+            .collect())
     }
 
     fn surface_input(&self) -> SurfaceInput<'_> {

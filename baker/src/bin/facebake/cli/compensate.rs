@@ -11,10 +11,13 @@ use serde::Serialize;
 use super::bake::{parse_head, parse_neutral};
 use super::{emit, parse_units, print_json, CliError};
 use facebake::io::capture::{read_capture_with_units, write_csv};
-use facebake::model::{Capture, Units};
+use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::layout::read_layout;
+use facebake::model::{place_markers, Capture, Units, DEFAULT_MAX_SNAP_FRACTION};
 use facebake::pivot::{estimate_pivot, PivotEstimate};
 use facebake::stages::rigid::{kabsch, most_rigid_subset, three_point, RigidTransform};
 use facebake::stages::{neutral_pose, HeadMarkers, Neutral};
+use facebake::{BakeOptions, Scene};
 
 /// Arguments of `facebake compensate`.
 #[derive(Debug, Args)]
@@ -29,9 +32,22 @@ pub struct CompensateArgs {
     /// marker present and none a ghost), a frame `N` or a range `A..B` averaged.
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
     pub neutral: Neutral,
-    /// Head markers: comma-separated names, `auto` (the 5 most rigid) or `auto:N`.
+    /// Head markers: comma-separated names, `auto` (the 5 most rigid) or `auto:N`. With
+    /// `--mesh` and `--layout`, `auto` picks among the skull markers and the inner eye
+    /// corners found on the mesh, as `bake` does; without them, among every marker, and a take
+    /// that never raises the brows makes the brows look as rigid as the skull.
     #[arg(long, value_name = "NAMES", default_value = "auto", value_parser = parse_head)]
     pub head_markers: HeadMarkers,
+    /// The face mesh the capture drives (.glb or .gltf), with `--layout`: where the skull
+    /// and the eyes are, so that `auto` never picks a brow, cheek, jaw or lip marker.
+    #[arg(long, value_name = "MESH", requires = "layout")]
+    pub mesh: Option<PathBuf>,
+    /// Which mesh of the file (default: the first).
+    #[arg(long, value_name = "NAME", requires = "mesh")]
+    pub mesh_name: Option<String>,
+    /// The marker layout on `--mesh` (.toml or .json), as `bake` takes it.
+    #[arg(long, value_name = "LAYOUT", requires = "mesh")]
+    pub layout: Option<PathBuf>,
     /// The rigid fit: least squares over every present head marker (kabsch), or paper 003's
     /// three-point method on the first three head markers (three-point).
     #[arg(long, value_enum, default_value_t = Fit::Kabsch)]
@@ -69,6 +85,8 @@ pub struct CompensateSummary {
     pub neutral_filled: Vec<String>,
     /// Head markers used.
     pub head_markers: Vec<String>,
+    /// Where they came from: as named, or the most rigid of which markers.
+    pub head_markers_from: String,
     /// The fit used.
     pub fit: Fit,
     /// RMS residual of the head fit per frame, capture units (`None` where it could not be fitted
@@ -93,7 +111,9 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
     let neutral = neutral_pose(&capture, &all, &args.neutral)?;
     let neutral_filled = neutral.filled_names(&capture, &all);
     let (neutral, range) = (neutral.pose, neutral.frames);
-    let complete = facebake::stages::complete_sample(&capture, &all);
+    let candidates = head_candidates(args, &capture)?;
+    let complete =
+        facebake::stages::complete_sample(&capture, candidates.as_ref().map_or(&all, |c| &c.0));
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
             .iter()
@@ -104,14 +124,18 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             })
             .collect::<Result<_, _>>()?,
         HeadMarkers::MostRigid(_) if complete.is_empty() => {
-            return Err(bad(
-                "no frame has every marker, so the most rigid cannot be picked: name the head markers (--head-markers A,B,C)".into(),
-            ));
+            return Err(bad(format!(
+                "no frame has every {}, so the most rigid cannot be picked: name the head markers (--head-markers A,B,C)",
+                if candidates.is_some() { "candidate head marker" } else { "marker" }
+            )));
         }
         HeadMarkers::MostRigid(k) => {
-            most_rigid_subset(&complete, *k)
-                .map_err(|e| bad(format!("picking head markers: {e}")))?
-                .0
+            let pool = candidates.as_ref().map_or(&all, |c| &c.0);
+            let (picked, _) = most_rigid_subset(&complete, (*k).min(pool.len()))
+                .map_err(|e| bad(format!("picking head markers: {e}")))?;
+            let mut head: Vec<usize> = picked.iter().map(|&i| pool[i]).collect();
+            head.sort_unstable();
+            head
         }
         HeadMarkers::None => return Err(bad("compensation needs head markers".into())),
     };
@@ -178,6 +202,18 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             .iter()
             .map(|&h| capture.marker_names[h].clone())
             .collect(),
+        head_markers_from: match (&args.head_markers, &candidates) {
+            (HeadMarkers::MostRigid(_), Some((pool, mesh))) => format!(
+                "the most rigid over the capture of its {} skull markers and inner eye corners found on {}",
+                pool.len(),
+                mesh.display()
+            ),
+            (HeadMarkers::MostRigid(_), None) => format!(
+                "the most rigid over the capture of all its {n} markers: without --mesh and --layout, \
+                 markers the take never moves (brows, a still jaw) look as rigid as the skull"
+            ),
+            _ => "as named".into(),
+        },
         fit: args.fit,
         residual_mean: fitted.iter().sum::<f64>() / fitted.len().max(1) as f64,
         residual_max: fitted.iter().copied().fold(0.0, f64::max),
@@ -198,6 +234,7 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             summary.head_markers.join(", "),
             summary.neutral_frames
         );
+        outln!(text, "  head markers  {}", summary.head_markers_from);
         if !summary.neutral_filled.is_empty() {
             outln!(
                 text,
@@ -227,4 +264,40 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
         emit(&text);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// With `--mesh` and `--layout`: the capture's columns of the markers `bake` would let its head
+/// fit choose from ([`facebake::Scene::head_candidates`]), and the mesh they were found on.
+fn head_candidates(
+    args: &CompensateArgs,
+    capture: &Capture,
+) -> Result<Option<(Vec<usize>, PathBuf)>, CliError> {
+    let (Some(mesh_path), Some(layout_path)) = (&args.mesh, &args.layout) else {
+        return Ok(None);
+    };
+    if !matches!(args.head_markers, HeadMarkers::MostRigid(_)) {
+        return Ok(None);
+    }
+    let mesh = load_mesh(mesh_path, args.mesh_name.as_deref(), None)?;
+    let layout = read_layout(layout_path)?;
+    let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
+    let names = Scene::placed(&mesh, &placed)
+        .head_candidates(&BakeOptions::product_default().surface)
+        .map_err(|e| CliError::input(mesh_path, e.to_string()))?;
+    let columns: Vec<usize> = names
+        .iter()
+        .filter_map(|name| capture.marker_index(name))
+        .collect();
+    if columns.len() < 3 {
+        return Err(CliError::input(
+            &args.capture,
+            format!(
+                "a head fit needs 3 markers, and the capture has {} of the skull markers and inner eye corners found on {} ({}): name the head markers (--head-markers A,B,C)",
+                columns.len(),
+                mesh_path.display(),
+                names.join(", ")
+            ),
+        ));
+    }
+    Ok(Some((columns, mesh_path.clone())))
 }
