@@ -99,8 +99,9 @@ impl<'a> Scene<'a> {
     }
 
     /// The markers a capture's head fit may choose from (`--head-markers auto`): the skull
-    /// markers and each eye's inner-corner marker, found from the mesh's openings; never a brow, cheek, jaw or lip marker, whatever a
-    /// take without those expressions makes look rigid. In rig order, by name.
+    /// markers and each eye's inner-corner marker, found from the mesh's openings; never a
+    /// brow, cheek, jaw or lip marker, however rigid a take without those expressions makes
+    /// them look. In rig order, by name.
     pub fn head_candidates(&self, options: &SurfaceOptions) -> Result<Vec<String>, SurfaceError> {
         let (_, candidates) = crate::surface::skin_markers(&self.surface_input(), options)?;
         Ok(candidates

@@ -112,8 +112,9 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
     let neutral_filled = neutral.filled_names(&capture, &all);
     let (neutral, range) = (neutral.pose, neutral.frames);
     let candidates = head_candidates(args, &capture)?;
-    let complete =
-        facebake::stages::complete_sample(&capture, candidates.as_ref().map_or(&all, |c| &c.0));
+    // The markers `auto` picks among: the candidates found on the mesh, else every marker.
+    let pool = candidates.as_ref().map_or(&all, |c| &c.0);
+    let complete = facebake::stages::complete_sample(&capture, pool);
     let head: Vec<usize> = match &args.head_markers {
         HeadMarkers::Named(names) => names
             .iter()
@@ -130,7 +131,6 @@ pub fn run(args: &CompensateArgs) -> Result<ExitCode, CliError> {
             )));
         }
         HeadMarkers::MostRigid(k) => {
-            let pool = candidates.as_ref().map_or(&all, |c| &c.0);
             let (picked, _) = most_rigid_subset(&complete, (*k).min(pool.len()))
                 .map_err(|e| bad(format!("picking head markers: {e}")))?;
             let mut head: Vec<usize> = picked.iter().map(|&i| pool[i]).collect();
