@@ -240,22 +240,27 @@ impl std::fmt::Display for TakeMetrics {
                 format!("{how} {x:.1} mm (frame {fr})")
             })
         };
+        let edges = match self.edges_over_limit {
+            (0, _) => format!("no edge over {STRETCH_LIMIT}×"),
+            (n, fr) => format!(
+                "edges over {STRETCH_LIMIT}×: up to {n} (frame {fr}) in {} of {} frames",
+                self.frames_over_limit, self.frames
+            ),
+        };
+        let flips = match self.flipped {
+            (0, _) => "no flipped triangle".to_string(),
+            (n, fr) => format!("flipped up to {n} (frame {fr})"),
+        };
         write!(
             f,
             "static drift {:.2} mm (frame {}), lips {}, eyelids {}, stretch {:.2}× (frame {}), \
-             edges > {STRETCH_LIMIT}×: up to {} (frame {}) in {} of {} frames, flipped up to {} (frame {})",
+             {edges}, {flips}",
             self.static_drift_mm.0,
             self.static_drift_mm.1,
             opening(self.lips_mm),
             opening(self.eyelids_mm),
             self.max_stretch.0,
             self.max_stretch.1,
-            self.edges_over_limit.0,
-            self.edges_over_limit.1,
-            self.frames_over_limit,
-            self.frames,
-            self.flipped.0,
-            self.flipped.1
         )
     }
 }
@@ -676,6 +681,28 @@ mod tests {
         assert!((m.max_stretch - 3.0).abs() < 1e-9, "{}", m.max_stretch);
         assert_eq!(m.edges_over_limit, 3);
         assert_eq!(m.flipped, 0);
+    }
+
+    #[test]
+    fn a_take_says_what_went_wrong_and_where_and_nothing_when_nothing_did() {
+        let r = regions();
+        let rest = r.rest().to_vec();
+        let mut pulled = rest.clone();
+        pulled[0][0] -= 0.02;
+        let (_, clean) = r.measure_take(&[rest.clone(), rest.clone()], None, false);
+        let text = clean.to_string();
+        assert!(
+            text.ends_with("no edge over 2×, no flipped triangle"),
+            "{text}"
+        );
+        let (_, torn) = r.measure_take(&[rest.clone(), pulled, rest], None, false);
+        let text = torn.to_string();
+        assert!(
+            text.ends_with(
+                "edges over 2×: up to 3 (frame 1) in 1 of 3 frames, no flipped triangle"
+            ),
+            "{text}"
+        );
     }
 
     #[test]
