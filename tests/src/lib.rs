@@ -550,24 +550,26 @@ pub struct Pinned {
 /// The default bake's figures on FaceCap's truth with the JawMoCap layout (`--test structure`,
 /// `--test other_faces`). Unmasked (the default until 2026-12-02): the same but 1.93× and
 /// eyelids 0.91 mm. The flip is a sliver (0.39 mm high) beside the right corner of the mouth in
-/// `blend 1` (frame 9), masked or not.
+/// `blend 1` (frame 9), masked or not. Lips 6.8 mm and 1.92× until the mouth's corrections faded
+/// in linearly (`surface::corners::FADE_IN`, 2026-12-03).
 pub const DEFAULT_ON_TRUTH: Pinned = Pinned {
     drift_mm: 0.34,
-    lips_mm: 6.8,
+    lips_mm: 7.1,
     eyelids_mm: 0.9,
-    stretch: 1.92,
+    stretch: 1.89,
     over_2x: 0,
     flipped: 1,
 };
 
 /// The default capture rig's figures on JawMoCap, FaceCap's head (`--test structure`, `--test
 /// other_faces`; no truth: lips and eyelids are the widest apertures). Unmasked (the default
-/// until 2026-12-02): 1.96×, lips open 40.6–40.7 mm.
+/// until 2026-12-02): 1.96×, lips open 40.6–40.7 mm. 1.92× until the mouth's corrections faded
+/// in linearly (2026-12-03).
 pub const DEFAULT_ON_JAWMOCAP: Pinned = Pinned {
     drift_mm: 0.0,
     lips_mm: 40.9,
     eyelids_mm: 12.0,
-    stretch: 1.92,
+    stretch: 1.90,
     over_2x: 0,
     flipped: 0,
 };

@@ -55,7 +55,16 @@ pub const CORNER_REACH: f64 = 0.2;
 /// as a fraction of the opening's width.
 pub const BAND: f64 = 0.3;
 /// Distance inwards from a corner, as a fraction of the opening's width, over which the
-/// reshaping fades in (it is nothing past the corner).
+/// reshaping fades in (it is nothing past the corner): at the mouth linearly, at the eyes by a
+/// smoothstep. The mouth's vertical correction is steepest within this fade, and a finer mesh
+/// samples its steepest part: under a smoothstep, FaceCap subdivided once stretched a 0.88 mm
+/// lower-lip edge 1.4 mm in from each corner 2.25× in the funnel (10 edges over 2×), twice
+/// subdivided 2.38× (37), the coarse mesh 1.92×. Linearly (measured 2026-12-03, `--test
+/// structure`): once 1.99× (none over 2×; the smile's 0.29 mm edge), twice 2.16× (5, beside the
+/// jaw in `blend 22`), JawMoCap 1.92× → 1.90×, the coarse truth 1.92× → 1.89×, its worst lip pair
+/// 6.8 → 7.1 mm (the denser meshes' 7.0 → 6.7 and 6.9 → 6.6), face mean and lip band unchanged.
+/// A wider fade opens the lips less (0.08: truth 8.7 mm), a narrower one tears JawMoCap (0.04:
+/// 2.03×, 0.03: 2.28×), a square-root ramp the twice-subdivided face (2.82×, 10 flips).
 pub const FADE_IN: f64 = 0.05;
 
 /// What the corner reshaping did.
@@ -191,7 +200,14 @@ pub fn reshape(
                     c.give_way[v] = c.give_way[v].max(beside);
                 }
                 let share = if at_mouth { MOUTH_SHARE } else { 1.0 };
-                let strength = share * band * smoothstep(along / FADE_IN) * far;
+                // The mouth's correction fades in linearly from each corner: a smoothstep's
+                // middle is 1.5 times as steep, and finer meshes sample it (see `FADE_IN`).
+                let fade_in = if at_mouth {
+                    (along / FADE_IN).clamp(0.0, 1.0)
+                } else {
+                    smoothstep(along / FADE_IN)
+                };
+                let strength = share * band * fade_in * far;
                 let w = weights[marker];
                 if strength <= 0.0 || w <= 0.0 || w >= 1.0 {
                     continue;
