@@ -777,8 +777,7 @@ fn the_jaw_open_lips_are_exact_in_the_middle_and_short_towards_the_corners() {
     let truth = s.truth.positions(jaw);
     let r = regions();
     let gap = |p: &[[f64; 3]], [u, l]: [u32; 2]| {
-        let (a, b) = (p[u as usize], p[l as usize]);
-        1000.0 * (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt()
+        1000.0 * facebake::mesh::distance(&p[u as usize], &p[l as usize])
     };
     let mut pairs: Vec<(f64, f64)> = r
         .lips
