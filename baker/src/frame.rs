@@ -14,7 +14,9 @@
 //! axes.
 //!
 //! Only the bake's directional rules read positions in these axes; distances do not change, and
-//! the rig's own positions (its affine part, its derived vertical markers) stay in the file's.
+//! the rig's own positions (its affine part) stay in the file's. Its derived markers take `up`
+//! as their direction (`deformer::linear::derived_direction`), so the mouth's corners open
+//! along the face's vertical.
 
 use crate::mesh::{cross, dot, sub, unit};
 use crate::model::FaceMesh;

@@ -101,8 +101,8 @@ pub enum LoadError {
         found: usize,
     },
     /// A linear rig's derived marker names a marker that does not exist (or one past the
-    /// markers), or keeps no axis or an axis beyond z, or the rig has more markers and derived
-    /// markers together than `MAX_MARKERS`.
+    /// markers), has a non-zero reserved byte, a zero direction or one with `Σ|a_c|` above
+    /// 2¹⁴, or the rig has more markers and derived markers together than `MAX_MARKERS`.
     BadDerivedMarker {
         /// The derived marker (0 for the first; its index among the markers is the marker
         /// count plus this).
@@ -294,7 +294,7 @@ impl core::fmt::Display for LoadError {
             ),
             Self::BadDerivedMarker { derived } => write!(
                 f,
-                "derived marker {derived} names no marker, keeps no axis (or one beyond z), or is one past the {MAX_MARKERS} markers a rig may have"
+                "derived marker {derived} names no marker, has a non-zero reserved byte, a zero direction or one longer than 1 (the sum of its components' magnitudes in Q1.14), or is one past the {MAX_MARKERS} markers a rig may have"
             ),
             Self::PairMarkerOutOfRange { pair, marker } => {
                 write!(f, "marker pair {pair} names marker {marker}, which does not exist")

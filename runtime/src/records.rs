@@ -41,11 +41,10 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate writes (and the newest it reads).
-pub const VERSION: u16 = 9;
-/// The oldest format version this crate reads: version 9 added the planar centroid region
-/// (code 7, [`crate::deformer::planar::CENTROID_REGION`]) and changed nothing else, so a
-/// version 8 blob is a version 9 blob that does not use it.
-pub const OLDEST_VERSION: u16 = 8;
+pub const VERSION: u16 = 10;
+/// The oldest format version this crate reads: version 10 gave the linear deformer's derived
+/// markers a direction (they kept file axes before), so older blobs must be baked again.
+pub const OLDEST_VERSION: u16 = 10;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 
@@ -76,9 +75,9 @@ pub const INFLUENCE_BYTES: usize = 4;
 pub const INFLUENCE_PAIR_BYTES: usize = 6;
 /// Bytes of one marker pair of the linear deformer: 2 × `u8` marker indices.
 pub const MARKER_PAIR_BYTES: usize = 2;
-/// Bytes of a linear rig's derived marker: its source marker (`u8`) and its axes (`u8`, bits
-/// 0–2 for x, y, z).
-pub const DERIVED_MARKER_BYTES: usize = 2;
+/// Bytes of a linear rig's derived marker: its source marker (`u8`), a zero byte and its
+/// direction (3 × `i16` LE, Q1.14).
+pub const DERIVED_MARKER_BYTES: usize = 8;
 /// Most marker pairs a linear rig may have: bounds its per-frame pair table (16 bytes a pair,
 /// see [`crate::Cost::scratch_bytes`]).
 pub const MAX_MARKER_PAIRS: usize = 512;

@@ -266,27 +266,40 @@ fn every_payload_error_is_distinct() {
         heavy[at..at + 2].copy_from_slice(&w.to_le_bytes());
     }
     // Derived markers: marker 40 is the first past the rig's 40.
-    let many_derived = [0u8, 0b010].repeat(256 - 40 + 1);
+    let up = [0, 1 << 14, 0];
+    let many_derived = derived(0, up).repeat(256 - 40 + 1);
+    let two = [derived(3, up), derived(0, [0; 3])].concat();
+    let long = derived(3, [1 << 14, 1, 0]);
+    let mut reserved = derived(3, up);
+    reserved[1] = 1;
     let mut past_derived = lin.marker_pairs.0.to_vec();
     past_derived[1] = 41; // one derived marker (40): 41 is past it
-    let cases: [(LinearDeformer<'_>, Option<LoadError>); 22] = [
+    let past = derived(40, up);
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 23] = [
         (
             LinearDeformer {
-                derived_markers: Bytes(&[40, 0b010]),
+                derived_markers: Bytes(&past),
                 ..lin
             },
             Some(LoadError::BadDerivedMarker { derived: 0 }),
         ),
         (
             LinearDeformer {
-                derived_markers: Bytes(&[3, 0b010, 0, 0]),
+                derived_markers: Bytes(&two),
                 ..lin
             },
             Some(LoadError::BadDerivedMarker { derived: 1 }),
         ),
         (
             LinearDeformer {
-                derived_markers: Bytes(&[3, 0b1000]),
+                derived_markers: Bytes(&long),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&reserved),
                 ..lin
             },
             Some(LoadError::BadDerivedMarker { derived: 0 }),
@@ -300,7 +313,7 @@ fn every_payload_error_is_distinct() {
         ),
         (
             LinearDeformer {
-                derived_markers: Bytes(&[0, 0b010]),
+                derived_markers: Bytes(&derived(0, up)),
                 marker_pairs: Bytes(&past_derived),
                 ..lin
             },
@@ -463,15 +476,25 @@ fn every_payload_error_is_distinct() {
     // A marker pair may name a derived marker.
     let mut on_derived = lin.marker_pairs.0.to_vec();
     on_derived[1] = 40;
+    let on_y = derived(0, [0, 1 << 14, 0]);
     let d = RigData {
         deformer: Deformer::Linear(LinearDeformer {
-            derived_markers: Bytes(&[0, 0b010]),
+            derived_markers: Bytes(&on_y),
             marker_pairs: Bytes(&on_derived),
             ..lin
         }),
         ..good
     };
     assert!(Rig::from_bytes(&seal(&d)).is_ok());
+}
+
+/// A derived marker's record: its source, a zero byte and its Q1.14 direction.
+fn derived(source: u8, direction: [i16; 3]) -> Vec<u8> {
+    let mut record = vec![source, 0];
+    for a in direction {
+        record.extend_from_slice(&a.to_le_bytes());
+    }
+    record
 }
 
 #[test]

@@ -35,6 +35,7 @@ pub(super) fn linear(
     deformer::linear::bake(
         vertices.iter().map(|v| system.weights_at(v)),
         &[],
+        [0.0, 1.0, 0.0],
         &[],
         options.k,
         options.refit,

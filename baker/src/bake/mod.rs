@@ -229,9 +229,12 @@ pub struct DenseWeights {
     pub marker_rest: Vec<[f64; 3]>,
     /// Per vertex, one weight per marker.
     pub weights: Vec<Vec<f64>>,
-    /// Per vertex, `(marker, weight)` on markers' vertical (y) displacements alone (the mouth's
+    /// Per vertex, `(marker, weight)` on markers' displacements along `up` alone (the mouth's
     /// corners, `surface::corners`; empty elsewhere).
     pub vertical: Vec<Vec<(usize, f64)>>,
+    /// The face's vertical in file coordinates, a unit vector: the direction the rig's derived
+    /// markers store ([`crate::deformer::linear::derived_direction`]).
+    pub up: [f64; 3],
 }
 
 impl DenseWeights {
@@ -251,7 +254,11 @@ impl DenseWeights {
                 let mut p =
                     [0, 1, 2].map(|c| v[c] + w.iter().zip(&d).map(|(w, d)| w * d[c]).sum::<f64>());
                 for &(m, w) in self.vertical.get(i).unwrap_or(&none) {
-                    p[1] += w * d.get(m).map_or(0.0, |d| d[1]);
+                    let d = d.get(m).copied().unwrap_or([0.0; 3]);
+                    let along: f64 = (0..3).map(|c| d[c] * self.up[c]).sum();
+                    for (p, u) in p.iter_mut().zip(self.up) {
+                        *p += w * along * u;
+                    }
                 }
                 p
             })
@@ -646,6 +653,7 @@ fn bake_deformer(
             marker_rest: rest.to_vec(),
             weights: s.dense,
             vertical: s.vertical,
+            up: crate::deformer::linear::derived_direction(s.up).1,
         }),
         surface_markers: Some((s.marker_distances, head_candidates)),
     })

@@ -3,11 +3,11 @@
 
 use std::collections::HashMap;
 
-use facebake_runtime::deformer::linear::LinearDeformer;
+use facebake_runtime::deformer::linear::{LinearDeformer, DIRECTION_ONE};
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::unpack_influence;
 use facebake_runtime::format::records::{
-    Bytes, INFLUENCE_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS,
+    Bytes, DERIVED_MARKER_BYTES, INFLUENCE_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS,
 };
 
 use super::{influence_counts, DeformerBytes, DeformerOutput, Section, SectionError};
@@ -26,18 +26,28 @@ pub struct LinearBytes {
 
 impl LinearBytes {
     /// Per vertex, its packed influences (at most 64), stored in pairs ([`pair_up`]), over the
-    /// markers and then the `derived` markers (source, axis mask).
+    /// markers and then the `derived` markers (source, Q1.14 direction).
     fn new(
         weight_frac_bits: u8,
         rows: &[Vec<u32>],
-        derived: &[(u8, u8)],
+        derived: &[(u8, [i16; 3])],
     ) -> Result<Self, SectionError> {
         let lens = influence_counts(rows.iter().map(Vec::len))?;
         let paired = pair_up(rows)?;
         Ok(Self {
             weight_frac_bits,
             max_influences: lens.iter().copied().max().unwrap_or(0).max(1),
-            derived: derived.iter().flat_map(|&(s, m)| [s, m]).collect(),
+            derived: derived
+                .iter()
+                .flat_map(|&(s, a)| {
+                    let mut record = [0u8; DERIVED_MARKER_BYTES];
+                    record[0] = s;
+                    for (c, a) in a.iter().enumerate() {
+                        record[2 + 2 * c..4 + 2 * c].copy_from_slice(&a.to_le_bytes());
+                    }
+                    record
+                })
+                .collect(),
             marker_pairs: paired.marker_pairs.concat(),
             counts: paired.counts,
             pairs: paired.bytes,
@@ -205,13 +215,34 @@ impl PairTable {
     }
 }
 
-/// The axis mask of a derived marker that keeps the vertical (y) axis alone.
-pub const VERTICAL: u8 = 0b010;
+/// A derived marker's direction as the runtime stores it: `up` (file coordinates, non-zero)
+/// scaled to `Σ|a_c| = 1` in Q1.14, and that stored direction as a unit vector, which the
+/// rig's projection `(q·a)a / |a|²` follows exactly. An axis gives that axis exactly.
+pub fn derived_direction(up: [f64; 3]) -> ([i16; 3], [f64; 3]) {
+    let norm: f64 = up.iter().map(|c| c.abs()).sum();
+    let one = f64::from(DIRECTION_ONE);
+    let mut a = up.map(|c| (c / norm * one).round() as i32);
+    // Rounding three components may leave Σ|a_c| one or two steps over 2^14: take them from the
+    // largest.
+    let excess = a.iter().map(|c| c.abs()).sum::<i32>() - DIRECTION_ONE;
+    if excess > 0 {
+        let (big, _) = a
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, c)| c.abs())
+            .expect("three components");
+        a[big] -= excess * a[big].signum();
+    }
+    let a = a.map(|c| c as i16);
+    let length = a.iter().map(|&c| f64::from(c).powi(2)).sum::<f64>().sqrt();
+    (a, a.map(|c| f64::from(c) / length))
+}
 
 /// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise. A vertex
-/// with `vertical` weights (on markers' vertical axes alone, summing to zero; empty for most)
-/// keeps K less their count on the markers and takes them on derived markers, one per source
-/// marker, after the markers (the covariance's order). Every vertex then has K influences, the
+/// with `vertical` weights (on markers' displacements along the face's `up` alone, a unit
+/// vector in file coordinates, summing to zero; empty for most) keeps K less their count on
+/// the markers and takes them on derived markers, one per source marker, after the markers
+/// (the covariance's order). Every vertex then has K influences, the
 /// uniform count the Cortex-M4's unrolled kernel needs (keeping all K markers besides the
 /// derived ones costs 60 % more instructions on the M4, docs/measurements.md). So that the kept
 /// set does not jump where the corrections begin, a vertex without them gives way by
@@ -220,6 +251,7 @@ pub const VERTICAL: u8 = 0b010;
 pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
     vertical: &[Vec<(usize, f64)>],
+    up: [f64; 3],
     give_way: &[f64],
     k: usize,
     refit: Refit,
@@ -237,6 +269,11 @@ pub(crate) fn bake(
         .into());
     }
     let derived_index = |m: usize| markers + sources.binary_search(&m).unwrap_or(0);
+    let (direction, _) = derived_direction(up);
+    let length2 = direction
+        .iter()
+        .map(|&c| (f64::from(c) / f64::from(DIRECTION_ONE)).powi(2))
+        .sum::<f64>();
     // How many of the K the corrections take where they are: what the skin beside them gives way.
     let ranks = vertical.iter().map(Vec::len).max().unwrap_or(0);
     let mut dropped = Vec::new();
@@ -253,12 +290,13 @@ pub(crate) fn bake(
             };
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
-            row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w)));
+            // The stored direction `a` projects as (q·a)a = |a|² (q·u)u.
+            row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w / length2)));
             row
         })
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
-    let derived: Vec<(u8, u8)> = sources.iter().map(|&m| (m as u8, VERTICAL)).collect();
+    let derived: Vec<(u8, [i16; 3])> = sources.iter().map(|&m| (m as u8, direction)).collect();
     Ok(DeformerOutput {
         bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words, &derived)?),
         frac_bits: q.frac_bits,
@@ -269,10 +307,10 @@ pub(crate) fn bake(
 }
 
 /// A loaded linear rig's section in f64: per vertex, its (marker, weight) pairs, and the
-/// derived markers (source, axis mask) the indices past the markers name.
+/// derived markers (source, direction) the indices past the markers name.
 pub(crate) struct LinearF64 {
     rows: Vec<Vec<(usize, f64)>>,
-    derived: Vec<(usize, u8)>,
+    derived: Vec<(usize, [f64; 3])>,
 }
 
 impl LinearF64 {
@@ -286,20 +324,27 @@ impl LinearF64 {
                         .collect()
                 })
                 .collect(),
-            derived: l.derived().map(|(s, m)| (usize::from(s), m)).collect(),
+            derived: l
+                .derived()
+                .map(|(s, a)| {
+                    let a = a.map(|c| f64::from(c) / f64::from(DIRECTION_ONE));
+                    (usize::from(s), a)
+                })
+                .collect(),
         }
     }
 
     /// Each vertex's displacement for marker displacements `d` (rig units): Σ w · d, a derived
-    /// marker's `d` its source's on its axes.
+    /// marker's `d` its source's projected on its direction `a`: `(d·a)a`.
     pub(crate) fn displacements(&self, d: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let mut d = d.to_vec();
         let sources: Vec<[f64; 3]> = self
             .derived
             .iter()
-            .map(|&(s, mask)| {
+            .map(|&(s, a)| {
                 let p = d.get(s).copied().unwrap_or([0.0; 3]);
-                [0, 1, 2].map(|c| if mask >> c & 1 == 1 { p[c] } else { 0.0 })
+                let along: f64 = (0..3).map(|c| p[c] * a[c]).sum();
+                a.map(|a| along * a)
             })
             .collect();
         d.extend(sources);
@@ -322,6 +367,41 @@ impl LinearF64 {
 mod tests {
     use super::*;
     use facebake_runtime::fixed::pack_influence;
+
+    /// An axis is stored exactly; any other direction with `Σ|a_c| = 2¹⁴` (the runtime's bound)
+    /// and its stored unit vector within a step of the one asked for.
+    #[test]
+    fn derived_directions_fit_the_runtime_bound() {
+        assert_eq!(
+            derived_direction([0.0, 1.0, 0.0]),
+            ([0, 1 << 14, 0], [0.0, 1.0, 0.0])
+        );
+        assert_eq!(derived_direction([0.0, -2.0, 0.0]).0, [0, -(1 << 14), 0]);
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..10_000 {
+            let v = [next(), next(), next()];
+            let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if length < 1e-3 {
+                continue;
+            }
+            let (a, unit) = derived_direction(v);
+            let sum: i32 = a.iter().map(|&c| i32::from(c).abs()).sum();
+            assert!(
+                (DIRECTION_ONE - 2..=DIRECTION_ONE).contains(&sum),
+                "{v:?}: {a:?}"
+            );
+            let off = (0..3)
+                .map(|c| (unit[c] - v[c] / length).abs())
+                .fold(0.0, f64::max);
+            assert!(off < 3e-4, "{v:?}: {unit:?}");
+        }
+    }
 
     /// Rows of K = 8 influences over `markers` markers, each vertex's set drawn at random (no
     /// locality: the worst case for sharing pairs).

@@ -170,6 +170,8 @@ pub(crate) struct SurfaceBake {
     /// Per glTF vertex, weights on the markers' vertical displacements alone, summing to zero
     /// (the mouth's corners, [`corners`]; empty elsewhere).
     pub(crate) vertical: Vec<Vec<(usize, f64)>>,
+    /// The face's vertical in file coordinates ([`FaceFrame`]), along which `vertical` acts.
+    pub(crate) up: [f64; 3],
     /// Per glTF vertex, how far its two weakest kept markers give way to the mouth's
     /// corrections (1 where it has them, fading to 0 over a ring outside; [`corners`]).
     pub(crate) give_way: Vec<f64>,
@@ -600,6 +602,7 @@ pub(crate) fn dense_weights(
         radial: config.radial,
         dense,
         vertical,
+        up: local.frame.axes()[1],
         give_way,
         warnings,
         marker_distances,
@@ -745,6 +748,7 @@ impl SurfaceBake {
         deformer::linear::bake(
             self.dense.iter().cloned(),
             &self.vertical,
+            self.up,
             &self.give_way,
             options.k,
             options.refit,

@@ -52,16 +52,26 @@
 //!   entry by the broadcast weight word and one `paddd`.
 //!
 //! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per derived
-//! marker three masked copies; per marker pair three packings; per influence pair three dual
+//! marker six multiply-adds and four roundings; per marker pair three packings; per influence pair three dual
 //! multiply-adds; per vertex one shift and one addition per axis. There is no branch on marker
 //! data and no check that can fail: the loader has validated every index, count and bound.
 //!
 //! # Derived markers
 //!
 //! A rig may list derived markers after its M markers: marker `M + j` is a source marker's `q`
-//! with some axes zeroed (its mask), so a vertex can weigh one axis of a marker apart from the
-//! others (the baker uses it for the vertical opening of the mouth near its corners). They
-//! are made from the quantised `q`, so the bound above holds as it is.
+//! projected on a direction `a` (three `i16` in Q1.14, `Σ|a_c| ≤ 2¹⁴`), so a vertex can weigh
+//! one direction of a marker's motion apart from the others (the baker uses it for the
+//! opening of the mouth near its corners, along the face's own vertical):
+//!
+//! ```text
+//! p       = (Σ_c q[s,c] · a[c] + 2^13) >> 14        |p| ≤ max_c |q[s,c]| ≤ 2^15 − 1
+//! q[M+j,c] = (p · a[c] + 2^13) >> 14                 |q[M+j,c]| ≤ |p|
+//! ```
+//!
+//! Since `Σ|a_c| ≤ 2¹⁴`, both sums stay within `(2¹⁵ − 1) · 2¹⁴` in magnitude and the results
+//! within ±(2¹⁵ − 1): no clamp, and the bound above holds as it is. The projection on a unit
+//! vector `u` is `(q·a)a / |a|²` for `a` along `u`; the baker folds the `1 / |a|²` into the
+//! weights. A direction along an axis (`a = 2¹⁴ e_y`) gives that axis of `q` exactly.
 
 use serde::{Deserialize, Serialize};
 
@@ -87,10 +97,11 @@ pub struct LinearDeformer<'a> {
     /// Most influences any vertex has (K), in [1, 64]: a vertex has at most K pairs (bakes
     /// write ⌈K/2⌉ unless the rig ran out of marker pairs).
     pub max_influences: u8,
-    /// Derived markers ([`DERIVED_MARKER_BYTES`] each: a source marker and an axis mask), the
-    /// markers `M, M + 1, …` after the rig's M: each frame, a derived marker's displacement is
-    /// its source's on the axes its mask keeps (bits 0–2: x, y, z) and zero on the others, so
-    /// that a vertex can weigh one axis of a marker differently from the others.
+    /// Derived markers ([`DERIVED_MARKER_BYTES`] each: a source marker, a zero byte and a
+    /// direction, 3 × `i16` LE in Q1.14 with `Σ|a_c| ≤ 2¹⁴`), the markers `M, M + 1, …` after
+    /// the rig's M: each frame, a derived marker's displacement is its source's projected on
+    /// its direction (module docs), so that a vertex can weigh one direction of a marker's
+    /// motion differently from the others.
     #[serde(borrow)]
     pub derived_markers: Bytes<'a>,
     /// The marker pairs the influence pairs name: [`MARKER_PAIR_BYTES`] each (two `u8` marker
@@ -153,14 +164,14 @@ impl<'a> LinearDeformer<'a> {
         })
     }
 
-    /// The derived markers in order, as `(source marker, axis mask)`: derived marker `j` is
-    /// marker `M + j` of the influences ([`Self::vertex_influences`]).
+    /// The derived markers in order, as `(source marker, direction in Q1.14)`: derived marker
+    /// `j` is marker `M + j` of the influences ([`Self::vertex_influences`]).
     #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
-    pub fn derived(&self) -> impl Iterator<Item = (u8, u8)> + 'a {
+    pub fn derived(&self) -> impl Iterator<Item = (u8, [i16; 3])> + 'a {
         self.derived_markers
             .0
             .chunks_exact(DERIVED_MARKER_BYTES)
-            .map(|d| (d[0], d[1]))
+            .map(|d| (d[0], read_direction(d)))
     }
 }
 
@@ -180,6 +191,18 @@ fn read_weights(b: &[u8]) -> [i16; 2] {
     let b: [u8; 4] = b.try_into().unwrap_or([0; 4]);
     [i16::from_le_bytes([b[0], b[1]]), i16::from_le_bytes([b[2], b[3]])]
 }
+
+/// A derived marker's direction (3 × `i16` LE after its source and zero byte).
+#[inline(always)]
+fn read_direction(d: &[u8]) -> [i16; 3] {
+    [2, 4, 6].map(|at| match d.get(at..at + 2) {
+        Some(&[lo, hi]) => i16::from_le_bytes([lo, hi]),
+        _ => 0,
+    })
+}
+
+/// `1.0` in a derived marker's Q1.14 direction, and the most `Σ|a_c|` may be.
+pub const DIRECTION_ONE: i32 = 1 << 14;
 
 /// A `u16` LE from a two-byte chunk.
 #[inline(always)]
@@ -206,9 +229,10 @@ impl DeformerSection for LinearDeformer<'_> {
             });
         }
         for (index, d) in derived.chunks_exact(DERIVED_MARKER_BYTES).enumerate() {
-            let [source, axes] = [d[0], d[1]];
-            if usize::from(source) >= rig.markers
-                || !(1..=0b111).contains(&axes)
+            let norm: i32 = read_direction(d).iter().map(|&a| i32::from(a).abs()).sum();
+            if usize::from(d[0]) >= rig.markers
+                || d[1] != 0
+                || !(1..=DIRECTION_ONE).contains(&norm)
                 || rig.markers + index >= MAX_MARKERS
             {
                 return Err(LoadError::BadDerivedMarker { derived: index });
@@ -404,14 +428,21 @@ pub(crate) fn quantised(
 }
 
 impl Quantised {
-    /// Append the `derived` markers (validated: sources below `markers`, masks in 1..=7,
-    /// `markers` + their count ≤ [`MAX_MARKERS`]) after the rig's `markers`: each its source's
-    /// `q` on the axes its mask keeps, 0 on the others. A copy and a mask per axis, no branch.
+    /// Append the `derived` markers (validated: sources below `markers`, directions with
+    /// `1 ≤ Σ|a_c| ≤ 2¹⁴`, `markers` + their count ≤ [`MAX_MARKERS`]) after the rig's
+    /// `markers`: each its source's `q` projected on its direction (module docs). Six
+    /// multiply-adds and four roundings a derived marker, no branch.
     fn derive(&mut self, markers: usize, derived: &[u8]) {
         let (sources, targets) = self.q.split_at_mut(markers.min(MAX_MARKERS));
+        let half = DIRECTION_ONE >> 1;
         for (target, d) in targets.iter_mut().zip(derived.chunks_exact(DERIVED_MARKER_BYTES)) {
-            let source = sources.get(usize::from(d[0])).copied().unwrap_or([0; 3]);
-            *target = [0, 1, 2].map(|c| source[c] & -(i16::from((d[1] >> c) & 1)));
+            let q = sources.get(usize::from(d[0])).copied().unwrap_or([0; 3]);
+            let a = read_direction(d).map(i32::from);
+            // |q_c| ≤ 2^15 − 1 and Σ|a_c| ≤ 2^14: |Σ q_c a_c| + 2^13 < 2^29 + 2^13, an i32.
+            let along = (0..3).map(|c| i32::from(q[c]) * a[c]).sum::<i32>() + half;
+            let p = along >> 14;
+            // |p| ≤ 2^15 − 1 and |a_c| ≤ 2^14: each result is within ±(2^15 − 1).
+            *target = a.map(|a| ((p * a + half) >> 14) as i16);
         }
     }
 }
@@ -1209,24 +1240,74 @@ mod tests {
         assert_eq!((q.exponent, q.q[0][0]), (2, -Q_MAX as i16));
     }
 
-    /// A derived marker is its source's `q` on the axes its mask keeps, 0 on the others, and
-    /// nothing past the derived markers changes.
+    /// A derived marker's record: source, zero byte, direction.
+    fn record(source: u8, a: [i16; 3]) -> Vec<u8> {
+        let mut r = vec![source, 0];
+        for c in a {
+            r.extend_from_slice(&c.to_le_bytes());
+        }
+        r
+    }
+
+    /// A derived marker along an axis is its source's `q` on that axis exactly, 0 on the
+    /// others; along a tilted direction it is the projection `(q·a)a` to within the two
+    /// roundings; nothing past the derived markers changes.
     #[test]
-    fn derived_markers_keep_their_sources_masked_axes() {
+    fn derived_markers_project_their_sources_on_their_directions() {
         let rest: Vec<u8> = [[0i32; 3]; 3]
             .iter()
             .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
             .collect();
         let markers = [[1 << 20, -(3 << 20), 5 << 20], [7 << 19, 3 << 19, -(1 << 22)], [0; 3]];
         let before = quantised(&markers, &rest, 12, &[]).q;
-        let q = quantised(&markers, &rest, 12, &[1, 0b010, 0, 0b101, 1, 0b111]);
+        // Rolled 20° about z, then scaled to Σ|a| = 2^14.
+        let tilted = [-4_178, 12_206, 0];
+        let derived = [
+            record(1, [0, 1 << 14, 0]),
+            record(0, [-(1 << 14), 0, 0]),
+            record(0, tilted),
+        ]
+        .concat();
+        let q = quantised(&markers, &rest, 12, &derived);
         let [a, b] = [before[0], before[1]];
         assert_eq!(q.q[3], [0, b[1], 0]);
-        assert_eq!(q.q[4], [a[0], 0, a[2]]);
-        assert_eq!(q.q[5], b);
+        assert_eq!(q.q[4], [a[0], 0, 0]);
+        let along: f64 = (0..3).map(|c| f64::from(a[c]) * f64::from(tilted[c])).sum();
+        for (got, a) in q.q[5].iter().zip(tilted) {
+            let exact = along * f64::from(a) / f64::from(1 << 28);
+            assert!((f64::from(*got) - exact).abs() <= 1.0, "{:?}", q.q[5]);
+        }
+        assert_ne!(q.q[5][0], 0);
         assert_eq!(q.q[..3], before[..3]);
         assert!(q.q[6..].iter().all(|v| *v == [0; 3]));
         assert!(a.iter().chain(&b).all(|&v| v != 0));
+    }
+
+    /// The largest displacements on the longest directions of every sign stay within
+    /// ±(2¹⁵ − 1): no overflow, no clamp needed.
+    #[test]
+    fn derived_markers_cannot_overflow() {
+        let big = Q_MAX as i16;
+        for signs in 0..64u32 {
+            let s = |bit: u32| if signs >> bit & 1 == 1 { -1 } else { 1 };
+            let source = [s(0) * big, s(1) * big, s(2) * big];
+            for a in [[5_462, 5_461, 5_461], [1 << 14, 0, 0], [8_192, 8_192, 0]] {
+                let a = [0, 1, 2].map(|c| a[c] * s(3 + c as u32));
+                let mut q = Quantised {
+                    q: [[0; 3]; MAX_MARKERS],
+                    exponent: 0,
+                };
+                q.q[0] = source;
+                q.derive(1, &record(0, a));
+                let along: i64 = (0..3).map(|c| i64::from(source[c]) * i64::from(a[c])).sum();
+                let p = (along + 8_192) >> 14;
+                for c in 0..3 {
+                    let want = (p * i64::from(a[c]) + 8_192) >> 14;
+                    assert_eq!(i64::from(q.q[1][c]), want, "{source:?} {a:?}");
+                    assert!(want.abs() <= i64::from(Q_MAX));
+                }
+            }
+        }
     }
 
     #[test]
