@@ -3,15 +3,19 @@
 //! a head that is tilted, turned or rolled in its file as on one that faces +Z with +Y up.
 //!
 //! The eyes and the mouth are those of [`crate::openings::mouth_and_eyes`]. `right` runs from
-//! one eye to the other (the one at smaller x first, so an upright face keeps its x): a roll or
-//! a turn of the head in its file is read from the eyes exactly. `up` is square to it. How far the head is pitched needs an anatomical reference:
+//! one eye to the other: a roll or a turn of the head in its file is read from the eyes exactly.
+//! Which eye comes first is decided by the head's bulk: `front` (below) must point from the
+//! centroid of the skin towards the mouth, so a face towards −Z, upside down or with +Z up in its
+//! file is read as the face it is (an upright face towards +Z keeps its x; so does a skin whose
+//! centroid is within a tenth of the eyes' spacing of the mouth's depth, a flat mask). `up` is square to it. How far the head is pitched needs an anatomical reference:
 //! the line from the mouth's centre to the midpoint of the eyes leans back from the vertical by
 //! [`PROFILE_LEAN`] (the mouth sits in front of the eyes' openings; FaceCap's measure). Faces
 //! differ in this by a few degrees, so the file's own pitch (square to `right`, nearest +Y) is
 //! kept unless the features say it is off by more than [`PITCH_TRUSTED`]; then the features'
-//! pitch is taken. `front` is `right × up`. A face whose openings do not give these (fewer than
-//! three, or a "mouth" not below the eyes: more than 60° from the file's +Y) keeps the file's
-//! axes.
+//! pitch is taken; when the file's +Y is more than 60° from the features' vertical (a file
+//! with +Z up, a head upside down) the features' vertical is taken whatever the pitch. `front` is
+//! `right × up`. A face whose openings do not give these (fewer than three, or a mouth not
+//! between the eyes' sides, below them by 0.5 to 3 eye spacings) keeps the file's axes.
 //!
 //! Only the bake's directional rules read positions in these axes; distances do not change, and
 //! the rig's own positions (its affine part) stay in the file's. Its derived markers take `up`
@@ -23,8 +27,8 @@ use crate::model::FaceMesh;
 
 use crate::openings::{find_openings, mouth_and_eyes, Opening};
 
-/// The smallest cosine between the face's `up` and the file's +Y that is taken as the face's
-/// (60°): beyond it the openings are not read as eyes above a mouth.
+/// The smallest cosine between the features' vertical and the file's +Y for which the file's
+/// pitch may be kept (60°): beyond it the file's +Y is not the face's up at all.
 const MIN_UPRIGHT: f64 = 0.5;
 
 /// How far the line from the mouth to the eyes leans back from the face's vertical: 13.5° on
@@ -36,6 +40,12 @@ pub const PROFILE_LEAN: f64 = 13.5;
 /// FaceCap by 0.1 / 0.2 / 0.35 rad (5.7°, 11.5°, 20°) about its x axis moved its static skin
 /// 0.40 / 0.46 / 0.50 mm one way and up to 17 mm the other, against 0.34 mm upright.
 pub const PITCH_TRUSTED: f64 = 10.0;
+
+/// The centroid of `points` (the origin for none): where a head's bulk is, behind its face.
+pub fn bulk(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len().max(1) as f64;
+    [0, 1, 2].map(|c| points.iter().map(|p| p[c]).sum::<f64>() / n)
+}
 
 /// The face's axes in the file's coordinates: rows `right`, `up`, `front`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,39 +62,55 @@ impl FaceFrame {
     /// The frame of `mesh`'s openings (see the module docs), else [`Self::FILE`].
     pub fn of(mesh: &FaceMesh) -> Self {
         let openings = find_openings(&mesh.welded_topology(), &mesh.welded_positions);
-        Self::from_openings(&openings)
+        Self::from_openings(&openings, bulk(&mesh.welded_positions))
     }
 
-    /// The frame of these openings (see the module docs), else [`Self::FILE`].
-    pub fn from_openings(openings: &[Opening]) -> Self {
+    /// The frame of these openings on a skin whose vertices' centroid is `bulk` (see the module
+    /// docs), else [`Self::FILE`].
+    pub fn from_openings(openings: &[Opening], bulk: [f64; 3]) -> Self {
         let Some((mouth, eyes)) = mouth_and_eyes(openings) else {
             return Self::FILE;
         };
         let middle = [0, 1, 2].map(|i| 0.5 * (eyes[0].centre[i] + eyes[1].centre[i]));
-        let Some(right) = unit(&sub(&eyes[1].centre, &eyes[0].centre)) else {
+        let across = sub(&eyes[1].centre, &eyes[0].centre);
+        let Some(mut right) = unit(&across) else {
             return Self::FILE;
         };
-        let square = |v: [f64; 3]| unit(&sub(&v, &right.map(|r| r * dot(&v, &right))));
-        let (Some(file_up), Some(features)) =
-            (square([0.0, 1.0, 0.0]), square(sub(&middle, &mouth.centre)))
-        else {
+        // A mouth: about as far from either eye, below them by 0.5 to 3 eye spacings.
+        let spacing = dot(&across, &across).sqrt();
+        let drop = sub(&middle, &mouth.centre);
+        let (to_left, to_right) = (
+            crate::mesh::distance(&mouth.centre, &eyes[0].centre),
+            crate::mesh::distance(&mouth.centre, &eyes[1].centre),
+        );
+        let height = dot(&drop, &drop).sqrt();
+        if !(0.5 * spacing..=3.0 * spacing).contains(&height)
+            || (to_left - to_right).abs() > 0.25 * to_left.max(to_right)
+        {
+            return Self::FILE;
+        }
+        let square =
+            |v: [f64; 3], right: &[f64; 3]| unit(&sub(&v, &right.map(|r| r * dot(&v, right))));
+        let Some(features) = square(drop, &right) else {
             return Self::FILE;
         };
+        // `front` points from the skin's bulk towards the mouth: else the eyes come the other
+        // way round. A skin with its bulk level with the mouth (a flat mask) says nothing: the
+        // eye at smaller x stays first.
+        if dot(&cross(&right, &features), &sub(&mouth.centre, &bulk)) < -0.1 * spacing {
+            right = right.map(|r| -r);
+        }
         // The features' line leans back by PROFILE_LEAN: turn it forwards about `right`.
         let (sin, cos) = PROFILE_LEAN.to_radians().sin_cos();
         let forwards = cross(&right, &features);
         let features_up = [0, 1, 2].map(|i| cos * features[i] + sin * forwards[i]);
-        if features_up[1] < MIN_UPRIGHT {
-            return Self::FILE;
-        }
-        let pitch = dot(&file_up, &features_up)
-            .clamp(-1.0, 1.0)
-            .acos()
-            .to_degrees();
-        let up = if pitch > PITCH_TRUSTED {
-            features_up
-        } else {
-            file_up
+        let file_up = square([0.0, 1.0, 0.0], &right).filter(|_| features_up[1] >= MIN_UPRIGHT);
+        let pitch = file_up.map_or(180.0, |f| {
+            dot(&f, &features_up).clamp(-1.0, 1.0).acos().to_degrees()
+        });
+        let up = match file_up {
+            Some(f) if pitch <= PITCH_TRUSTED => f,
+            _ => features_up,
         };
         Self {
             axes: [right, up, cross(&right, &up)],
@@ -157,58 +183,110 @@ mod tests {
         }
     }
 
-    #[test]
-    fn an_upright_face_keeps_its_axes_and_a_rolled_one_is_turned_back() {
-        let face = |roll: f64| {
-            let turn = |p: [f64; 3]| {
-                let (s, c) = roll.sin_cos();
-                [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]]
-            };
-            // The mouth in front of the eyes by tan(13.5°) of its drop.
-            let ahead = 0.07 * PROFILE_LEAN.to_radians().tan();
+    /// Eyes and a mouth in front of them by tan(13.5°) of its drop, turned by `turn`, and the
+    /// head's bulk 8 cm behind the eyes.
+    fn face(turn: impl Fn([f64; 3]) -> [f64; 3]) -> (Vec<Opening>, [f64; 3]) {
+        let ahead = 0.07 * PROFILE_LEAN.to_radians().tan();
+        (
             vec![
                 opening(turn([0.0, -0.07, ahead]), 0.12),
                 opening(turn([-0.03, 0.0, 0.0]), 0.07),
                 opening(turn([0.03, 0.0, 0.0]), 0.072),
-            ]
-        };
-        let upright = FaceFrame::from_openings(&face(0.0));
+            ],
+            turn([0.0, 0.0, -0.08]),
+        )
+    }
+
+    fn frame_of(turn: impl Fn([f64; 3]) -> [f64; 3]) -> FaceFrame {
+        let (openings, bulk) = face(turn);
+        FaceFrame::from_openings(&openings, bulk)
+    }
+
+    /// `p` turned by `angle` about the unit `axis` (Rodrigues).
+    fn turned(axis: [f64; 3], angle: f64) -> impl Fn([f64; 3]) -> [f64; 3] {
+        move |p| {
+            let (s, c) = angle.sin_cos();
+            let k = cross(&axis, &p);
+            let along = dot(&axis, &p) * (1.0 - c);
+            [0, 1, 2].map(|i| p[i] * c + k[i] * s + axis[i] * along)
+        }
+    }
+
+    #[test]
+    fn an_upright_face_keeps_its_axes_and_a_rolled_one_is_turned_back() {
+        let upright = frame_of(|p| p);
         for (row, want) in upright.axes.iter().zip(FaceFrame::FILE.axes) {
             for (x, y) in row.iter().zip(want) {
                 assert!((x - y).abs() < 1e-12, "{upright:?}");
             }
         }
-        let rolled = FaceFrame::from_openings(&face(0.3));
+        let rolled = frame_of(turned([0.0, 0.0, 1.0], 0.3));
         assert!((rolled.tilt_degrees() - 0.3f64.to_degrees()).abs() < 1e-9);
         assert!((rolled.turn_degrees() - 0.3f64.to_degrees()).abs() < 1e-6);
         assert_eq!(upright.turn_degrees(), 0.0);
         // Pitched by 5° the file's vertical is kept; by 20°, the features' is taken.
-        let pitched = |degrees: f64| {
-            let (s, c) = degrees.to_radians().sin_cos();
-            let turn = |p: [f64; 3]| [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]];
-            let openings: Vec<Opening> = face(0.0)
-                .into_iter()
-                .map(|o| opening(turn(o.centre), o.length))
-                .collect();
-            FaceFrame::from_openings(&openings).tilt_degrees()
-        };
+        let pitched =
+            |degrees: f64| frame_of(turned([1.0, 0.0, 0.0], -degrees.to_radians())).tilt_degrees();
         assert!(pitched(5.0) < 1e-9);
         assert!((pitched(20.0) - 20.0).abs() < 1e-9, "{}", pitched(20.0));
         // The rolled face's left eye, read in its own axes, sits level with the right one.
-        let eyes = face(0.3);
+        let (eyes, _) = face(turned([0.0, 0.0, 1.0], 0.3));
         let (l, r) = (rolled.local(&eyes[1].centre), rolled.local(&eyes[2].centre));
         assert!((l[1] - r[1]).abs() < 1e-12 && l[0] < r[0]);
     }
 
+    /// A face towards −Z, upside down, with +Z up or lying on its side is read as the upright
+    /// face turned: its axes are the turn's, whatever the file's.
     #[test]
-    fn without_eyes_above_a_mouth_the_file_axes_stay() {
-        assert_eq!(FaceFrame::from_openings(&[]), FaceFrame::FILE);
-        // Upside down: the "mouth" is above the eyes.
-        let flipped = [
-            opening([0.0, 0.07, 0.0], 0.12),
-            opening([-0.03, 0.0, 0.0], 0.07),
-            opening([0.03, 0.0, 0.0], 0.07),
-        ];
-        assert_eq!(FaceFrame::from_openings(&flipped), FaceFrame::FILE);
+    fn a_face_is_read_the_right_way_round_in_any_orientation() {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        for (axis, angle) in [
+            ([0.0, 1.0, 0.0], PI),
+            ([0.0, 0.0, 1.0], PI),
+            ([1.0, 0.0, 0.0], FRAC_PI_2),
+            ([1.0, 0.0, 0.0], -FRAC_PI_2),
+            ([0.0, 0.0, 1.0], FRAC_PI_2),
+            ([0.0, 1.0, 0.0], 2.5),
+        ] {
+            let turn = turned(axis, angle);
+            let frame = frame_of(&turn);
+            for (row, file_axis) in frame.axes.iter().zip(FaceFrame::FILE.axes) {
+                let want = turn(file_axis);
+                for (x, y) in row.iter().zip(want) {
+                    assert!((x - y).abs() < 1e-9, "{axis:?} {angle}: {frame:?}");
+                }
+            }
+        }
+    }
+
+    /// A flat mask's bulk says nothing about its front: the eye at smaller x stays first.
+    #[test]
+    fn a_flat_mask_keeps_its_x() {
+        let (openings, _) = face(|p| p);
+        // 3 mm in front of the mouth, a twentieth of the eyes' spacing.
+        let [x, y, z] = openings[0].centre;
+        let frame = FaceFrame::from_openings(&openings, [x, y, z + 0.003]);
+        assert!(
+            frame.axes[0][0] > 0.99 && frame.axes[2][2] > 0.99,
+            "{frame:?}"
+        );
+    }
+
+    #[test]
+    fn without_eyes_beside_a_mouth_the_file_axes_stay() {
+        assert_eq!(FaceFrame::from_openings(&[], [0.0; 3]), FaceFrame::FILE);
+        // A "mouth" level with the eyes, or far below them, or nearer one eye.
+        for mouth in [[0.0, 0.0, 0.0], [0.0, -0.3, 0.0], [0.05, -0.05, 0.0]] {
+            let openings = [
+                opening(mouth, 0.12),
+                opening([-0.03, 0.0, 0.0], 0.07),
+                opening([0.03, 0.0, 0.0], 0.07),
+            ];
+            assert_eq!(
+                FaceFrame::from_openings(&openings, [0.0, 0.0, -0.08]),
+                FaceFrame::FILE,
+                "{mouth:?}"
+            );
+        }
     }
 }

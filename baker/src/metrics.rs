@@ -361,7 +361,7 @@ impl Regions {
         let topology = Topology::new(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
         let openings = find_openings(&topology, &welded);
-        let frame = crate::frame::FaceFrame::from_openings(&openings);
+        let frame = crate::frame::FaceFrame::from_openings(&openings, crate::frame::bulk(&welded));
         let welded = frame.points(&welded);
         let openings: Vec<Opening> = openings
             .into_iter()

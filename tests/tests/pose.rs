@@ -14,7 +14,12 @@
 //! rolled 20°, lips 7.4 against 7.1 mm and 4 flipped triangles against 1; pitched 20° down 5
 //! flips; pitched 20° up, lips 7.9 mm. Now every pose gives the upright figures (lips 7.1 mm,
 //! 1 flip, skin mean 0.5527 against 0.5526 mm), and JawMoCap on the rolled head plays within
-//! 0.0019 mm of the upright one (0.0044 before).
+//! 0.0019 mm of the upright one (0.0044 before). Until the face's axes were read whatever the
+//! file's (`frame::FaceFrame`, 2026-12-03), a head towards −Z, with +Z up or upside down kept the
+//! file's axes: static drift 16.8 / 14.8 / 20.4 mm, flips 1 / 19 / 26, skin mean 1.19 / 1.68 /
+//! 2.17 mm; now the upright figures, and JawMoCap on the +Z-up head within 0.0005 mm of upright.
+
+use std::f64::consts::{FRAC_PI_2, PI};
 
 use facebake::ground_truth::GroundTruth;
 use facebake::metrics::{Regions, TakeMetrics};
@@ -256,6 +261,9 @@ fn the_truth_bakes_alike_turned_scaled_and_moved() {
         ("rolled 20°", Pose::turned([0.0, 0.0, 1.0], 0.35)),
         ("pitched 20° down", Pose::turned([1.0, 0.0, 0.0], -0.35)),
         ("pitched 20° up", Pose::turned([1.0, 0.0, 0.0], 0.35)),
+        ("towards −Z", Pose::turned([0.0, 1.0, 0.0], PI)),
+        ("+Z up", Pose::turned([1.0, 0.0, 0.0], FRAC_PI_2)),
+        ("upside down", Pose::turned([0.0, 0.0, 1.0], PI)),
     ] {
         let (take, mean) = truth_take(&pose);
         println!("{label}: {take}; skin mean {mean:.4} mm");
@@ -340,6 +348,7 @@ fn jawmocap_plays_alike_on_a_turned_head() {
         ("rolled 20°", Pose::turned([0.0, 0.0, 1.0], 0.35)),
         ("pitched 20° down", Pose::turned([1.0, 0.0, 0.0], -0.35)),
         ("turned 20°", Pose::turned([0.0, 1.0, 0.0], 0.35)),
+        ("+Z up", Pose::turned([1.0, 0.0, 0.0], FRAC_PI_2)),
     ] {
         let frames = jawmocap_frames(&pose);
         let (_, take) = regions.measure_take(&frames, None, false);
@@ -361,8 +370,8 @@ fn jawmocap_plays_alike_on_a_turned_head() {
     }
 }
 
-/// `facebake place` reads the face in its own axes: on FaceCap turned, rolled, scaled and moved
-/// in its file, JawMoCap's markers land where the bundled layout (its upright placement) puts
+/// `facebake place` reads the face in its own axes: on FaceCap turned, rolled, with +Z up,
+/// towards −Z, scaled and moved in its file, JawMoCap's markers land where the bundled layout (its upright placement) puts
 /// them, carried by the same pose: the same vertices for the landmarks and the lip and eyelid
 /// markers, the warped ones within 0.1 mm.
 #[test]
@@ -372,6 +381,8 @@ fn placement_is_the_same_in_any_pose() {
     let poses = [
         Pose::turned([0.0, 1.0, 0.0], 0.35),
         Pose::turned([0.0, 0.0, 1.0], 0.2),
+        Pose::turned([1.0, 0.0, 0.0], FRAC_PI_2),
+        Pose::turned([0.0, 1.0, 0.0], PI),
         Pose {
             scale: 100.0,
             shift: [1.3, -0.4, 2.0],
