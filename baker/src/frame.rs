@@ -41,6 +41,13 @@ pub const PROFILE_LEAN: f64 = 13.5;
 /// 0.40 / 0.46 / 0.50 mm one way and up to 17 mm the other, against 0.34 mm upright.
 pub const PITCH_TRUSTED: f64 = 10.0;
 
+/// Whether `mesh`'s skin has a mouth and two eyes ([`FaceFrame::find`]): how a file's face is
+/// told from its eyes, teeth and body.
+pub fn has_face(mesh: &FaceMesh) -> bool {
+    let openings = find_openings(&mesh.welded_topology(), &mesh.welded_positions);
+    FaceFrame::find(&openings, bulk(&mesh.welded_positions)).is_some()
+}
+
 /// The centroid of `points` (the origin for none): where a head's bulk is, behind its face.
 pub fn bulk(points: &[[f64; 3]]) -> [f64; 3] {
     let n = points.len().max(1) as f64;
@@ -68,14 +75,16 @@ impl FaceFrame {
     /// The frame of these openings on a skin whose vertices' centroid is `bulk` (see the module
     /// docs), else [`Self::FILE`].
     pub fn from_openings(openings: &[Opening], bulk: [f64; 3]) -> Self {
-        let Some((mouth, eyes)) = mouth_and_eyes(openings) else {
-            return Self::FILE;
-        };
+        Self::find(openings, bulk).unwrap_or(Self::FILE)
+    }
+
+    /// The frame of these openings on a skin whose vertices' centroid is `bulk`, if they are a
+    /// mouth and two eyes (see the module docs).
+    pub fn find(openings: &[Opening], bulk: [f64; 3]) -> Option<Self> {
+        let (mouth, eyes) = mouth_and_eyes(openings)?;
         let middle = [0, 1, 2].map(|i| 0.5 * (eyes[0].centre[i] + eyes[1].centre[i]));
         let across = sub(&eyes[1].centre, &eyes[0].centre);
-        let Some(mut right) = unit(&across) else {
-            return Self::FILE;
-        };
+        let mut right = unit(&across)?;
         // A mouth: about as far from either eye, below them by 0.5 to 3 eye spacings.
         let spacing = dot(&across, &across).sqrt();
         let drop = sub(&middle, &mouth.centre);
@@ -87,13 +96,11 @@ impl FaceFrame {
         if !(0.5 * spacing..=3.0 * spacing).contains(&height)
             || (to_left - to_right).abs() > 0.25 * to_left.max(to_right)
         {
-            return Self::FILE;
+            return None;
         }
         let square =
             |v: [f64; 3], right: &[f64; 3]| unit(&sub(&v, &right.map(|r| r * dot(&v, right))));
-        let Some(features) = square(drop, &right) else {
-            return Self::FILE;
-        };
+        let features = square(drop, &right)?;
         // `front` points from the skin's bulk towards the mouth: else the eyes come the other
         // way round. A skin with its bulk level with the mouth (a flat mask) says nothing: the
         // eye at smaller x stays first.
@@ -112,9 +119,9 @@ impl FaceFrame {
             Some(f) if pitch <= PITCH_TRUSTED => f,
             _ => features_up,
         };
-        Self {
+        Some(Self {
             axes: [right, up, cross(&right, &up)],
-        }
+        })
     }
 
     /// The axes in file coordinates: rows `right`, `up`, `front`.

@@ -160,7 +160,9 @@ pub enum MeshLoadErrorKind {
 
 /// Loads one triangle primitive of one mesh from a `.glb` or `.gltf` file.
 ///
-/// `mesh` selects a mesh by name (default: the file's first mesh); `primitive` selects a
+/// `mesh` selects a mesh by name (default: the file's face, the largest mesh whose skin has a
+/// mouth and two eyes, [`crate::frame::has_face`]; else, or in a file of one mesh, the first
+/// mesh); `primitive` selects a
 /// primitive by index (default: the first primitive in `TRIANGLES` mode). A primitive without
 /// indices is read as consecutive vertex triples.
 pub fn load_mesh(
@@ -192,29 +194,64 @@ fn load(
 ) -> Result<FaceMesh, MeshLoadErrorKind> {
     // Checked first: the gltf crate trusts the file (see `gltf_check`).
     let (document, buffers) = gltf_check::import(path, access)?;
+    let read = |gmesh: gltf::Mesh<'_>| read_mesh(path, &buffers, gmesh, primitive_index);
+    match mesh_name {
+        Some(name) => {
+            let gmesh = document
+                .meshes()
+                .find(|m| m.name() == Some(name))
+                .ok_or_else(|| MeshLoadErrorKind::NoSuchMesh {
+                    name: name.to_owned(),
+                    available: document
+                        .meshes()
+                        .map(|m| format!("\"{}\"", display_name(&m)))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+            read(gmesh)
+        }
+        None if document.meshes().len() > 1 => {
+            // The file's face: of the meshes that read, the largest whose skin has a mouth and
+            // two eyes; else the first mesh, as a file with one.
+            let face = document
+                .meshes()
+                .filter_map(|m| read(m).ok())
+                .filter(crate::frame::has_face)
+                .max_by_key(|m| (m.positions.len(), std::cmp::Reverse(m.mesh_index)));
+            match face {
+                Some(face) => Ok(face),
+                None => read(
+                    document
+                        .meshes()
+                        .next()
+                        .ok_or(MeshLoadErrorKind::NoMeshes)?,
+                ),
+            }
+        }
+        None => read(
+            document
+                .meshes()
+                .next()
+                .ok_or(MeshLoadErrorKind::NoMeshes)?,
+        ),
+    }
+}
 
-    let display_name = |m: &gltf::Mesh| {
-        m.name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| format!("#{}", m.index()))
-    };
-    let gmesh = match mesh_name {
-        None => document
-            .meshes()
-            .next()
-            .ok_or(MeshLoadErrorKind::NoMeshes)?,
-        Some(name) => document
-            .meshes()
-            .find(|m| m.name() == Some(name))
-            .ok_or_else(|| MeshLoadErrorKind::NoSuchMesh {
-                name: name.to_owned(),
-                available: document
-                    .meshes()
-                    .map(|m| format!("\"{}\"", display_name(&m)))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })?,
-    };
+/// A mesh's name as messages give it: its own, else `#index`.
+fn display_name(m: &gltf::Mesh) -> String {
+    m.name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("#{}", m.index()))
+}
+
+/// One primitive of `gmesh` (`primitive_index`, else its first triangle primitive) as a
+/// [`FaceMesh`].
+fn read_mesh(
+    path: &Path,
+    buffers: &[gltf::buffer::Data],
+    gmesh: gltf::Mesh<'_>,
+    primitive_index: Option<usize>,
+) -> Result<FaceMesh, MeshLoadErrorKind> {
     let name = display_name(&gmesh);
 
     let prim = match primitive_index {
@@ -577,6 +614,88 @@ pub(crate) mod tests {
             assert!(m.morph_targets.is_empty());
             assert!(!m.triangles.is_empty());
         }
+    }
+
+    /// A mesh for a test file: its name, positions and triangles.
+    type Named<'a> = (&'a str, &'a [[f64; 3]], &'a [[u32; 3]]);
+
+    /// A file whose first mesh is not the face: with no name given, the face is read (the
+    /// largest mesh with a mouth and two eyes), not the first mesh nor the largest; a file
+    /// without a face reads its first mesh.
+    #[test]
+    fn the_face_is_found_among_a_files_meshes() {
+        let head = head();
+        let eye = load_mesh(Path::new(FACECAP), Some("eyeLeft"), None).unwrap();
+        // A flat sheet larger than the head, without openings: a "body".
+        let n = 60u32;
+        let sheet: Vec<[f64; 3]> = (0..n * n)
+            .map(|i| [f64::from(i % n), f64::from(i / n), 0.0])
+            .collect();
+        let sheet_triangles: Vec<[u32; 3]> = (0..n - 1)
+            .flat_map(|y| (0..n - 1).map(move |x| (x, y)))
+            .flat_map(|(x, y)| {
+                let v = y * n + x;
+                [[v, v + 1, v + n], [v + 1, v + n + 1, v + n]]
+            })
+            .collect();
+        let meshes: [Named<'_>; 3] = [
+            ("eye", &eye.positions, &eye.triangles),
+            ("body", &sheet, &sheet_triangles),
+            ("face", &head.positions, &head.triangles),
+        ];
+        let write = |name: &str, meshes: &[Named<'_>]| {
+            let (mut bin, mut views, mut accessors, mut gltf_meshes) =
+                (vec![], vec![], vec![], vec![]);
+            for (mesh_name, positions, triangles) in meshes {
+                let start = bin.len();
+                bin.extend(
+                    positions
+                        .iter()
+                        .flatten()
+                        .flat_map(|&x| (x as f32).to_le_bytes()),
+                );
+                views.push(serde_json::json!({"buffer": 0, "byteOffset": start, "byteLength": bin.len() - start}));
+                let (lo, hi) =
+                    (0..3).fold(([f64::MAX; 3], [f64::MIN; 3]), |(mut lo, mut hi), c| {
+                        for p in positions.iter() {
+                            lo[c] = lo[c].min(f64::from(p[c] as f32));
+                            hi[c] = hi[c].max(f64::from(p[c] as f32));
+                        }
+                        (lo, hi)
+                    });
+                accessors.push(
+                    serde_json::json!({"bufferView": views.len() - 1, "componentType": 5126,
+                    "count": positions.len(), "type": "VEC3", "min": lo, "max": hi}),
+                );
+                let start = bin.len();
+                bin.extend(triangles.iter().flatten().flat_map(|i| i.to_le_bytes()));
+                views.push(serde_json::json!({"buffer": 0, "byteOffset": start, "byteLength": bin.len() - start}));
+                accessors.push(
+                    serde_json::json!({"bufferView": views.len() - 1, "componentType": 5125,
+                    "count": 3 * triangles.len(), "type": "SCALAR"}),
+                );
+                gltf_meshes.push(serde_json::json!({"name": mesh_name, "primitives": [
+                    {"attributes": {"POSITION": accessors.len() - 2}, "indices": accessors.len() - 1}
+                ]}));
+            }
+            std::fs::write(scratch(&format!("{name}.bin")), &bin).unwrap();
+            let json = serde_json::json!({
+                "asset": {"version": "2.0"},
+                "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
+                "bufferViews": views, "accessors": accessors, "meshes": gltf_meshes
+            });
+            let path = scratch(&format!("{name}.gltf"));
+            std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+            path
+        };
+        let found = load_mesh(&write("with_face", &meshes), None, None).unwrap();
+        assert_eq!((found.mesh_name.as_str(), found.mesh_index), ("face", 2));
+        assert_eq!(found.triangles, head.triangles);
+        // Named, the named one; without a face, the first.
+        let named = load_mesh(&write("named", &meshes), Some("body"), None).unwrap();
+        assert_eq!(named.mesh_name, "body");
+        let first = load_mesh(&write("no_face", &meshes[..2]), None, None).unwrap();
+        assert_eq!(first.mesh_name, "eye");
     }
 
     #[test]

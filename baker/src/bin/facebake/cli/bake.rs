@@ -32,7 +32,8 @@ pub struct BakeArgs {
     /// The face mesh (.glb or .gltf).
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the first).
+    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
+    /// else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// Which primitive of the mesh (default: the first triangle primitive).

@@ -42,7 +42,8 @@ pub struct CompensateArgs {
     /// and the eyes are, so that `auto` never picks a brow, cheek, jaw or lip marker.
     #[arg(long, value_name = "MESH", requires = "layout")]
     pub mesh: Option<PathBuf>,
-    /// Which mesh of the file (default: the first).
+    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
+    /// else the first).
     #[arg(long, value_name = "NAME", requires = "mesh")]
     pub mesh_name: Option<String>,
     /// The marker layout on `--mesh` (.toml or .json), as `bake` takes it.

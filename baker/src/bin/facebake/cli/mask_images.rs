@@ -24,7 +24,8 @@ pub struct MaskImagesArgs {
     /// The face mesh (.glb or .gltf).
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the first).
+    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
+    /// else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// The marker layout with a `[groups]` table (one mask per group).

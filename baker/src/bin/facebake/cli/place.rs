@@ -23,7 +23,8 @@ pub struct PlaceArgs {
     /// The face mesh (.glb or .gltf): its skin must have the mouth and both eyes open.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the first).
+    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
+    /// else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// The actor's capture (C3D, TRC, CSV or a packed take) with the thesis' marker names: the

@@ -31,7 +31,8 @@ pub(crate) struct RenderArgs {
     /// The mesh the frames deform (its triangles and rest pose), glTF/GLB.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the first).
+    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
+    /// else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// The true frames, same shape: the sheet then shows truth, result and error.
