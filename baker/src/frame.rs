@@ -25,7 +25,7 @@
 use crate::mesh::{cross, dot, sub, unit};
 use crate::model::FaceMesh;
 
-use crate::openings::{find_openings, mouth_and_eyes, Opening};
+use crate::openings::{mouth_and_eyes, skin_openings, Opening};
 
 /// The smallest cosine between the features' vertical and the file's +Y for which the file's
 /// pitch may be kept (60°): beyond it the file's +Y is not the face's up at all.
@@ -44,7 +44,11 @@ pub const PITCH_TRUSTED: f64 = 10.0;
 /// Whether `mesh`'s skin has a mouth and two eyes ([`FaceFrame::find`]): how a file's face is
 /// told from its eyes, teeth and body.
 pub fn has_face(mesh: &FaceMesh) -> bool {
-    let openings = find_openings(&mesh.welded_topology(), &mesh.welded_positions);
+    let openings = skin_openings(
+        &mesh.welded_topology(),
+        &mesh.welded_positions,
+        &mesh.welded_triangles,
+    );
     FaceFrame::find(&openings, bulk(&mesh.welded_positions)).is_some()
 }
 
@@ -68,7 +72,11 @@ impl FaceFrame {
 
     /// The frame of `mesh`'s openings (see the module docs), else [`Self::FILE`].
     pub fn of(mesh: &FaceMesh) -> Self {
-        let openings = find_openings(&mesh.welded_topology(), &mesh.welded_positions);
+        let openings = skin_openings(
+            &mesh.welded_topology(),
+            &mesh.welded_positions,
+            &mesh.welded_triangles,
+        );
         Self::from_openings(&openings, bulk(&mesh.welded_positions))
     }
 

@@ -20,7 +20,7 @@
 //! The regions are found once per mesh ([`Regions`]) and reused for every frame.
 //!
 //! Openings are the skin's boundary loops less the longest (see
-//! [`find_openings`]). With y up: the mouth is the
+//! [`skin_openings`]). With y up: the mouth is the
 //! lowest opening, the eyes the two highest above it; with exactly two openings side by side
 //! (centres further apart across than up and down) they are eyes and the mouth is closed.
 //! Openings of fewer than [`MIN_OPENING_VERTICES`] vertices are ignored. A rim is split at its
@@ -35,7 +35,7 @@
 
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
 use crate::model::{weld_positions, FaceMesh};
-use crate::openings::{find_openings, Opening};
+use crate::openings::{skin_openings, Opening};
 
 /// Openings with fewer rim vertices are not mouth or eyes.
 pub const MIN_OPENING_VERTICES: usize = 6;
@@ -360,7 +360,7 @@ impl Regions {
             .collect();
         let topology = Topology::new(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
-        let openings = find_openings(&topology, &welded);
+        let openings = skin_openings(&topology, &welded, &welded_triangles);
         let frame = crate::frame::FaceFrame::from_openings(&openings, crate::frame::bulk(&welded));
         let welded = frame.points(&welded);
         let openings: Vec<Opening> = openings

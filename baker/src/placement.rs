@@ -157,7 +157,8 @@ pub const LIP_OFF_RIM_COST: f64 = 0.3;
 /// (larger x), right eye.
 pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {
     let topo = mesh.welded_topology();
-    let openings = crate::openings::find_openings(&topo, &mesh.welded_positions);
+    let openings =
+        crate::openings::skin_openings(&topo, &mesh.welded_positions, &mesh.welded_triangles);
     let Some((lips, [right, left])) = crate::openings::mouth_and_eyes(&openings) else {
         return Err(PlacementError::Mesh(format!(
             "{}: the skin has {} openings; placing lip and eyelid markers needs 3 (lips, two eyes)",

@@ -103,12 +103,13 @@ fn layout() -> MarkerLayout {
 /// The truth's 32 frames through the default rig of the posed head, measured on the upright
 /// head: (structure, face mean error in mm).
 fn truth_take(pose: &Pose) -> (TakeMetrics, f64) {
-    truth_take_of(pose.mesh(&facecap()), pose)
+    truth_take_of(pose.mesh(&facecap()), pose, Some(0.2))
 }
 
 /// [`truth_take`] of `mesh` (the posed head, perhaps with vertices added after FaceCap's),
-/// measured on FaceCap's own vertices.
-fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
+/// measured on FaceCap's own vertices; with `dense_bar`, the sparse rig's mean distance from
+/// its dense reference where the mouth is corrected must be within it (mm).
+fn truth_take_of(mesh: FaceMesh, pose: &Pose, dense_bar: Option<f64>) -> (TakeMetrics, f64) {
     let upright = facecap();
     let count = upright.positions.len();
     let truth = GroundTruth::new(mesh, FACECAP_MARKERS, 6).expect("truth");
@@ -143,7 +144,7 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
     let facebake::bake::DeformerReference::Weights(dense) = &baked.reference.deformer else {
         panic!("the default's reference is its dense weights");
     };
-    let corrected: Vec<usize> = (0..dense.vertical.len())
+    let corrected: Vec<usize> = (0..dense.vertical.len().min(count))
         .filter(|&v| !dense.vertical[v].is_empty())
         .collect();
     let (mut sum, mut n) = (0.0, 0);
@@ -164,7 +165,9 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
         corrected.len()
     );
     assert!(worst <= 2e-5 * scene.truth.mesh.diagonal(), "{worst}");
-    assert!(vs_dense <= 0.2, "sparse vs dense {vs_dense} mm");
+    if let Some(bar) = dense_bar {
+        assert!(vs_dense <= bar, "sparse vs dense {vs_dense} mm");
+    }
     let back = |frame: Vec<[f64; 3]>| -> Vec<[f64; 3]> {
         frame
             .into_iter()
@@ -192,6 +195,12 @@ fn truth_take_of(mesh: FaceMesh, pose: &Pose) -> (TakeMetrics, f64) {
     (take, sum / count as f64)
 }
 
+/// A loop of welded vertices as glTF vertices of `mesh`.
+fn gltf_ring(mesh: &FaceMesh, welded: &[u32]) -> Vec<u32> {
+    let original = mesh.welded_to_original();
+    welded.iter().map(|&w| original[w as usize]).collect()
+}
+
 /// FaceCap with its neck closed by a fan of triangles about the cut's centre: the skin's only
 /// loops are then the mouth and the eyes.
 fn closed_at_the_neck(mesh: &FaceMesh) -> FaceMesh {
@@ -201,12 +210,7 @@ fn closed_at_the_neck(mesh: &FaceMesh) -> FaceMesh {
         .iter()
         .max_by(|a, b| a.length.total_cmp(&b.length))
         .expect("a neck");
-    let original = mesh.welded_to_original();
-    let ring: Vec<u32> = neck
-        .vertices
-        .iter()
-        .map(|&w| original[w as usize])
-        .collect();
+    let ring = gltf_ring(mesh, &neck.vertices);
     let mut positions = mesh.positions.clone();
     let centre = facebake::mesh::centroid(&mesh.welded_positions, &neck.vertices);
     positions.push(centre);
@@ -229,11 +233,89 @@ fn closed_at_the_neck(mesh: &FaceMesh) -> FaceMesh {
 /// lips 12.6 mm); now as the open head (0.34 mm, 6.7 mm).
 #[test]
 fn a_head_closed_at_the_neck_keeps_its_mouth() {
-    let (take, mean) = truth_take_of(closed_at_the_neck(&facecap()), &Pose::UPRIGHT);
+    let (take, mean) = truth_take_of(closed_at_the_neck(&facecap()), &Pose::UPRIGHT, None);
     println!("closed at the neck: {take}; skin mean {mean:.4} mm");
     assert!(take.static_drift_mm.0 <= 0.4, "{take}");
     assert!(take.lips_mm.unwrap().0 <= 7.0, "{take}");
     assert!(mean <= 0.57, "{mean}");
+}
+
+/// FaceCap with its mouth closed by a bag, as many heads are built: the lip rim joined to a
+/// ring 15 mm behind it (shrunk to 0.6 about the mouth's centre) and fanned shut, the bag
+/// riding the rim in every morph target. The skin then has no hole at the mouth.
+fn bagged(mesh: &FaceMesh) -> FaceMesh {
+    let topology = mesh.welded_topology();
+    let openings = facebake::openings::find_openings(&topology, &mesh.welded_positions);
+    let (mouth, _) = facebake::openings::mouth_and_eyes(&openings).expect("a face");
+    let ring = gltf_ring(mesh, &mouth.vertices);
+    let mut positions = mesh.positions.clone();
+    let centre = mouth.centre;
+    let first = positions.len() as u32;
+    for &v in &ring {
+        let p = positions[v as usize];
+        let inner = [0, 1].map(|c| centre[c] + 0.6 * (p[c] - centre[c]));
+        positions.push([inner[0], inner[1], p[2] - 0.015]);
+    }
+    positions.push([centre[0], centre[1], centre[2] - 0.02]);
+    let hub = (positions.len() - 1) as u32;
+    let mut triangles = mesh.triangles.clone();
+    let n = ring.len() as u32;
+    for i in 0..n {
+        let (a, b) = (ring[i as usize], ring[((i + 1) % n) as usize]);
+        let (c, d) = (first + i, first + (i + 1) % n);
+        triangles.extend([[b, a, c], [b, c, d], [d, c, hub]]);
+    }
+    let mut closed = FaceMesh::from_triangles("head", positions, triangles);
+    closed.morph_targets = mesh.morph_targets.clone();
+    for target in &mut closed.morph_targets {
+        let rim: Vec<[f64; 3]> = ring.iter().map(|&v| target.deltas[v as usize]).collect();
+        let mean = [0, 1, 2].map(|c| rim.iter().map(|d| d[c]).sum::<f64>() / f64::from(n));
+        target.deltas.extend(rim);
+        target.deltas.push(mean);
+    }
+    closed
+}
+
+/// A mouth closed by a bag is found behind its lips (`openings::closed_mouth`): the loop where
+/// the skin stops being seen is FaceCap's own lip rim, and the default bake parts the lips.
+/// Measured 2026-12-03: before, the bake refused the head ("the skin has 2 openings"), and
+/// with `--no-masks` it kept the lips 11.9 mm off; now static drift 0.34 mm, lips 6.3 mm,
+/// eyelids 0.8 mm, 2.10× (one edge over 2× in one frame), 1 flip, skin mean 0.5509 mm (the open
+/// head: 0.34, 7.1, 0.9 mm, 1.89×, 1 flip, 0.5526 mm).
+#[test]
+fn a_mouth_closed_by_a_bag_is_found_behind_its_lips() {
+    let open = facecap();
+    let closed = bagged(&open);
+    let openings_of = |m: &FaceMesh| {
+        facebake::openings::skin_openings(
+            &m.welded_topology(),
+            &m.welded_positions,
+            &m.welded_triangles,
+        )
+    };
+    let (was, now) = (openings_of(&open), openings_of(&closed));
+    let bare =
+        facebake::openings::find_openings(&closed.welded_topology(), &closed.welded_positions);
+    assert_eq!(bare.len(), 2, "the bag closes the mouth");
+    assert_eq!(now.len(), 3);
+    let mouth = |o: &[facebake::openings::Opening]| {
+        // Its vertex count, length and centre (in µm): the same rim.
+        let (m, _) = facebake::openings::mouth_and_eyes(o).expect("a mouth and two eyes");
+        (
+            m.vertices.len(),
+            (m.length * 1e6).round(),
+            m.centre.map(|c| (c * 1e6).round()),
+        )
+    };
+    assert_eq!(mouth(&was), mouth(&now));
+    let (take, mean) = truth_take_of(closed, &Pose::UPRIGHT, None);
+    println!("mouth closed by a bag: {take}; skin mean {mean:.4} mm");
+    assert!(take.static_drift_mm.0 <= 0.4, "{take}");
+    assert!(take.lips_mm.unwrap().0 <= 6.5, "{take}");
+    assert!(take.eyelids_mm.unwrap().0 <= 1.0, "{take}");
+    assert!(take.max_stretch.0 <= 2.15, "{take}");
+    assert!(take.flipped.0 <= 1, "{take}");
+    assert!(mean <= 0.56, "{mean}");
 }
 
 #[test]

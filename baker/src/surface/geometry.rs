@@ -4,7 +4,7 @@
 use crate::geodesic::{GeodesicError, GeodesicMethod, Geodesics, Source};
 use crate::model::FaceMesh;
 
-use crate::openings::{find_openings, Opening};
+use crate::openings::{skin_openings, Opening};
 
 /// Geodesic measurements on a face mesh for a set of markers.
 pub struct SurfaceGeometry {
@@ -37,7 +37,11 @@ impl SurfaceGeometry {
         let geodesics = Geodesics::new(&mesh.welded_positions, &mesh.welded_triangles, method)?;
         let fields = geodesics.from_sources(sources)?;
         let between = geodesics.between_fields(sources, &fields)?;
-        let openings = find_openings(geodesics.topology(), &mesh.welded_positions);
+        let openings = skin_openings(
+            geodesics.topology(),
+            &mesh.welded_positions,
+            &mesh.welded_triangles,
+        );
         let opening_distance = openings
             .iter()
             .map(|o| geodesics.from_vertex_set(&o.vertices))

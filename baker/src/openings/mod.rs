@@ -5,6 +5,8 @@
 //! (FaceCap's: 108 mm of rim against a 555 mm neck and a diagonal of about 410 mm) stays an
 //! opening.
 
+pub mod closed_mouth;
+
 use crate::mesh::{centroid, distance, Topology};
 
 /// How many times longer than the next loop the longest must be to be taken as the mesh's cut
@@ -48,6 +50,28 @@ pub fn find_openings(topology: &Topology, welded_positions: &[[f64; 3]]) -> Vec<
             length: l.length,
         })
         .collect()
+}
+
+/// The openings of a face's skin: [`find_openings`], and where they are two eyes and no mouth,
+/// the mouth found behind its lips ([`closed_mouth::mouth_behind_lips`]), if there is one.
+pub fn skin_openings(
+    topology: &Topology,
+    welded_positions: &[[f64; 3]],
+    welded_triangles: &[[u32; 3]],
+) -> Vec<Opening> {
+    let mut openings = find_openings(topology, welded_positions);
+    if let [a, b] = openings.as_slice() {
+        let alike = (a.length - b.length).abs() <= 0.25 * a.length.max(b.length);
+        if alike {
+            if let Some(mouth) =
+                closed_mouth::mouth_behind_lips(welded_positions, welded_triangles, [a, b])
+            {
+                openings.push(mouth);
+                openings.sort_by(|a, b| b.length.total_cmp(&a.length));
+            }
+        }
+    }
+    openings
 }
 
 /// The mouth and the two eyes among `openings`: of the three longest, the eyes are the two

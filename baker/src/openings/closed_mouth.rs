@@ -1,0 +1,160 @@
+//! A mouth whose lips are joined to a mouth bag: the skin runs on from the lips into the mouth
+//! and has no hole there, so only the eyes (and the neck) are boundary loops. The lips' line is
+//! where the skin stops being seen: [`mouth_behind_lips`] looks at the face from the front and
+//! from around it, takes the triangles with a vertex no view sees (the bag, hidden behind the
+//! lips) off the skin, and the new boundary loop below the eyes is the mouth's opening.
+//!
+//! The front is read from the eyes and the head's bulk (the skin's centroid, behind the face):
+//! from the bulk towards the eyes' midpoint, square to the line between the eyes. Views: the
+//! front and [`VIEWS`] directions [`VIEW_TILT`] degrees around it, each an orthographic depth
+//! buffer of every triangle with cells of [`CELLS_PER_EYE_SPACING`]⁻¹ of the eyes' spacing. A
+//! vertex is seen in a view when no cell around it holds anything more than
+//! [`DEPTH_TOLERANCE`] cells in front of it.
+
+use crate::mesh::{centroid, cross, distance, dot, sub, unit, Topology};
+use crate::openings::{find_openings, Opening};
+
+/// Views around the front, besides the front itself.
+pub const VIEWS: usize = 8;
+/// How far those views turn from the front, in degrees.
+pub const VIEW_TILT: f64 = 30.0;
+/// Depth-buffer cells across the eyes' spacing.
+pub const CELLS_PER_EYE_SPACING: f64 = 40.0;
+/// How far behind the nearest surface (in cells) a vertex still counts as seen.
+pub const DEPTH_TOLERANCE: f64 = 1.5;
+/// Most cells a depth buffer has on a side (a larger mesh takes larger cells).
+const MAX_CELLS: usize = 1024;
+
+/// The mouth of a skin whose only openings are `eyes` (two loops alike in length, among
+/// `openings`), found behind its lips (see the module docs); `None` when there is no such
+/// mouth: no unseen skin, or no new loop about as far from either eye, 0.5 to 3 eye spacings
+/// from their midpoint.
+pub fn mouth_behind_lips(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    eyes: [&Opening; 2],
+) -> Option<Opening> {
+    let [a, b] = eyes.map(|e| e.centre);
+    let spacing = distance(&a, &b);
+    let right = unit(&sub(&b, &a))?;
+    let middle = [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]));
+    let all: Vec<u32> = (0..positions.len() as u32).collect();
+    let bulk = centroid(positions, &all);
+    let towards = sub(&middle, &bulk);
+    let front = unit(&sub(&towards, &right.map(|r| r * dot(&towards, &right))))?;
+    let cell = spacing / CELLS_PER_EYE_SPACING;
+    let mut seen = vec![false; positions.len()];
+    for view in views(front, right) {
+        mark_seen(positions, triangles, view, cell, &mut seen);
+    }
+    let shown: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&v| seen[v as usize]))
+        .collect();
+    if shown.len() == triangles.len() {
+        return None;
+    }
+    let topology = Topology::new(positions, &shown);
+    let opened = find_openings(&topology, positions);
+    let old: Vec<u32> = eyes
+        .iter()
+        .flat_map(|e| e.vertices.iter().copied())
+        .collect();
+    opened
+        .into_iter()
+        .filter(|o| !o.vertices.iter().any(|v| old.contains(v)))
+        .filter(|o| {
+            let (to_a, to_b) = (distance(&o.centre, &a), distance(&o.centre, &b));
+            let height = distance(&o.centre, &middle);
+            (0.5 * spacing..=3.0 * spacing).contains(&height)
+                && (to_a - to_b).abs() <= 0.25 * to_a.max(to_b)
+        })
+        .max_by(|p, q| p.length.total_cmp(&q.length))
+}
+
+/// The front and [`VIEWS`] directions [`VIEW_TILT`] around it.
+fn views(front: [f64; 3], right: [f64; 3]) -> Vec<[f64; 3]> {
+    let up = cross(&front, &right);
+    let (sin, cos) = VIEW_TILT.to_radians().sin_cos();
+    let mut out = vec![front];
+    for k in 0..VIEWS {
+        let (s, c) = (std::f64::consts::TAU * k as f64 / VIEWS as f64).sin_cos();
+        out.push([0, 1, 2].map(|i| cos * front[i] + sin * (c * right[i] + s * up[i])));
+    }
+    out
+}
+
+/// Marks in `seen` the vertices a view along `view` (looking back along it: depth grows
+/// towards the viewer) sees, with cells of side `cell`.
+fn mark_seen(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    view: [f64; 3],
+    cell: f64,
+    seen: &mut [bool],
+) {
+    let Some(u) = unit(&cross(
+        &view,
+        &if view[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        },
+    )) else {
+        return;
+    };
+    let w = cross(&view, &u);
+    let projected: Vec<[f64; 3]> = positions
+        .iter()
+        .map(|p| [dot(p, &u), dot(p, &w), dot(p, &view)])
+        .collect();
+    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+    for p in &projected {
+        for c in 0..2 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let side = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / MAX_CELLS as f64).max(cell);
+    let [nx, ny] = [0, 1].map(|c| (((hi[c] - lo[c]) / side) as usize + 1).min(MAX_CELLS));
+    let at = |p: &[f64; 3]| [0, 1].map(|c| (p[c] - lo[c]) / side);
+    let mut depth = vec![f64::MIN; nx * ny];
+    for t in triangles {
+        let [p, q, r] = t.map(|v| projected[v as usize]);
+        let [pa, qa, ra] = [at(&p), at(&q), at(&r)];
+        let area = (qa[0] - pa[0]) * (ra[1] - pa[1]) - (ra[0] - pa[0]) * (qa[1] - pa[1]);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let x0 = pa[0].min(qa[0]).min(ra[0]).floor().max(0.0) as usize;
+        let x1 = (pa[0].max(qa[0]).max(ra[0]).ceil() as usize).min(nx - 1);
+        let y0 = pa[1].min(qa[1]).min(ra[1]).floor().max(0.0) as usize;
+        let y1 = (pa[1].max(qa[1]).max(ra[1]).ceil() as usize).min(ny - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+                let l1 = ((qa[0] - cx) * (ra[1] - cy) - (ra[0] - cx) * (qa[1] - cy)) / area;
+                let l2 = ((ra[0] - cx) * (pa[1] - cy) - (pa[0] - cx) * (ra[1] - cy)) / area;
+                let l3 = 1.0 - l1 - l2;
+                if l1 < 0.0 || l2 < 0.0 || l3 < 0.0 {
+                    continue;
+                }
+                let d = l1 * p[2] + l2 * q[2] + l3 * r[2];
+                let slot = &mut depth[y * nx + x];
+                *slot = slot.max(d);
+            }
+        }
+    }
+    let tolerance = DEPTH_TOLERANCE * side;
+    for (v, p) in projected.iter().enumerate() {
+        let [x, y] = at(p).map(|c| c.max(0.0) as usize);
+        let front_most = (y.saturating_sub(1)..=(y + 1).min(ny - 1))
+            .flat_map(|y| (x.saturating_sub(1)..=(x + 1).min(nx - 1)).map(move |x| (x, y)))
+            .map(|(x, y)| depth[y * nx + x])
+            .fold(f64::MAX, f64::min);
+        if p[2] >= front_most - tolerance {
+            seen[v] = true;
+        }
+    }
+}
