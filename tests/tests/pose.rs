@@ -277,11 +277,13 @@ fn bagged(mesh: &FaceMesh) -> FaceMesh {
 }
 
 /// A mouth closed by a bag is found behind its lips (`openings::closed_mouth`): the loop where
-/// the skin stops being seen is FaceCap's own lip rim, and the default bake parts the lips.
-/// Measured 2026-12-03: before, the bake refused the head ("the skin has 2 openings"), and
-/// with `--no-masks` it kept the lips 11.9 mm off; now static drift 0.34 mm, lips 6.3 mm,
-/// eyelids 0.8 mm, 2.10× (one edge over 2× in one frame), 1 flip, skin mean 0.5509 mm (the open
-/// head: 0.34, 7.1, 0.9 mm, 1.89×, 1 flip, 0.5526 mm).
+/// the skin stops being seen is FaceCap's own lip rim, distances go round it as round the open
+/// mouth, and the bag rides the skin beside it as a piece of its own. Measured 2026-12-03:
+/// before, the bake refused the head ("the skin has 2 openings"), and with `--no-masks` kept
+/// the lips 11.9 mm off; with the bag kept in the skin's distances, lips 6.3 mm, 2.10× (one
+/// edge over 2×), and on JawMoCap 3 triangles at the mouth's corners turned over; now the open
+/// head's figures on every one of FaceCap's vertices (static drift 0.34 mm, lips 7.1 mm,
+/// eyelids 0.9 mm, 1.89×, 1 flip, skin mean 0.5526 mm).
 #[test]
 fn a_mouth_closed_by_a_bag_is_found_behind_its_lips() {
     let open = facecap();
@@ -308,14 +310,24 @@ fn a_mouth_closed_by_a_bag_is_found_behind_its_lips() {
         )
     };
     assert_eq!(mouth(&was), mouth(&now));
-    let (take, mean) = truth_take_of(closed, &Pose::UPRIGHT, None);
+    let (take, mean) = truth_take_of(closed, &Pose::UPRIGHT, Some(0.2));
+    let (upright, upright_mean) = truth_take(&Pose::UPRIGHT);
     println!("mouth closed by a bag: {take}; skin mean {mean:.4} mm");
-    assert!(take.static_drift_mm.0 <= 0.4, "{take}");
-    assert!(take.lips_mm.unwrap().0 <= 6.5, "{take}");
-    assert!(take.eyelids_mm.unwrap().0 <= 1.0, "{take}");
-    assert!(take.max_stretch.0 <= 2.15, "{take}");
-    assert!(take.flipped.0 <= 1, "{take}");
-    assert!(mean <= 0.56, "{mean}");
+    let lips = |t: &TakeMetrics| t.lips_mm.unwrap().0;
+    assert!((lips(&take) - lips(&upright)).abs() <= 0.05, "{take}");
+    assert!(
+        take.static_drift_mm.0 <= upright.static_drift_mm.0 + 0.01,
+        "{take}"
+    );
+    assert!(
+        (take.max_stretch.0 - upright.max_stretch.0).abs() <= 0.02,
+        "{take}"
+    );
+    assert_eq!(take.flipped.0, upright.flipped.0, "{take}");
+    assert!(
+        (mean - upright_mean).abs() <= 1e-3,
+        "{mean} vs {upright_mean}"
+    );
 }
 
 #[test]

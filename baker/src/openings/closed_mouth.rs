@@ -25,6 +25,15 @@ pub const DEPTH_TOLERANCE: f64 = 1.5;
 /// Most cells a depth buffer has on a side (a larger mesh takes larger cells).
 const MAX_CELLS: usize = 1024;
 
+/// A mouth found behind its lips: its opening and the skin without the mouth's bag.
+pub struct ClosedMouth {
+    /// The loop where the skin stops being seen, welded vertex ids.
+    pub opening: Opening,
+    /// The mesh's triangles less the seam between the skin and the mouth's bag
+    /// ([`without_bag`]).
+    pub seen: Vec<[u32; 3]>,
+}
+
 /// The mouth of a skin whose only openings are `eyes` (two loops alike in length, among
 /// `openings`), found behind its lips (see the module docs); `None` when there is no such
 /// mouth: no unseen skin, or no new loop about as far from either eye, 0.5 to 3 eye spacings
@@ -33,7 +42,7 @@ pub fn mouth_behind_lips(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
     eyes: [&Opening; 2],
-) -> Option<Opening> {
+) -> Option<ClosedMouth> {
     let [a, b] = eyes.map(|e| e.centre);
     let spacing = distance(&a, &b);
     let right = unit(&sub(&b, &a))?;
@@ -61,7 +70,7 @@ pub fn mouth_behind_lips(
         .iter()
         .flat_map(|e| e.vertices.iter().copied())
         .collect();
-    opened
+    let opening = opened
         .into_iter()
         .filter(|o| !o.vertices.iter().any(|v| old.contains(v)))
         .filter(|o| {
@@ -70,7 +79,49 @@ pub fn mouth_behind_lips(
             (0.5 * spacing..=3.0 * spacing).contains(&height)
                 && (to_a - to_b).abs() <= 0.25 * to_a.max(to_b)
         })
-        .max_by(|p, q| p.length.total_cmp(&q.length))
+        .max_by(|p, q| p.length.total_cmp(&q.length))?;
+    let seen = without_bag(triangles, &seen, &opening.vertices);
+    Some(ClosedMouth { opening, seen })
+}
+
+/// `triangles` less the seam between the skin and the mouth's bag: of the unseen triangles (a
+/// vertex no view sees) reached from the `rim` through unseen vertices (the bag), those with a
+/// vertex the views see. The rest of the bag stays whole, a piece of its own like a mouth's
+/// lining; other unseen triangles (a nostril's inside, the teeth, a tongue) stay too.
+fn without_bag(triangles: &[[u32; 3]], seen: &[bool], rim: &[u32]) -> Vec<[u32; 3]> {
+    let hidden = |t: &[u32; 3]| t.iter().any(|&v| !seen[v as usize]);
+    let mut touching: Vec<Vec<usize>> = vec![Vec::new(); seen.len()];
+    for (i, t) in triangles.iter().enumerate() {
+        if hidden(t) {
+            for &v in t {
+                touching[v as usize].push(i);
+            }
+        }
+    }
+    let mut in_bag = vec![false; triangles.len()];
+    let mut reached = vec![false; seen.len()];
+    let mut stack: Vec<u32> = rim.to_vec();
+    for &v in rim {
+        reached[v as usize] = true;
+    }
+    while let Some(v) = stack.pop() {
+        for &i in &touching[v as usize] {
+            if std::mem::replace(&mut in_bag[i], true) {
+                continue;
+            }
+            for &w in &triangles[i] {
+                if !seen[w as usize] && !std::mem::replace(&mut reached[w as usize], true) {
+                    stack.push(w);
+                }
+            }
+        }
+    }
+    triangles
+        .iter()
+        .zip(&in_bag)
+        .filter(|(t, &bag)| !bag || t.iter().all(|&v| !seen[v as usize]))
+        .map(|(t, _)| *t)
+        .collect()
 }
 
 /// The front and [`VIEWS`] directions [`VIEW_TILT`] around it.

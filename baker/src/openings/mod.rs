@@ -60,18 +60,39 @@ pub fn skin_openings(
     welded_triangles: &[[u32; 3]],
 ) -> Vec<Opening> {
     let mut openings = find_openings(topology, welded_positions);
-    if let [a, b] = openings.as_slice() {
-        let alike = (a.length - b.length).abs() <= 0.25 * a.length.max(b.length);
-        if alike {
-            if let Some(mouth) =
-                closed_mouth::mouth_behind_lips(welded_positions, welded_triangles, [a, b])
-            {
-                openings.push(mouth);
-                openings.sort_by(|a, b| b.length.total_cmp(&a.length));
-            }
-        }
+    if let Some(mouth) = closed_mouth_of(&openings, welded_positions, welded_triangles) {
+        openings.push(mouth.opening);
+        openings.sort_by(|a, b| b.length.total_cmp(&a.length));
     }
     openings
+}
+
+/// The skin's triangles less a closed mouth's bag ([`closed_mouth`]), when its openings are two
+/// eyes and a mouth is found behind the lips: distances along the skin then go round the
+/// mouth as they do round an open one. `None`: the skin as it is.
+pub fn skin_without_mouth_bag(
+    topology: &Topology,
+    welded_positions: &[[f64; 3]],
+    welded_triangles: &[[u32; 3]],
+) -> Option<Vec<[u32; 3]>> {
+    let openings = find_openings(topology, welded_positions);
+    closed_mouth_of(&openings, welded_positions, welded_triangles).map(|m| m.seen)
+}
+
+/// The closed mouth of a skin whose `openings` are two eyes alike in length, if there is one.
+fn closed_mouth_of(
+    openings: &[Opening],
+    welded_positions: &[[f64; 3]],
+    welded_triangles: &[[u32; 3]],
+) -> Option<closed_mouth::ClosedMouth> {
+    let [a, b] = openings else {
+        return None;
+    };
+    let alike = (a.length - b.length).abs() <= 0.25 * a.length.max(b.length);
+    if !alike {
+        return None;
+    }
+    closed_mouth::mouth_behind_lips(welded_positions, welded_triangles, [a, b])
 }
 
 /// The mouth and the two eyes among `openings`: of the three longest, the eyes are the two

@@ -34,7 +34,15 @@ impl SurfaceGeometry {
         sources: &[Source],
         method: GeodesicMethod,
     ) -> Result<Self, GeodesicError> {
-        let geodesics = Geodesics::new(&mesh.welded_positions, &mesh.welded_triangles, method)?;
+        // A mouth closed by a bag: distances go round it as round an open mouth, and the bag,
+        // which no marker then reaches, rides the skin beside it as the mouth's lining does.
+        let bagless = crate::openings::skin_without_mouth_bag(
+            &mesh.welded_topology(),
+            &mesh.welded_positions,
+            &mesh.welded_triangles,
+        );
+        let triangles = bagless.as_deref().unwrap_or(&mesh.welded_triangles);
+        let geodesics = Geodesics::new(&mesh.welded_positions, triangles, method)?;
         let fields = geodesics.from_sources(sources)?;
         let between = geodesics.between_fields(sources, &fields)?;
         let openings = skin_openings(
