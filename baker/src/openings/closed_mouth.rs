@@ -24,6 +24,10 @@ pub const CELLS_PER_EYE_SPACING: f64 = 40.0;
 pub const DEPTH_TOLERANCE: f64 = 1.5;
 /// Most cells a depth buffer has on a side (a larger mesh takes larger cells).
 const MAX_CELLS: usize = 1024;
+/// Most cells a view's triangles may cover between them (their bounding boxes): a face's
+/// triangles cover a few cells each, so a mesh past this is not looked at (no mouth is found
+/// behind its lips) rather than taking unbounded time.
+const MAX_RASTER_CELLS: f64 = 64.0 * 1024.0 * 1024.0;
 
 /// A mouth found behind its lips: its opening and the skin without the mouth's bag.
 pub struct ClosedMouth {
@@ -54,7 +58,9 @@ pub fn mouth_behind_lips(
     let cell = spacing / CELLS_PER_EYE_SPACING;
     let mut seen = vec![false; positions.len()];
     for view in views(front, right) {
-        mark_seen(positions, triangles, view, cell, &mut seen);
+        if !mark_seen(positions, triangles, view, cell, &mut seen) {
+            return None;
+        }
     }
     let shown: Vec<[u32; 3]> = triangles
         .iter()
@@ -137,14 +143,15 @@ fn views(front: [f64; 3], right: [f64; 3]) -> Vec<[f64; 3]> {
 }
 
 /// Marks in `seen` the vertices a view along `view` (looking back along it: depth grows
-/// towards the viewer) sees, with cells of side `cell`.
+/// towards the viewer) sees, with cells of side `cell`; `false` (nothing marked) when the
+/// triangles would cover more than [`MAX_RASTER_CELLS`].
 fn mark_seen(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
     view: [f64; 3],
     cell: f64,
     seen: &mut [bool],
-) {
+) -> bool {
     let Some(u) = unit(&cross(
         &view,
         &if view[0].abs() < 0.9 {
@@ -153,7 +160,7 @@ fn mark_seen(
             [0.0, 1.0, 0.0]
         },
     )) else {
-        return;
+        return false;
     };
     let w = cross(&view, &u);
     let projected: Vec<[f64; 3]> = positions
@@ -170,6 +177,22 @@ fn mark_seen(
     let side = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / MAX_CELLS as f64).max(cell);
     let [nx, ny] = [0, 1].map(|c| (((hi[c] - lo[c]) / side) as usize + 1).min(MAX_CELLS));
     let at = |p: &[f64; 3]| [0, 1].map(|c| (p[c] - lo[c]) / side);
+    let boxes: f64 = triangles
+        .iter()
+        .map(|t| {
+            let q = t.map(|v| at(&projected[v as usize]));
+            let span = |c: usize| {
+                let (lo, hi) = q
+                    .iter()
+                    .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p[c]), h.max(p[c])));
+                (hi - lo).min(MAX_CELLS as f64) + 2.0
+            };
+            span(0) * span(1)
+        })
+        .sum();
+    if boxes.is_nan() || boxes > MAX_RASTER_CELLS {
+        return false;
+    }
     let mut depth = vec![f64::MIN; nx * ny];
     for t in triangles {
         let [p, q, r] = t.map(|v| projected[v as usize]);
@@ -207,5 +230,45 @@ fn mark_seen(
         if p[2] >= front_most - tolerance {
             seen[v] = true;
         }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A view sees the corners of a triangle facing it, and refuses (marks nothing) when the
+    /// triangles would cover more cells than [`MAX_RASTER_CELLS`].
+    #[test]
+    fn views_see_what_faces_them_within_a_bounded_cost() {
+        let positions = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.2, 0.2, -0.5],
+        ];
+        let one = [[0u32, 1, 2]];
+        let mut seen = [false; 4];
+        assert!(mark_seen(
+            &positions,
+            &one,
+            [0.0, 0.0, 1.0],
+            1e-3,
+            &mut seen
+        ));
+        // The fourth vertex is behind the triangle and in no triangle: unseen.
+        assert_eq!(seen, [true, true, true, false]);
+        // About 2^20 cells each: a hundred of them is past the budget.
+        let many = [[0u32, 1, 2]; 100];
+        let mut seen = [false; 4];
+        assert!(!mark_seen(
+            &positions,
+            &many,
+            [0.0, 0.0, 1.0],
+            1e-3,
+            &mut seen
+        ));
+        assert_eq!(seen, [false; 4]);
     }
 }
