@@ -45,7 +45,8 @@ impl Graph {
         }
     }
 
-    fn edges_of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+    /// The neighbours of `v` with the lengths of the edges to them.
+    pub(crate) fn edges_of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
         let range = self.start[v]..self.start[v + 1];
         self.targets[range.clone()]
             .iter()

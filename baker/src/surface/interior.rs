@@ -247,18 +247,108 @@ fn rise_to_the_back(centres: &[[f64; 3]]) -> f64 {
     (-szy / szz).clamp(0.0, RISE_MAX)
 }
 
+/// Per glTF vertex of `mesh`, the skin vertex (glTF id) it hangs from when it lies in one of the
+/// `pieces` but the mesh joins that piece to the skin (a mouth's bag, whose seam with the lips
+/// the distances leave out, `openings::closed_mouth`): the skin vertex a shortest edge path
+/// through the piece leads to. `None` elsewhere, and for pieces the mesh keeps apart (teeth).
+pub(crate) fn hanging(mesh: &crate::model::FaceMesh, pieces: &[Piece<'_>]) -> Vec<Option<u32>> {
+    let n = mesh.welded_positions.len();
+    let mut cut = vec![false; n];
+    for &v in pieces.iter().flat_map(|p| p.vertices) {
+        if let Some(&w) = mesh.weld.get(v as usize) {
+            cut[w as usize] = true;
+        }
+    }
+    let graph = crate::geodesic::dijkstra::Graph::new(&mesh.welded_topology());
+    let seeds: Vec<(u32, f64)> = (0..n as u32)
+        .filter(|&w| !cut[w as usize])
+        .map(|w| (w, 0.0))
+        .collect();
+    let dist = crate::geodesic::dijkstra::distances(&graph, &seeds);
+    let mut order: Vec<usize> = (0..n).filter(|&w| cut[w] && dist[w].is_finite()).collect();
+    order.sort_by(|&a, &b| dist[a].total_cmp(&dist[b]));
+    // Each cut vertex takes the label of the neighbour its shortest path comes through, which
+    // is nearer the skin and so labelled already.
+    let mut from: Vec<Option<u32>> = vec![None; n];
+    for w in order {
+        let before = graph
+            .edges_of(w)
+            .filter(|&(u, _)| dist[u] < dist[w])
+            .min_by(|a, b| (dist[a.0] + a.1).total_cmp(&(dist[b.0] + b.1)));
+        from[w] = before.and_then(|(u, _)| if cut[u] { from[u] } else { Some(u as u32) });
+    }
+    let original = mesh.welded_to_original();
+    mesh.weld
+        .iter()
+        .map(|&w| from[w as usize].map(|s| original[s as usize]))
+        .collect()
+}
+
+/// Sweeps of [`stretch_bags`].
+const BAG_SWEEPS: usize = 400;
+
+/// The vertices that `hung` names a skin vertex for (a mouth's bag, [`hanging`]) take the mean
+/// of their neighbours' weights on `mesh`, the skin's held, until they settle (Gauss-Seidel,
+/// [`BAG_SWEEPS`] sweeps): a membrane between the lips, so an opening mouth stretches the whole
+/// bag a little rather than its seam or its back a lot.
+pub(crate) fn stretch_bags(
+    dense: &mut [Vec<f64>],
+    mesh: &crate::model::FaceMesh,
+    hung: &[Option<u32>],
+) {
+    let n = mesh.welded_positions.len();
+    let mut in_bag = vec![false; n];
+    for (v, h) in hung.iter().enumerate() {
+        if h.is_some() {
+            in_bag[mesh.weld[v] as usize] = true;
+        }
+    }
+    let bag: Vec<usize> = (0..n).filter(|&w| in_bag[w]).collect();
+    if bag.is_empty() {
+        return;
+    }
+    let original = mesh.welded_to_original();
+    let mut rows: Vec<Vec<f64>> = (0..n)
+        .map(|w| dense[original[w] as usize].clone())
+        .collect();
+    let neighbours = mesh.welded_topology().neighbours;
+    for _ in 0..BAG_SWEEPS {
+        for &w in &bag {
+            let around = &neighbours[w];
+            if around.is_empty() {
+                continue;
+            }
+            let mut mean = vec![0.0; rows[w].len()];
+            for &u in around {
+                for (m, r) in mean.iter_mut().zip(&rows[u as usize]) {
+                    *m += r / around.len() as f64;
+                }
+            }
+            rows[w] = mean;
+        }
+    }
+    for (v, &w) in mesh.weld.iter().enumerate() {
+        if in_bag[w as usize] {
+            dense[v].clone_from(&rows[w as usize]);
+        }
+    }
+}
+
 /// The `pieces` ride what is beside them: the weights of the reachable vertex nearest them (a
 /// tooth, moving as one, that nearest its centre; a sheet's vertex, that nearest itself), so
 /// they move with that skin instead of being stretched between the lips or pulled by markers
 /// across the face. With a `jaw`, what is on its side of the parting line rides it instead
 /// ([`Jaw::weights`], a tooth with [`TOOTH_LIP`] of the lower lip's markers), blending across a
 /// band of [`JAW_BAND`] spacings about the line, and a tooth on the skull's side rides the skull
-/// markers' mean rather than the skin.
+/// markers' mean rather than the skin. A piece the mesh joins to the skin (a mouth's bag,
+/// [`hanging`]) goes vertex by vertex like a sheet, each vertex that `hung` names a skin vertex
+/// for riding that vertex alone, so the bag keeps to the lip it hangs from.
 pub(crate) fn ride_beside(
     mut dense: Vec<Vec<f64>>,
     pieces: &[Piece<'_>],
     positions: &[[f64; 3]],
     jaw: Option<&Jaw>,
+    hung: &[Option<u32>],
 ) -> Vec<Vec<f64>> {
     if pieces.is_empty() {
         return dense;
@@ -301,9 +391,12 @@ pub(crate) fn ride_beside(
         )
     };
     for piece in pieces {
-        if piece.sheet {
+        let hangs = |v: &u32| hung.get(*v as usize).is_some_and(Option::is_some);
+        if piece.sheet || piece.vertices.iter().any(hangs) {
             for &v in piece.vertices {
-                if let Some(w) = rides(&dense, &positions[v as usize], false) {
+                if let Some(&Some(skin)) = hung.get(v as usize) {
+                    dense[v as usize] = dense[skin as usize].clone();
+                } else if let Some(w) = rides(&dense, &positions[v as usize], false) {
                     dense[v as usize] = w;
                 }
             }
@@ -319,6 +412,67 @@ pub(crate) fn ride_beside(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A strip of six columns of two vertices: the first and last columns skin weighted on
+    /// markers 0 and 1, the four between a piece the mesh joins to both (a bag). Each bag vertex
+    /// hangs from the skin its column is nearer, and the membrane spreads the two lips' weights
+    /// across the bag in proportion, as a stretched sheet would.
+    #[test]
+    fn a_bag_hangs_from_the_skin_and_stretches_between_its_sides() {
+        let positions: Vec<[f64; 3]> = (0..12)
+            .map(|v| [f64::from(v / 2), f64::from(v % 2), 0.0])
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..5u32)
+            .flat_map(|c| {
+                [
+                    [2 * c, 2 * c + 2, 2 * c + 1],
+                    [2 * c + 1, 2 * c + 2, 2 * c + 3],
+                ]
+            })
+            .collect();
+        let mesh = crate::model::FaceMesh::from_triangles("strip", positions.clone(), triangles);
+        let bag: Vec<u32> = (2..10).collect();
+        let pieces = [(1u32, bag.clone())];
+        let pieces = Piece::all(&pieces, &positions, 100.0);
+        let hung = hanging(&mesh, &pieces);
+        for v in 0..12u32 {
+            let column = match v / 2 {
+                0 | 5 => None,
+                1 | 2 => Some(0),
+                _ => Some(5),
+            };
+            assert_eq!(hung[v as usize].map(|s| s / 2), column, "vertex {v}");
+        }
+        let mut dense: Vec<Vec<f64>> = (0..12)
+            .map(|v| {
+                if v < 2 {
+                    vec![1.0, 0.0]
+                } else if v >= 10 {
+                    vec![0.0, 1.0]
+                } else {
+                    vec![0.5, 0.5]
+                }
+            })
+            .collect();
+        dense = ride_beside(dense, &pieces, &positions, None, &hung);
+        stretch_bags(&mut dense, &mesh, &hung);
+        // Convex, rising from one side to the other, and the same seen from either side (the
+        // strip is the same turned half round: vertex v and 11 − v).
+        for v in 2..10usize {
+            assert!(
+                (dense[v][0] + dense[v][1] - 1.0).abs() < 1e-9,
+                "{:?}",
+                dense[v]
+            );
+            assert!(
+                (dense[v][1] + dense[11 - v][1] - 1.0).abs() < 1e-6,
+                "vertex {v}"
+            );
+        }
+        let column = |c: usize| 0.5 * (dense[2 * c][1] + dense[2 * c + 1][1]);
+        let rising: Vec<f64> = (0..6).map(column).collect();
+        assert!(rising.windows(2).all(|w| w[1] > w[0] + 0.05), "{rising:?}");
+    }
 
     /// An arch of six teeth centres rising 0.2 to the back, its front 4 below the mouth at 0.
     fn arch(rise: f64) -> Vec<[f64; 3]> {
@@ -424,7 +578,13 @@ mod tests {
         }
         // The lower arch rides the chin and a quarter of the lower lip; the upper, the skull.
         let dense = vec![vec![0.0; 3]; both.len()];
-        let rode = ride_beside(dense, &Piece::all(&pieces, &both, 20.0), &both, Some(&jaw));
+        let rode = ride_beside(
+            dense,
+            &Piece::all(&pieces, &both, 20.0),
+            &both,
+            Some(&jaw),
+            &[],
+        );
         for (v, w) in rode.iter().enumerate() {
             let want = if v < lower.len() {
                 [1.0 - TOOTH_LIP, TOOTH_LIP, 0.0]

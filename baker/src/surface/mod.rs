@@ -544,7 +544,9 @@ pub(crate) fn dense_weights(
             &pieces,
         )
     });
-    let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref());
+    let hung = interior::hanging(mesh, &pieces);
+    let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref(), &hung);
+    interior::stretch_bags(&mut dense, mesh, &hung);
     let mut rbf_anchoring = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
