@@ -35,7 +35,7 @@ pub struct ClosedMouth {
     pub opening: Opening,
     /// The mesh's triangles less the seam between the skin and the mouth's bag
     /// ([`without_bag`]).
-    pub seen: Vec<[u32; 3]>,
+    pub triangles: Vec<[u32; 3]>,
 }
 
 /// The mouth of a skin whose only openings are `eyes` (two loops alike in length, among
@@ -86,8 +86,10 @@ pub fn mouth_behind_lips(
                 && (to_a - to_b).abs() <= 0.25 * to_a.max(to_b)
         })
         .max_by(|p, q| p.length.total_cmp(&q.length))?;
-    let seen = without_bag(triangles, &seen, &opening.vertices);
-    Some(ClosedMouth { opening, seen })
+    Some(ClosedMouth {
+        triangles: without_bag(triangles, &seen, &opening.vertices),
+        opening,
+    })
 }
 
 /// `triangles` less the seam between the skin and the mouth's bag: of the unseen triangles (a

@@ -76,7 +76,7 @@ pub fn skin_without_mouth_bag(
     welded_triangles: &[[u32; 3]],
 ) -> Option<Vec<[u32; 3]>> {
     let openings = find_openings(topology, welded_positions);
-    closed_mouth_of(&openings, welded_positions, welded_triangles).map(|m| m.seen)
+    closed_mouth_of(&openings, welded_positions, welded_triangles).map(|m| m.triangles)
 }
 
 /// The closed mouth of a skin whose `openings` are two eyes alike in length, if there is one.
