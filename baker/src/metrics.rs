@@ -15,7 +15,7 @@
 //! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
 //! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. The skin is the largest
 //! connected piece; other pieces (FaceCap's mouth bag, teeth and tongue, hidden behind the
-//! lips) are not measured.
+//! lips) are not measured, nor is a mouth bag joined to the lips (`openings::closed_mouth`).
 //!
 //! The regions are found once per mesh ([`Regions`]) and reused for every frame.
 //!
@@ -265,6 +265,17 @@ impl std::fmt::Display for TakeMetrics {
     }
 }
 
+/// The topology of the skin as the metrics see it: `triangles` over `welded`, less the seam
+/// between the lips and a mouth bag ([`crate::openings::skin_without_mouth_bag`]), so a bag, like
+/// FaceCap's own separate one, is a piece of its own and not measured.
+fn seen_topology(welded: &[[f64; 3]], triangles: &[[u32; 3]]) -> Topology {
+    let full = Topology::new(welded, triangles);
+    match crate::openings::skin_without_mouth_bag(&full, welded, triangles) {
+        Some(seen) => Topology::new(welded, &seen),
+        None => full,
+    }
+}
+
 /// Skin vertices (largest connected piece) of `rest`/`triangles`, per input vertex.
 fn skin_of(weld: &[u32], topology: &Topology) -> Vec<bool> {
     weld.iter()
@@ -358,7 +369,7 @@ impl Regions {
             .iter()
             .map(|t| t.map(|v| weld[v as usize]))
             .collect();
-        let topology = Topology::new(&welded, &welded_triangles);
+        let topology = seen_topology(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
         let openings = skin_openings(&topology, &welded, &welded_triangles);
         let frame = crate::frame::FaceFrame::from_openings(&openings, crate::frame::bulk(&welded));
@@ -391,7 +402,7 @@ impl Regions {
             .collect();
         let triangles = triangles
             .iter()
-            .filter(|t| on_skin(weld[t[0] as usize]))
+            .filter(|t| t.iter().all(|&v| on_skin(weld[v as usize])))
             .copied()
             .collect();
         Ok(Self {
@@ -415,7 +426,7 @@ impl Regions {
         markers: &[[f64; 3]],
         head: &[usize],
     ) -> Result<Self, MetricsError> {
-        let topology = mesh.welded_topology();
+        let topology = seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
         let skin = skin_of(&mesh.weld, &topology);
         let (static_vertices, rule) = if mesh.morph_targets.is_empty() {
             let distance = STATIC_SPACING_FACTOR * mean_spacing(markers);
