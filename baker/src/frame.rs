@@ -7,7 +7,8 @@
 //! Which eye comes first is decided by the head's bulk: `front` (below) must point from the
 //! centroid of the skin towards the mouth, so a face towards −Z, upside down or with +Z up in its
 //! file is read as the face it is (an upright face towards +Z keeps its x; so does a skin whose
-//! centroid is within a tenth of the eyes' spacing of the mouth's depth, a flat mask). `up` is square to it. How far the head is pitched needs an anatomical reference:
+//! centroid is within a tenth of the eyes' spacing of the mouth's depth, a flat mask). `up` is
+//! square to it. How far the head is pitched needs an anatomical reference:
 //! the line from the mouth's centre to the midpoint of the eyes leans back from the vertical by
 //! [`PROFILE_LEAN`] (the mouth sits in front of the eyes' openings; FaceCap's measure). Faces
 //! differ in this by a few degrees, so the file's own pitch (square to `right`, nearest +Y) is
