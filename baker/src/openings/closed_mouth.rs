@@ -34,7 +34,7 @@ pub struct ClosedMouth {
     /// The loop where the skin stops being seen, welded vertex ids.
     pub opening: Opening,
     /// The mesh's triangles less the seam between the skin and the mouth's bag
-    /// ([`without_bag`]).
+    /// (`without_bag`).
     pub triangles: Vec<[u32; 3]>,
 }
 
