@@ -50,13 +50,7 @@ pub fn has_face(mesh: &FaceMesh) -> bool {
         &mesh.welded_positions,
         &mesh.welded_triangles,
     );
-    FaceFrame::find(&openings, bulk(&mesh.welded_positions)).is_some()
-}
-
-/// The centroid of `points` (the origin for none): where a head's bulk is, behind its face.
-pub fn bulk(points: &[[f64; 3]]) -> [f64; 3] {
-    let n = points.len().max(1) as f64;
-    [0, 1, 2].map(|c| points.iter().map(|p| p[c]).sum::<f64>() / n)
+    FaceFrame::find(&openings, crate::mesh::mean(&mesh.welded_positions)).is_some()
 }
 
 /// The face's axes in the file's coordinates: rows `right`, `up`, `front`.
@@ -78,7 +72,7 @@ impl FaceFrame {
             &mesh.welded_positions,
             &mesh.welded_triangles,
         );
-        Self::from_openings(&openings, bulk(&mesh.welded_positions))
+        Self::from_openings(&openings, crate::mesh::mean(&mesh.welded_positions))
     }
 
     /// The frame of these openings on a skin whose vertices' centroid is `bulk` (see the module
@@ -94,19 +88,11 @@ impl FaceFrame {
         let middle = [0, 1, 2].map(|i| 0.5 * (eyes[0].centre[i] + eyes[1].centre[i]));
         let across = sub(&eyes[1].centre, &eyes[0].centre);
         let mut right = unit(&across)?;
-        // A mouth: about as far from either eye, below them by 0.5 to 3 eye spacings.
-        let spacing = dot(&across, &across).sqrt();
-        let drop = sub(&middle, &mouth.centre);
-        let (to_left, to_right) = (
-            crate::mesh::distance(&mouth.centre, &eyes[0].centre),
-            crate::mesh::distance(&mouth.centre, &eyes[1].centre),
-        );
-        let height = dot(&drop, &drop).sqrt();
-        if !(0.5 * spacing..=3.0 * spacing).contains(&height)
-            || (to_left - to_right).abs() > 0.25 * to_left.max(to_right)
-        {
+        if !crate::openings::below_eyes(&mouth.centre, [&eyes[0].centre, &eyes[1].centre]) {
             return None;
         }
+        let spacing = dot(&across, &across).sqrt();
+        let drop = sub(&middle, &mouth.centre);
         let square =
             |v: [f64; 3], right: &[f64; 3]| unit(&sub(&v, &right.map(|r| r * dot(&v, right))));
         let features = square(drop, &right)?;

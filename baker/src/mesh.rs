@@ -76,6 +76,13 @@ pub fn centroid(positions: &[[f64; 3]], vertices: &[u32]) -> [f64; 3] {
     sum.map(|x| x / n)
 }
 
+/// Mean of `points` (the origin for none): for a head's skin, where its bulk is, behind its
+/// face.
+pub fn mean(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len().max(1) as f64;
+    [0, 1, 2].map(|c| points.iter().map(|p| p[c]).sum::<f64>() / n)
+}
+
 /// The triangles of an `n` × `n` grid of vertices numbered row by row: two per cell, each cell
 /// split along the diagonal from its first vertex (for tests and benches on sheets).
 pub fn grid_triangles(n: usize) -> Vec<[u32; 3]> {

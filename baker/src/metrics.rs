@@ -372,7 +372,7 @@ impl Regions {
         let topology = seen_topology(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
         let openings = skin_openings(&topology, &welded, &welded_triangles);
-        let frame = crate::frame::FaceFrame::from_openings(&openings, crate::frame::bulk(&welded));
+        let frame = crate::frame::FaceFrame::from_openings(&openings, crate::mesh::mean(&welded));
         let welded = frame.points(&welded);
         let openings: Vec<Opening> = openings
             .into_iter()

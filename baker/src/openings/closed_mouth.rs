@@ -11,7 +11,7 @@
 //! vertex is seen in a view when no cell around it holds anything more than
 //! [`DEPTH_TOLERANCE`] cells in front of it.
 
-use crate::mesh::{centroid, cross, distance, dot, sub, unit, Topology};
+use crate::mesh::{cross, distance, dot, sub, unit, Topology};
 use crate::openings::{find_openings, Opening};
 
 /// Views around the front, besides the front itself.
@@ -51,8 +51,7 @@ pub fn mouth_behind_lips(
     let spacing = distance(&a, &b);
     let right = unit(&sub(&b, &a))?;
     let middle = [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]));
-    let all: Vec<u32> = (0..positions.len() as u32).collect();
-    let bulk = centroid(positions, &all);
+    let bulk = crate::mesh::mean(positions);
     let towards = sub(&middle, &bulk);
     let front = unit(&sub(&towards, &right.map(|r| r * dot(&towards, &right))))?;
     let cell = spacing / CELLS_PER_EYE_SPACING;
@@ -79,12 +78,7 @@ pub fn mouth_behind_lips(
     let opening = opened
         .into_iter()
         .filter(|o| !o.vertices.iter().any(|v| old.contains(v)))
-        .filter(|o| {
-            let (to_a, to_b) = (distance(&o.centre, &a), distance(&o.centre, &b));
-            let height = distance(&o.centre, &middle);
-            (0.5 * spacing..=3.0 * spacing).contains(&height)
-                && (to_a - to_b).abs() <= 0.25 * to_a.max(to_b)
-        })
+        .filter(|o| crate::openings::below_eyes(&o.centre, [&a, &b]))
         .max_by(|p, q| p.length.total_cmp(&q.length))?;
     Some(ClosedMouth {
         triangles: without_bag(triangles, &seen, &opening.vertices),

@@ -95,6 +95,16 @@ fn closed_mouth_of(
     closed_mouth::mouth_behind_lips(welded_positions, welded_triangles, [a, b])
 }
 
+/// Whether an opening centred at `mouth` can be the mouth of eyes centred at `eyes`: about as
+/// far from either (within a quarter), 0.5 to 3 eye spacings from their midpoint.
+pub fn below_eyes(mouth: &[f64; 3], [a, b]: [&[f64; 3]; 2]) -> bool {
+    let spacing = distance(a, b);
+    let middle = [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]));
+    let (to_a, to_b) = (distance(mouth, a), distance(mouth, b));
+    (0.5 * spacing..=3.0 * spacing).contains(&distance(mouth, &middle))
+        && (to_a - to_b).abs() <= 0.25 * to_a.max(to_b)
+}
+
 /// The mouth and the two eyes among `openings`: of the three longest, the eyes are the two
 /// whose rims are most alike in length and the mouth is the third; eyes in order of x. `None`
 /// with fewer than three openings.

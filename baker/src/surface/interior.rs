@@ -287,10 +287,10 @@ pub(crate) fn hanging(mesh: &crate::model::FaceMesh, pieces: &[Piece<'_>]) -> Ve
 /// Sweeps of [`stretch_bags`].
 const BAG_SWEEPS: usize = 400;
 
-/// The vertices that `hung` names a skin vertex for (a mouth's bag, [`hanging`]) take the mean
-/// of their neighbours' weights on `mesh`, the skin's held, until they settle (Gauss-Seidel,
-/// [`BAG_SWEEPS`] sweeps): a membrane between the lips, so an opening mouth stretches the whole
-/// bag a little rather than its seam or its back a lot.
+/// The vertices that `hung` names a skin vertex for (a mouth's bag, [`hanging`]) start from
+/// that vertex's weights and take the mean of their neighbours' on `mesh`, the skin's held,
+/// until they settle (Gauss-Seidel, [`BAG_SWEEPS`] sweeps): a membrane between the lips, so an
+/// opening mouth stretches the whole bag a little rather than its seam or its back a lot.
 pub(crate) fn stretch_bags(
     dense: &mut [Vec<f64>],
     mesh: &crate::model::FaceMesh,
@@ -311,6 +311,11 @@ pub(crate) fn stretch_bags(
     let mut rows: Vec<Vec<f64>> = (0..n)
         .map(|w| dense[original[w] as usize].clone())
         .collect();
+    for (v, h) in hung.iter().enumerate() {
+        if let Some(skin) = h {
+            rows[mesh.weld[v] as usize].clone_from(&dense[*skin as usize]);
+        }
+    }
     let neighbours = mesh.welded_topology().neighbours;
     for _ in 0..BAG_SWEEPS {
         for &w in &bag {
@@ -340,15 +345,13 @@ pub(crate) fn stretch_bags(
 /// across the face. With a `jaw`, what is on its side of the parting line rides it instead
 /// ([`Jaw::weights`], a tooth with [`TOOTH_LIP`] of the lower lip's markers), blending across a
 /// band of [`JAW_BAND`] spacings about the line, and a tooth on the skull's side rides the skull
-/// markers' mean rather than the skin. A piece the mesh joins to the skin (a mouth's bag,
-/// [`hanging`]) goes vertex by vertex like a sheet, each vertex that `hung` names a skin vertex
-/// for riding that vertex alone, so the bag keeps to the lip it hangs from.
+/// markers' mean rather than the skin. A piece the mesh joins to the skin (a mouth's bag) is
+/// then stretched between its sides ([`stretch_bags`]).
 pub(crate) fn ride_beside(
     mut dense: Vec<Vec<f64>>,
     pieces: &[Piece<'_>],
     positions: &[[f64; 3]],
     jaw: Option<&Jaw>,
-    hung: &[Option<u32>],
 ) -> Vec<Vec<f64>> {
     if pieces.is_empty() {
         return dense;
@@ -391,12 +394,9 @@ pub(crate) fn ride_beside(
         )
     };
     for piece in pieces {
-        let hangs = |v: &u32| hung.get(*v as usize).is_some_and(Option::is_some);
-        if piece.sheet || piece.vertices.iter().any(hangs) {
+        if piece.sheet {
             for &v in piece.vertices {
-                if let Some(&Some(skin)) = hung.get(v as usize) {
-                    dense[v as usize] = dense[skin as usize].clone();
-                } else if let Some(w) = rides(&dense, &positions[v as usize], false) {
+                if let Some(w) = rides(&dense, &positions[v as usize], false) {
                     dense[v as usize] = w;
                 }
             }
@@ -454,7 +454,7 @@ mod tests {
                 }
             })
             .collect();
-        dense = ride_beside(dense, &pieces, &positions, None, &hung);
+        dense = ride_beside(dense, &pieces, &positions, None);
         stretch_bags(&mut dense, &mesh, &hung);
         // Convex, rising from one side to the other, and the same seen from either side (the
         // strip is the same turned half round: vertex v and 11 − v).
@@ -578,13 +578,7 @@ mod tests {
         }
         // The lower arch rides the chin and a quarter of the lower lip; the upper, the skull.
         let dense = vec![vec![0.0; 3]; both.len()];
-        let rode = ride_beside(
-            dense,
-            &Piece::all(&pieces, &both, 20.0),
-            &both,
-            Some(&jaw),
-            &[],
-        );
+        let rode = ride_beside(dense, &Piece::all(&pieces, &both, 20.0), &both, Some(&jaw));
         for (v, w) in rode.iter().enumerate() {
             let want = if v < lower.len() {
                 [1.0 - TOOTH_LIP, TOOTH_LIP, 0.0]

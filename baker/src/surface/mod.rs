@@ -545,7 +545,7 @@ pub(crate) fn dense_weights(
         )
     });
     let hung = interior::hanging(mesh, &pieces);
-    let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref(), &hung);
+    let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref());
     interior::stretch_bags(&mut dense, mesh, &hung);
     let mut rbf_anchoring = None;
     let anchoring = match (config.anchoring, config.deformer) {
