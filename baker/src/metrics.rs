@@ -10,7 +10,8 @@
 //!   truth: to the larger of its rest and true lengths) over the skin's edges, and how many
 //!   edges are stretched beyond 2×;
 //! * **flipped triangles**: skin triangles whose normal turned against its rest normal (with a
-//!   truth: and whose true normal did not).
+//!   truth: and whose true normal did not); degenerate triangles (zero area at rest) have no
+//!   normal to turn and are left out.
 //!
 //! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
 //! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. The skin is the largest
@@ -36,6 +37,11 @@
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
 use crate::model::{weld_positions, FaceMesh};
 use crate::openings::{skin_openings, Opening};
+
+/// A skin triangle lower than this fraction of its longest edge is degenerate: it has no
+/// orientation at rest, so it is not counted among the flipped triangles (FaceCap has none:
+/// its flattest skin triangle is 0.16 mm high, 7 % of its longest edge).
+pub const DEGENERATE_HEIGHT_FRACTION: f64 = 1e-6;
 
 /// Openings with fewer rim vertices are not mouth or eyes.
 pub const MIN_OPENING_VERTICES: usize = 6;
@@ -402,7 +408,7 @@ impl Regions {
             .collect();
         let triangles = triangles
             .iter()
-            .filter(|t| t.iter().all(|&v| on_skin(weld[v as usize])))
+            .filter(|t| t.iter().all(|&v| on_skin(weld[v as usize])) && has_orientation(rest, t))
             .copied()
             .collect();
         Ok(Self {
@@ -561,6 +567,18 @@ impl Regions {
         let take = TakeMetrics::of(&per_frame);
         (per_frame, take)
     }
+}
+
+/// Whether triangle `t` has a side to turn over at rest: its height is more than
+/// [`DEGENERATE_HEIGHT_FRACTION`] of its longest edge. A zero-area triangle (three points on a
+/// line, or a repeated vertex) has a normal made of rounding errors, which any motion can turn.
+fn has_orientation(rest: &[[f64; 3]], t: &[u32; 3]) -> bool {
+    let [a, b, c] = t.map(|v| rest[v as usize]);
+    let longest = [distance(&a, &b), distance(&b, &c), distance(&c, &a)]
+        .into_iter()
+        .fold(0.0, f64::max);
+    // Twice the area over the longest edge is the height onto it.
+    longest > 0.0 && norm(&normal(rest, t)) > DEGENERATE_HEIGHT_FRACTION * longest * longest
 }
 
 /// The (unnormalised) normal of triangle `t` over `p`.
@@ -751,6 +769,23 @@ mod tests {
         let mut q = r.rest().to_vec();
         q.swap(0, 1);
         assert!(r.measure(&q, None, false).flipped > 0);
+    }
+
+    #[test]
+    fn a_zero_area_triangle_has_no_side_to_flip() {
+        // A triangle over three points of the bottom row, the middle one a rounding error
+        // below the line: its rest normal is made of that error.
+        let (mut p, mut t) = slit();
+        p[1][1] -= 1e-12;
+        t.push([0, 1, 2]);
+        let r = Regions::new(&p, &t, (21..35).collect(), StaticRule::Given).unwrap();
+        assert!(r.triangles.iter().all(|x| x != &[0, 1, 2]));
+        // Raised a millimetre, the middle vertex turns that normal over but none of the real
+        // triangles around it.
+        let mut q = p.clone();
+        q[1][1] += 0.001;
+        assert_eq!(r.measure(&q, None, false).flipped, 0);
+        assert!(dot(&normal(&q, &[0, 1, 2]), &normal(&p, &[0, 1, 2])) < 0.0);
     }
 
     #[test]
