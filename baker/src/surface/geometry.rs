@@ -43,8 +43,12 @@ impl SurfaceGeometry {
         );
         let triangles = bagless.as_deref().unwrap_or(&mesh.welded_triangles);
         let geodesics = Geodesics::new(&mesh.welded_positions, triangles, method)?;
-        let fields = geodesics.from_sources(sources)?;
-        let between = geodesics.between_fields(sources, &fields)?;
+        let on_skin = match &bagless {
+            Some(kept) => renumbered(sources, &mesh.welded_triangles, kept),
+            None => sources.to_vec(),
+        };
+        let fields = geodesics.from_sources(&on_skin)?;
+        let between = geodesics.between_fields(&on_skin, &fields)?;
         let openings = skin_openings(
             geodesics.topology(),
             &mesh.welded_positions,
@@ -118,5 +122,75 @@ impl SurfaceGeometry {
             }
         }
         out
+    }
+}
+
+/// `sources` on the triangles `full` as sources on `kept`, a subset of them in another order
+/// (the skin without its bags): a point on a kept triangle names its index there; a point on a
+/// triangle left out (a seam between skin and bag) becomes the corner it is nearest of those
+/// the kept triangles still hold (the vertex itself for a marker put on a vertex).
+fn renumbered(sources: &[Source], full: &[[u32; 3]], kept: &[[u32; 3]]) -> Vec<Source> {
+    let index: std::collections::HashMap<[u32; 3], usize> =
+        kept.iter().enumerate().map(|(i, t)| (*t, i)).collect();
+    let mut held = std::collections::HashSet::new();
+    held.extend(kept.iter().flatten().copied());
+    sources
+        .iter()
+        .map(|&s| match s {
+            Source::Point {
+                triangle,
+                barycentric,
+            } => match full.get(triangle) {
+                Some(t) => match index.get(t) {
+                    Some(&i) => Source::Point {
+                        triangle: i,
+                        barycentric,
+                    },
+                    None => (0..3)
+                        .filter(|&k| held.contains(&t[k]))
+                        .max_by(|&a, &b| barycentric[a].total_cmp(&barycentric[b]))
+                        .map_or(s, |k| Source::Vertex(t[k])),
+                },
+                None => s,
+            },
+            Source::Vertex(_) => s,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A marker's triangle is named by its place in the mesh's list; the skin without its bags
+    /// lists fewer triangles, so a marker keeps its own triangle only if it is renumbered (a bag
+    /// whose seam triangles sit among the skin's, as ICT-FaceKit's do, moved markers onto the
+    /// bag before).
+    #[test]
+    fn sources_follow_their_triangles_into_the_skin_without_its_bags() {
+        let full = [[0, 1, 2], [1, 3, 2], [2, 3, 4]];
+        // The seam [1, 3, 2] is left out; vertex 3 is the bag's.
+        let kept = [[2, 3, 4], [0, 1, 2]];
+        let point = |triangle, barycentric| Source::Point {
+            triangle,
+            barycentric,
+        };
+        let got = renumbered(
+            &[
+                point(0, [0.2, 0.3, 0.5]),
+                point(2, [1.0, 0.0, 0.0]),
+                point(1, [0.1, 0.6, 0.3]),
+                Source::Vertex(3),
+            ],
+            &full,
+            &kept,
+        );
+        assert_eq!(got[0], point(1, [0.2, 0.3, 0.5]));
+        assert_eq!(got[1], point(0, [1.0, 0.0, 0.0]));
+        // On the seam: its nearest corner the kept triangles hold.
+        assert_eq!(got[2], Source::Vertex(3));
+        assert_eq!(got[3], Source::Vertex(3));
+        let on_seam = renumbered(&[point(1, [0.1, 0.3, 0.6])], &full, &kept[1..]);
+        assert_eq!(on_seam[0], Source::Vertex(2));
     }
 }
