@@ -156,7 +156,8 @@ impl GroundTruth {
         markers: usize,
         static_markers: usize,
     ) -> Result<Self, GroundTruthError> {
-        let topo = mesh.welded_topology();
+        // The seen skin: a mouth's bag or an eye's socket joined to it is not skin.
+        let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
         let skin: Vec<bool> = mesh
             .weld
             .iter()

@@ -271,17 +271,6 @@ impl std::fmt::Display for TakeMetrics {
     }
 }
 
-/// The topology of the skin as the metrics see it: `triangles` over `welded`, less the seam
-/// between the lips and a mouth bag ([`crate::openings::skin_without_mouth_bag`]), so a bag, like
-/// FaceCap's own separate one, is a piece of its own and not measured.
-fn seen_topology(welded: &[[f64; 3]], triangles: &[[u32; 3]]) -> Topology {
-    let full = Topology::new(welded, triangles);
-    match crate::openings::skin_without_mouth_bag(&full, welded, triangles) {
-        Some(seen) => Topology::new(welded, &seen),
-        None => full,
-    }
-}
-
 /// Skin vertices (largest connected piece) of `rest`/`triangles`, per input vertex.
 fn skin_of(weld: &[u32], topology: &Topology) -> Vec<bool> {
     weld.iter()
@@ -375,7 +364,7 @@ impl Regions {
             .iter()
             .map(|t| t.map(|v| weld[v as usize]))
             .collect();
-        let topology = seen_topology(&welded, &welded_triangles);
+        let topology = crate::openings::seen_topology(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
         let openings = skin_openings(&topology, &welded, &welded_triangles);
         let frame = crate::frame::FaceFrame::from_openings(&openings, crate::mesh::mean(&welded));
@@ -432,7 +421,8 @@ impl Regions {
         markers: &[[f64; 3]],
         head: &[usize],
     ) -> Result<Self, MetricsError> {
-        let topology = seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
+        let topology =
+            crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
         let skin = skin_of(&mesh.weld, &topology);
         let (static_vertices, rule) = if mesh.morph_targets.is_empty() {
             let distance = STATIC_SPACING_FACTOR * mean_spacing(markers);

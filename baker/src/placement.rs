@@ -75,7 +75,7 @@ pub fn place_from_landmarks(
         to.push(*p);
     }
     let warp = RetargetMap::new(&from, &to)?;
-    let topo = mesh.welded_topology();
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
     let skin_triangles: Vec<[u32; 3]> = mesh
         .triangles
         .iter()
@@ -156,7 +156,7 @@ pub const LIP_OFF_RIM_COST: f64 = 0.3;
 /// less the cut, the eyes the two most alike), as loops of welded vertices: mouth, left eye
 /// (larger x), right eye.
 pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {
-    let topo = mesh.welded_topology();
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
     let openings =
         crate::openings::skin_openings(&topo, &mesh.welded_positions, &mesh.welded_triangles);
     let Some((lips, [right, left])) = crate::openings::mouth_and_eyes(&openings) else {
@@ -185,7 +185,7 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
         return Ok(());
     }
     let openings = face_openings(mesh)?;
-    let topo = mesh.welded_topology();
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
     let graph = crate::geodesic::dijkstra::Graph::new(&topo);
     let p = &mesh.welded_positions;
     let original = mesh.welded_to_original();
@@ -286,7 +286,7 @@ fn rim_sides(rim: &[u32], p: &[[f64; 3]], neighbours: &[Vec<u32>]) -> (Vec<u32>,
 /// indices.
 pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
     let [lips, left_eye, right_eye] = face_openings(mesh)?;
-    let topo = mesh.welded_topology();
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
     let p = &mesh.welded_positions;
     let original = mesh.welded_to_original();
     let extreme = |vs: &[u32], key: &dyn Fn(&[f64; 3]) -> f64, max: bool| -> u32 {
@@ -488,7 +488,7 @@ mod tests {
             "mean {mean}, p90 {p90}"
         );
         // Lips on their own side of the opening: what the lip masks will rest on.
-        let topo = mesh.welded_topology();
+        let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
         let lips = topo.loops_of(0)[1];
         let lip_y = lips
             .vertices

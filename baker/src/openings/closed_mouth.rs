@@ -1,5 +1,8 @@
-//! A mouth whose lips are joined to a mouth bag: the skin runs on from the lips into the mouth
-//! and has no hole there, so only the eyes (and the neck) are boundary loops. The lips' line is
+//! Openings closed by a bag or a socket. A mouth whose lips are joined to a mouth bag: the skin
+//! runs on from the lips into the mouth and has no hole there, so only the eyes (and the neck)
+//! are boundary loops. A head whose eyes are closed by sockets too has no opening at all; its
+//! mouth and eyes are found the same way, from views all round the front
+//! ([`face_behind_skin`]). The lips' line is
 //! where the skin stops being seen: [`mouth_behind_lips`] looks at the face from the front and
 //! from around it, takes the triangles with a vertex no view sees (the bag, hidden behind the
 //! lips) off the skin, and the new boundary loop below the eyes is the mouth's opening.
@@ -56,21 +59,12 @@ pub fn mouth_behind_lips(
     let front = unit(&sub(&towards, &right.map(|r| r * dot(&towards, &right))))?;
     let cell = spacing / CELLS_PER_EYE_SPACING;
     let mut seen = vec![false; positions.len()];
-    for view in views(front, right) {
+    for view in views(front, right, &[VIEW_TILT]) {
         if !mark_seen(positions, triangles, view, cell, &mut seen) {
             return None;
         }
     }
-    let shown: Vec<[u32; 3]> = triangles
-        .iter()
-        .copied()
-        .filter(|t| t.iter().all(|&v| seen[v as usize]))
-        .collect();
-    if shown.len() == triangles.len() {
-        return None;
-    }
-    let topology = Topology::new(positions, &shown);
-    let opened = find_openings(&topology, positions);
+    let opened = loops_of_seen(positions, triangles, &seen)?;
     let old: Vec<u32> = eyes
         .iter()
         .flat_map(|e| e.vertices.iter().copied())
@@ -83,6 +77,137 @@ pub fn mouth_behind_lips(
     Some(ClosedMouth {
         triangles: without_bag(triangles, &seen, &opening.vertices),
         opening,
+    })
+}
+
+/// Views of a skin with no opening at all, besides the front: [`VIEWS`] at [`VIEW_TILT`] and as
+/// many at [`WIDE_TILT`] degrees around it.
+pub const WIDE_TILT: f64 = 50.0;
+/// Of those 17 views, how many must see a vertex of a skin closed all round for it to be skin
+/// rather than a bag or a socket. An eye's socket, unlike a mouth's bag, is open to the front
+/// through the lids, so "seen by any view" keeps most of it; its walls are seen through the
+/// fissure by a few views near the front only. On the ICT-FaceKit head (skin, mouth socket and
+/// eye sockets in one piece), seen by 3 of 17 views the eyes' loops ran deep on the sockets'
+/// walls (25 cm long, with the ears' hollows as long); by 6, along the lids, 8.5 and 8.9 cm
+/// round, and the mouth's along the lips (10.8 cm); by 9, the ears' hollows came first.
+pub const SEEN_BY: usize = 6;
+/// Depth-buffer cells across the skin's bounding-box diagonal when no eyes give a scale (about
+/// 1.5 mm on a head).
+pub const CELLS_PER_DIAGONAL: f64 = 300.0;
+
+/// The fronts tried for a skin closed all round, each with its up: the glTF convention (+Z,
+/// +Y up) first, then turned or with +Z up.
+const FRONTS: [([f64; 3], [f64; 3]); 8] = [
+    ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0]),
+    ([0.0, 0.0, -1.0], [0.0, 1.0, 0.0]),
+    ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+    ([-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+    ([0.0, -1.0, 0.0], [0.0, 0.0, 1.0]),
+    ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+    ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+    ([-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+];
+
+/// A face found behind its skin: its mouth and two eyes, and the skin without their bags.
+pub struct ClosedFace {
+    /// The mouth's loop, then the eyes', welded vertex ids.
+    pub openings: [Opening; 3],
+    /// The mesh's triangles less the seams between the skin and the bags (`without_bag`).
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// The mouth and eyes of a skin with no opening at all (a head whose mouth is closed by a bag
+/// and whose eyes by sockets, as the ICT-FaceKit head's are), found where the skin stops being
+/// seen: for each of [`FRONTS`] in turn, the front and 16 views round it (at [`VIEW_TILT`] and
+/// [`WIDE_TILT`]), each vertex skin where [`SEEN_BY`] of them see it, and the loops of the skin
+/// so seen. The eyes are the two loops in front of the bulk, alike in length, side by side and
+/// level, the longest such pair with a mouth: the longest loop about as far from either,
+/// below them ([`crate::openings::below_eyes`]). `None` when no front gives one.
+pub fn face_behind_skin(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Option<ClosedFace> {
+    let (lo, hi) = crate::model::bounds(positions.iter().copied());
+    let cell = distance(&lo, &hi) / CELLS_PER_DIAGONAL;
+    if cell.is_nan() || cell <= 0.0 {
+        return None;
+    }
+    let bulk = crate::mesh::mean(positions);
+    FRONTS.iter().find_map(|&(front, up)| {
+        let right = cross(&up, &front);
+        let mut count = vec![0usize; positions.len()];
+        for view in views(front, right, &[VIEW_TILT, WIDE_TILT]) {
+            let mut seen = vec![false; positions.len()];
+            if !mark_seen(positions, triangles, view, cell, &mut seen) {
+                return None;
+            }
+            for (c, s) in count.iter_mut().zip(&seen) {
+                *c += usize::from(*s);
+            }
+        }
+        let seen: Vec<bool> = count.iter().map(|&c| c >= SEEN_BY).collect();
+        let loops = loops_of_seen(positions, triangles, &seen)?;
+        let [mouth, a, b] = face_among(&loops, bulk, front, up)?;
+        let rims: Vec<u32> = [mouth, a, b]
+            .iter()
+            .flat_map(|o| o.vertices.iter().copied())
+            .collect();
+        Some(ClosedFace {
+            triangles: without_bag(triangles, &seen, &rims),
+            openings: [mouth.clone(), a.clone(), b.clone()],
+        })
+    })
+}
+
+/// The boundary loops (less the cut, [`find_openings`]) of the `triangles` whose vertices are
+/// all `seen`; `None` when every triangle is.
+fn loops_of_seen(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    seen: &[bool],
+) -> Option<Vec<Opening>> {
+    let shown: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&v| seen[v as usize]))
+        .collect();
+    (shown.len() < triangles.len())
+        .then(|| find_openings(&Topology::new(positions, &shown), positions))
+}
+
+/// The mouth and the eyes among `loops` of a face towards `front` with its head's bulk at
+/// `bulk` (see [`face_behind_skin`]).
+fn face_among(
+    loops: &[Opening],
+    bulk: [f64; 3],
+    front: [f64; 3],
+    up: [f64; 3],
+) -> Option<[&Opening; 3]> {
+    let ahead = |o: &Opening| dot(&sub(&o.centre, &bulk), &front);
+    let mut pairs: Vec<(&Opening, &Opening)> = Vec::new();
+    for (i, a) in loops.iter().enumerate() {
+        for b in &loops[i + 1..] {
+            let apart = sub(&b.centre, &a.centre);
+            let spacing = distance(&a.centre, &b.centre);
+            let alike = (a.length - b.length).abs() <= 0.25 * a.length.max(b.length);
+            let level = dot(&apart, &up).abs() <= 0.25 * spacing;
+            let in_front = ahead(a).min(ahead(b)) > 0.25 * spacing;
+            if alike && level && in_front && spacing > 0.0 {
+                pairs.push((a, b));
+            }
+        }
+    }
+    pairs.sort_by(|p, q| {
+        q.0.length
+            .min(q.1.length)
+            .total_cmp(&p.0.length.min(p.1.length))
+    });
+    pairs.into_iter().find_map(|(a, b)| {
+        let middle = [0, 1, 2].map(|c| 0.5 * (a.centre[c] + b.centre[c]));
+        loops
+            .iter()
+            .filter(|m| !std::ptr::eq(*m, a) && !std::ptr::eq(*m, b))
+            .filter(|m| dot(&sub(&m.centre, &middle), &up) < 0.0)
+            .filter(|m| crate::openings::below_eyes(&m.centre, [&a.centre, &b.centre]))
+            .max_by(|p, q| p.length.total_cmp(&q.length))
+            .map(|m| [m, a, b])
     })
 }
 
@@ -126,14 +251,16 @@ fn without_bag(triangles: &[[u32; 3]], seen: &[bool], rim: &[u32]) -> Vec<[u32; 
         .collect()
 }
 
-/// The front and [`VIEWS`] directions [`VIEW_TILT`] around it.
-fn views(front: [f64; 3], right: [f64; 3]) -> Vec<[f64; 3]> {
+/// The front and [`VIEWS`] directions around it at each of `tilts` (degrees).
+fn views(front: [f64; 3], right: [f64; 3], tilts: &[f64]) -> Vec<[f64; 3]> {
     let up = cross(&front, &right);
-    let (sin, cos) = VIEW_TILT.to_radians().sin_cos();
     let mut out = vec![front];
-    for k in 0..VIEWS {
-        let (s, c) = (std::f64::consts::TAU * k as f64 / VIEWS as f64).sin_cos();
-        out.push([0, 1, 2].map(|i| cos * front[i] + sin * (c * right[i] + s * up[i])));
+    for tilt in tilts {
+        let (sin, cos) = tilt.to_radians().sin_cos();
+        for k in 0..VIEWS {
+            let (s, c) = (std::f64::consts::TAU * k as f64 / VIEWS as f64).sin_cos();
+            out.push([0, 1, 2].map(|i| cos * front[i] + sin * (c * right[i] + s * up[i])));
+        }
     }
     out
 }
