@@ -35,7 +35,7 @@
 //! to its nearest other marker) from every marker that is not a head marker.
 
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
-use crate::model::{weld_positions, FaceMesh};
+use crate::model::FaceMesh;
 use crate::openings::{skin_openings, Opening};
 
 /// A skin triangle lower than this fraction of its longest edge is degenerate: it has no
@@ -355,7 +355,7 @@ impl Regions {
         if let Some(&v) = static_vertices.iter().find(|&&v| v as usize >= count) {
             return Err(MetricsError::BadStaticVertex { vertex: v, count });
         }
-        let (weld, welded) = weld_positions(rest);
+        let (weld, welded) = crate::model::weld_pieces(rest, triangles);
         let mut original = vec![0u32; welded.len()];
         for (v, &w) in weld.iter().enumerate().rev() {
             original[w as usize] = v as u32;

@@ -17,7 +17,7 @@ use gltf::mesh::Mode;
 use thiserror::Error;
 
 use crate::io::gltf_check::{self, BufferAccess, GltfCheckError};
-use crate::model::{weld_positions, FaceMesh, MorphTarget};
+use crate::model::{weld_pieces, FaceMesh, MorphTarget};
 
 /// Failure to load a mesh: the file and what is wrong with it.
 #[derive(Debug, Error)]
@@ -429,7 +429,7 @@ fn read_mesh(
         attributes.insert(what, values);
     }
 
-    let (weld, welded_positions) = weld_positions(&positions);
+    let (weld, welded_positions) = weld_pieces(&positions, &triangles);
     let welded_triangles = triangles
         .iter()
         .map(|t| t.map(|v| weld[v as usize]))

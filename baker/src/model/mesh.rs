@@ -60,7 +60,8 @@ pub struct FaceMesh {
     /// Triangles in original glTF vertex indices, in file order.
     pub triangles: Vec<[u32; 3]>,
     /// For each original vertex, the id of its welded vertex (vertices with bit-identical
-    /// positions share one id; ids are numbered in order of first appearance).
+    /// positions on one piece share one id, [`weld_pieces`]; ids are numbered in order of first
+    /// appearance).
     pub weld: Vec<u32>,
     /// Position of each welded vertex.
     pub welded_positions: Vec<[f64; 3]>,
@@ -76,12 +77,69 @@ pub struct FaceMesh {
 
 /// Welds vertices with bit-identical positions; returns (original -> welded id, welded positions).
 pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    weld_by(positions, |_| 0)
+}
+
+/// Welds the vertices of `triangles` (over `positions`) that have bit-identical positions and lie
+/// on one piece: pieces are the triangles joined through edges that exactly two of them share
+/// (after the positions are welded), so a UV seam welds while a piece that only touches another
+/// along a seam shared by three or more triangles, or at a point, keeps its own vertices there
+/// (ICT-FaceKit's eyelashes, tear films and eye-occlusion shells sit on its lids' rims: welded by
+/// position alone they hung off the lids and their free edges read as openings). A mesh in one
+/// manifold piece welds as [`weld_positions`] does. Returns (original -> welded id, welded
+/// positions), ids in order of first appearance.
+pub(crate) fn weld_pieces(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let (by_position, _) = weld_positions(positions);
+    let at = |v: u32| by_position.get(v as usize).copied();
+    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    for (i, t) in triangles.iter().enumerate() {
+        let Some(w) = t.iter().map(|&v| at(v)).collect::<Option<Vec<u32>>>() else {
+            continue;
+        };
+        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b) = (w[k], w[(k + 1) % 3]);
+            edges.entry((a.min(b), a.max(b))).or_default().push(i);
+        }
+    }
+    let mut parent: Vec<usize> = (0..triangles.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for pair in edges.values().filter(|t| t.len() == 2) {
+        let (a, b) = (root(&mut parent, pair[0]), root(&mut parent, pair[1]));
+        parent[a.max(b)] = a.min(b);
+    }
+    let mut piece = vec![usize::MAX; positions.len()];
+    for (i, t) in triangles.iter().enumerate() {
+        let r = root(&mut parent, i);
+        for &v in t {
+            if let Some(slot) = piece.get_mut(v as usize) {
+                *slot = (*slot).min(r);
+            }
+        }
+    }
+    weld_by(positions, |v| piece[v])
+}
+
+/// Welds vertices with bit-identical positions and the same `key`.
+fn weld_by(positions: &[[f64; 3]], key: impl Fn(usize) -> usize) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let mut ids: HashMap<([u64; 3], usize), u32> = HashMap::with_capacity(positions.len());
     let mut welded = Vec::new();
     let weld = positions
         .iter()
-        .map(|p| {
-            *ids.entry(p.map(f64::to_bits)).or_insert_with(|| {
+        .enumerate()
+        .map(|(v, p)| {
+            *ids.entry((p.map(f64::to_bits), key(v))).or_insert_with(|| {
                 welded.push(*p);
                 (welded.len() - 1) as u32
             })
@@ -95,7 +153,7 @@ impl FaceMesh {
     /// `triangles` as given, the weld computed as
     /// [`crate::io::gltf_mesh::load_mesh`] does.
     pub fn from_triangles(name: &str, positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Self {
-        let (weld, welded_positions) = weld_positions(&positions);
+        let (weld, welded_positions) = weld_pieces(&positions, &triangles);
         let welded_triangles = triangles
             .iter()
             .map(|t| t.map(|v| weld[v as usize]))
@@ -228,4 +286,38 @@ pub fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]
         }
     }
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square of two triangles cut by a UV seam along its diagonal (the diagonal's vertices
+    /// written twice) welds whole; a third triangle on that diagonal (a fin, as an eyelash strip
+    /// on a lid's rim) makes the diagonal an edge of three, and keeps its own vertices (so do the
+    /// square's halves, which have no other edge between them; a lid and its socket do).
+    #[test]
+    fn a_seam_welds_and_a_piece_touching_along_it_does_not() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.5, 0.5, 1.0],
+        ];
+        let square = [[0, 1, 2], [3, 4, 5]];
+        let (weld, welded) = weld_pieces(&p[..6], &square);
+        assert_eq!(weld, [0, 1, 2, 0, 2, 3]);
+        assert_eq!(welded.len(), 4);
+        let with_fin = [[0, 1, 2], [3, 4, 5], [6, 7, 8]];
+        let (weld, _) = weld_pieces(&p, &with_fin);
+        assert_eq!(&weld[..6], &[0, 1, 2, 3, 4, 5]);
+        assert_eq!(&weld[6..], &[6, 7, 8]);
+        // By position alone, all three share the diagonal.
+        assert_eq!(&weld_positions(&p).0[6..8], &[0, 2]);
+    }
 }

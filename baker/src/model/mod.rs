@@ -10,5 +10,5 @@ pub use layout::{
     place_markers, LayoutError, LayoutMarker, MarkerAnchor, MarkerGroups, MarkerLayout,
     PlacedMarker, Side, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
-pub(crate) use mesh::weld_positions;
 pub use mesh::{bounds, AttributeSidesError, FaceMesh, MorphTarget};
+pub(crate) use mesh::{weld_pieces, weld_positions};
