@@ -27,10 +27,14 @@ pub const CELLS_PER_EYE_SPACING: f64 = 40.0;
 pub const DEPTH_TOLERANCE: f64 = 1.5;
 /// Most cells a depth buffer has on a side (a larger mesh takes larger cells).
 const MAX_CELLS: usize = 1024;
-/// Most cells a view's triangles may cover between them (their bounding boxes): a face's
-/// triangles cover a few cells each, so a mesh past this is not looked at (no mouth is found
-/// behind its lips) rather than taking unbounded time.
+/// Most cells a view's triangles may cover between them (their bounding boxes) when a mouth is
+/// looked for behind its lips: a face's triangles cover a few cells each, so a mesh past this is
+/// not looked at (no mouth is found behind its lips) rather than taking unbounded time.
 const MAX_RASTER_CELLS: f64 = 64.0 * 1024.0 * 1024.0;
+/// Most cells the up to 8 × 17 views of a skin closed all round ([`face_behind_skin`]) may cover
+/// between them: as many as the 9 views of a closed mouth may. ICT-FaceKit's head (28,068
+/// triangles) takes 0.43 Mi cells a view, 7.3 Mi for the 17 views of its front.
+const MAX_CLOSED_FACE_CELLS: f64 = MAX_RASTER_CELLS * (VIEWS + 1) as f64;
 
 /// A mouth found behind its lips: its opening and the skin without the mouth's bag.
 pub struct ClosedMouth {
@@ -60,9 +64,14 @@ pub fn mouth_behind_lips(
     let cell = spacing / CELLS_PER_EYE_SPACING;
     let mut seen = vec![false; positions.len()];
     for view in views(front, right, &[VIEW_TILT]) {
-        if !mark_seen(positions, triangles, view, cell, &mut seen) {
-            return None;
-        }
+        mark_seen(
+            positions,
+            triangles,
+            view,
+            cell,
+            MAX_RASTER_CELLS,
+            &mut seen,
+        )?;
     }
     let opened = loops_of_seen(positions, triangles, &seen)?;
     let old: Vec<u32> = eyes
@@ -130,14 +139,20 @@ pub fn face_behind_skin(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Optio
         return None;
     }
     let bulk = crate::mesh::mean(positions);
+    let mut spent = 0.0;
     FRONTS.iter().find_map(|&(front, up)| {
         let right = cross(&up, &front);
         let mut count = vec![0usize; positions.len()];
         for view in views(front, right, &[VIEW_TILT, WIDE_TILT]) {
             let mut seen = vec![false; positions.len()];
-            if !mark_seen(positions, triangles, view, cell, &mut seen) {
-                return None;
-            }
+            spent += mark_seen(
+                positions,
+                triangles,
+                view,
+                cell,
+                MAX_CLOSED_FACE_CELLS - spent,
+                &mut seen,
+            )?;
             for (c, s) in count.iter_mut().zip(&seen) {
                 *c += usize::from(*s);
             }
@@ -266,25 +281,24 @@ fn views(front: [f64; 3], right: [f64; 3], tilts: &[f64]) -> Vec<[f64; 3]> {
 }
 
 /// Marks in `seen` the vertices a view along `view` (looking back along it: depth grows
-/// towards the viewer) sees, with cells of side `cell`; `false` (nothing marked) when the
-/// triangles would cover more than [`MAX_RASTER_CELLS`].
+/// towards the viewer) sees, with cells of side `cell`, and returns how many cells its
+/// triangles covered; `None` (nothing marked) when they would cover more than `budget`.
 fn mark_seen(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
     view: [f64; 3],
     cell: f64,
+    budget: f64,
     seen: &mut [bool],
-) -> bool {
-    let Some(u) = unit(&cross(
+) -> Option<f64> {
+    let u = unit(&cross(
         &view,
         &if view[0].abs() < 0.9 {
             [1.0, 0.0, 0.0]
         } else {
             [0.0, 1.0, 0.0]
         },
-    )) else {
-        return false;
-    };
+    ))?;
     let w = cross(&view, &u);
     let projected: Vec<[f64; 3]> = positions
         .iter()
@@ -313,8 +327,8 @@ fn mark_seen(
             span(0) * span(1)
         })
         .sum();
-    if boxes.is_nan() || boxes > MAX_RASTER_CELLS {
-        return false;
+    if boxes.is_nan() || boxes > budget {
+        return None;
     }
     let mut depth = vec![f64::MIN; nx * ny];
     for t in triangles {
@@ -354,7 +368,7 @@ fn mark_seen(
             seen[v] = true;
         }
     }
-    true
+    Some(boxes)
 }
 
 #[cfg(test)]
@@ -373,25 +387,30 @@ mod tests {
         ];
         let one = [[0u32, 1, 2]];
         let mut seen = [false; 4];
-        assert!(mark_seen(
+        let cells = mark_seen(
             &positions,
             &one,
             [0.0, 0.0, 1.0],
             1e-3,
-            &mut seen
-        ));
+            MAX_RASTER_CELLS,
+            &mut seen,
+        );
+        // The triangle's box: 1000 cells a side, and one more at each end.
+        assert_eq!(cells, Some(1002.0 * 1002.0));
         // The fourth vertex is behind the triangle and in no triangle: unseen.
         assert_eq!(seen, [true, true, true, false]);
         // About 2^20 cells each: a hundred of them is past the budget.
         let many = [[0u32, 1, 2]; 100];
         let mut seen = [false; 4];
-        assert!(!mark_seen(
+        let over = mark_seen(
             &positions,
             &many,
             [0.0, 0.0, 1.0],
             1e-3,
-            &mut seen
-        ));
+            MAX_RASTER_CELLS,
+            &mut seen,
+        );
+        assert_eq!(over, None);
         assert_eq!(seen, [false; 4]);
     }
 }
