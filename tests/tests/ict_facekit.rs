@@ -27,6 +27,30 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt()
 }
 
+/// JawMoCap's markers as `facebake place` puts them on `mesh`, each asserted on the skin that
+/// is seen, none on a socket (a marker on a rim vertex may name a triangle of the seam, with no
+/// weight on the bag's corners).
+fn placed_on_seen_skin(mesh: &FaceMesh) -> Vec<facebake::model::PlacedMarker> {
+    let (capture, neutral) = jawmocap_neutral();
+    let layout =
+        facebake::placement::place(mesh, &capture.marker_names, &neutral, &[]).expect("placed");
+    let placed = facebake::model::place_markers(
+        &layout,
+        mesh,
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+    )
+    .expect("on the mesh");
+    let seen = seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
+    for m in &placed {
+        let corners = m.surface.vertices.iter().zip(m.surface.barycentric);
+        for (&v, _) in corners.filter(|(_, w)| *w > 0.0) {
+            let piece = seen.components.vertex_component[mesh.weld[v as usize] as usize];
+            assert_eq!(piece, 0, "{} is on piece {piece}", m.name);
+        }
+    }
+    placed
+}
+
 /// The skin has no boundary loop but the neck; the mouth and the eyes are found behind it, in
 /// their places on this head (eyes 6.4 cm apart at its eyes' height, the mouth 6.9 cm below,
 /// in front of them).
@@ -77,25 +101,7 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 #[test]
 fn place_and_the_default_bake_play_its_expressions() {
     let mesh = head();
-    let (capture, neutral) = jawmocap_neutral();
-    let layout =
-        facebake::placement::place(&mesh, &capture.marker_names, &neutral, &[]).expect("placed");
-    let placed = facebake::model::place_markers(
-        &layout,
-        &mesh,
-        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
-    )
-    .expect("on the mesh");
-    // Every marker on the skin that is seen, none on a socket (a marker on a rim vertex may name
-    // a triangle of the seam, with no weight on the bag's corners).
-    let seen = seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
-    for m in &placed {
-        let corners = m.surface.vertices.iter().zip(m.surface.barycentric);
-        for (&v, _) in corners.filter(|(_, w)| *w > 0.0) {
-            let piece = seen.components.vertex_component[mesh.weld[v as usize] as usize];
-            assert_eq!(piece, 0, "{} is on piece {piece}", m.name);
-        }
-    }
+    let placed = placed_on_seen_skin(&mesh);
     let truth = GroundTruth::new(mesh, 40, 6).expect("a truth");
     assert_eq!(truth.frames.len(), 31);
     let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("benchmark");
@@ -127,4 +133,39 @@ fn place_and_the_default_bake_play_its_expressions() {
         },
     );
     assert!(face.mean_mm <= 0.72 && face.max_mm <= 14.3, "{face:?}");
+}
+
+/// The whole model as one primitive (`ICTFaceKitWhole.glb`: teeth, tongue, eyeballs, tear
+/// films, eye-occlusion shells and eyelashes beside the skin; no expressions). The lashes and
+/// shells rest on the lids' rims: welded by position alone they joined the skin and their free
+/// edges made 17 boundary loops, slits along the lids among them, and `place` put two markers
+/// on one spot. Welded piece by piece (`model::weld_pieces`) the skin is the head's alone and
+/// has the same face as the skin on its own, with the eyeballs in front of the sockets.
+#[test]
+fn the_whole_model_has_the_skins_face() {
+    let whole =
+        facebake::io::gltf_mesh::load_mesh(&fixture("ict_facekit/ICTFaceKitWhole.glb"), None, None)
+            .expect("the whole model loads");
+    let full = whole.welded_topology();
+    println!(
+        "whole model: pieces {:?}…, skin loops {}",
+        &full.components.vertex_counts[..4],
+        find_openings(&full, &whole.welded_positions).len()
+    );
+    assert_eq!(full.components.vertex_counts[0], 14_062);
+    let skin = head();
+    let found = |mesh: &FaceMesh| {
+        let openings = skin_openings(
+            &mesh.welded_topology(),
+            &mesh.welded_positions,
+            &mesh.welded_triangles,
+        );
+        let (m, [r, l]) = mouth_and_eyes(&openings).expect("a mouth and two eyes");
+        [m.centre, r.centre, l.centre]
+    };
+    for (a, b) in found(&whole).iter().zip(found(&skin)) {
+        println!("whole {a:?}, skin alone {b:?}");
+        assert!(distance(*a, b) < 0.002);
+    }
+    assert_eq!(placed_on_seen_skin(&whole).len(), 41);
 }
