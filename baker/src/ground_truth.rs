@@ -227,18 +227,27 @@ impl GroundTruth {
         })
     }
 
-    /// The FaceCap sequence: the named expressions whose targets the mesh has, then blends.
+    /// The FaceCap sequence: the named expressions whose targets the mesh has (or has split into
+    /// `_L` and `_R` sides), then blends.
     fn sequence(mesh: &FaceMesh) -> Vec<Frame> {
         let mut frames: Vec<Frame> = EXPRESSIONS
             .iter()
             .filter_map(|(name, parts)| {
-                let weights: Option<Vec<_>> = parts
+                // A target the mesh splits into sides (ICT-FaceKit's `browInnerUp_L` and `_R`)
+                // stands for the whole one.
+                let weights: Option<Vec<Vec<_>>> = parts
                     .iter()
-                    .map(|(t, w)| mesh.morph_index(t).map(|i| (i, *w)))
+                    .map(|(t, w)| match mesh.morph_index(t) {
+                        Some(i) => Some(vec![(i, *w)]),
+                        None => ["_L", "_R"]
+                            .iter()
+                            .map(|side| mesh.morph_index(&format!("{t}{side}")).map(|i| (i, *w)))
+                            .collect(),
+                    })
                     .collect();
                 weights.map(|weights| Frame {
                     name: (*name).to_string(),
-                    weights,
+                    weights: weights.concat(),
                 })
             })
             .collect();

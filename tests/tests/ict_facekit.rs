@@ -91,19 +91,22 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 }
 
 /// JawMoCap's markers placed on the head, then the default bake of them played over the
-/// truth's 31 frames (FaceCap's sequence; this head has no `browInnerUp`, so no `surprise`).
+/// truth's 32 frames (FaceCap's sequence; this head splits `browInnerUp` into its sides, which
+/// the `surprise` takes together). Its static drift is the crown in the surprise: beyond the
+/// markers the skin follows the anchor markers' mean (forehead and inner eye corners), which
+/// this head's brow raise moves 1.7 mm (0.7 mm in the frown).
 /// Measured 2026-12-03: before the mouth and eyes were found behind the skin, `place` refused
 /// the head ("the skin has 0 openings") and a bake had no masks; with them found but the
 /// markers' triangles numbered as in the whole mesh, two eye-corner markers sat on a socket
 /// (the skin without its bags lists fewer triangles) and the jaw open flipped 261 triangles
-/// (mean error 0.83 mm); with cheek and chin markers snapped to the nearest surface of all,
-/// four of them went onto the sockets.
+/// (face mean 0.83 mm, over all 57 of its shapes); with cheek and chin markers snapped to the
+/// nearest surface of all, four of them went onto the sockets.
 #[test]
 fn place_and_the_default_bake_play_its_expressions() {
     let mesh = head();
     let placed = placed_on_seen_skin(&mesh);
     let truth = GroundTruth::new(mesh, 40, 6).expect("a truth");
-    assert_eq!(truth.frames.len(), 31);
+    assert_eq!(truth.frames.len(), 32);
     let scene = Benchmark::new(truth, &placed, Vec::new(), 0).expect("benchmark");
     let baked = bake_scene(&scene, &BakeOptions::product_default());
     let played = scene.play(&baked.blob);
@@ -124,7 +127,7 @@ fn place_and_the_default_bake_play_its_expressions() {
         "ICT-FaceKit, JawMoCap placed, the default",
         &take,
         &Pinned {
-            drift_mm: 0.72,
+            drift_mm: 1.74,
             lips_mm: 6.2,
             eyelids_mm: 3.6,
             stretch: 3.11,
@@ -132,7 +135,7 @@ fn place_and_the_default_bake_play_its_expressions() {
             flipped: 112,
         },
     );
-    assert!(face.mean_mm <= 0.72 && face.max_mm <= 14.3, "{face:?}");
+    assert!(face.mean_mm <= 0.745 && face.max_mm <= 14.3, "{face:?}");
 }
 
 /// The whole model as one primitive (`ICTFaceKitWhole.glb`: teeth, tongue, eyeballs, tear
