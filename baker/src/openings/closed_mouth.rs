@@ -385,32 +385,24 @@ mod tests {
             [0.0, 1.0, 0.0],
             [0.2, 0.2, -0.5],
         ];
-        let one = [[0u32, 1, 2]];
+        let look = |triangles: &[[u32; 3]], seen: &mut [bool; 4]| {
+            mark_seen(
+                &positions,
+                triangles,
+                [0.0, 0.0, 1.0],
+                1e-3,
+                MAX_RASTER_CELLS,
+                seen,
+            )
+        };
         let mut seen = [false; 4];
-        let cells = mark_seen(
-            &positions,
-            &one,
-            [0.0, 0.0, 1.0],
-            1e-3,
-            MAX_RASTER_CELLS,
-            &mut seen,
-        );
         // The triangle's box: 1000 cells a side, and one more at each end.
-        assert_eq!(cells, Some(1002.0 * 1002.0));
+        assert_eq!(look(&[[0, 1, 2]], &mut seen), Some(1002.0 * 1002.0));
         // The fourth vertex is behind the triangle and in no triangle: unseen.
         assert_eq!(seen, [true, true, true, false]);
         // About 2^20 cells each: a hundred of them is past the budget.
-        let many = [[0u32, 1, 2]; 100];
         let mut seen = [false; 4];
-        let over = mark_seen(
-            &positions,
-            &many,
-            [0.0, 0.0, 1.0],
-            1e-3,
-            MAX_RASTER_CELLS,
-            &mut seen,
-        );
-        assert_eq!(over, None);
+        assert_eq!(look(&[[0, 1, 2]; 100], &mut seen), None);
         assert_eq!(seen, [false; 4]);
     }
 }
