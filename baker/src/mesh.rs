@@ -254,7 +254,8 @@ impl Topology {
     }
 }
 
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
+/// The root of `v` in a union-find forest `parent` (path halving on the way).
+pub(crate) fn find(parent: &mut [u32], mut v: u32) -> u32 {
     while parent[v as usize] != v {
         parent[v as usize] = parent[parent[v as usize] as usize];
         v = parent[v as usize];

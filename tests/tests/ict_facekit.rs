@@ -11,6 +11,7 @@
 //! figures.
 
 use facebake::ground_truth::GroundTruth;
+use facebake::mesh::distance;
 use facebake::metrics::Regions;
 use facebake::model::FaceMesh;
 use facebake::openings::{find_openings, mouth_and_eyes, seen_topology, skin_openings};
@@ -21,10 +22,6 @@ use facebake_tests::{bake_scene, fixture, guard, jawmocap_neutral, Pinned};
 fn head() -> FaceMesh {
     facebake::io::gltf_mesh::load_mesh(&fixture("ict_facekit/ICTFaceKitSkin.glb"), None, None)
         .expect("ICT-FaceKit's head loads")
-}
-
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt()
 }
 
 /// JawMoCap's markers as `facebake place` puts them on `mesh`, each asserted on the skin that
@@ -70,7 +67,7 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
         100.0 * right.length,
         100.0 * left.length
     );
-    assert!((distance(right.centre, left.centre) - 0.064).abs() < 0.004);
+    assert!((distance(&right.centre, &left.centre) - 0.064).abs() < 0.004);
     assert!(right.centre[0] < -0.025 && left.centre[0] > 0.025);
     for eye in [right, left] {
         assert!((eye.centre[1] - 0.034).abs() < 0.004, "{:?}", eye.centre);
@@ -168,7 +165,7 @@ fn the_whole_model_has_the_skins_face() {
     };
     for (a, b) in found(&whole).iter().zip(found(&skin)) {
         println!("whole {a:?}, skin alone {b:?}");
-        assert!(distance(*a, b) < 0.002);
+        assert!(distance(a, &b) < 0.002);
     }
     assert_eq!(placed_on_seen_skin(&whole).len(), 41);
 }

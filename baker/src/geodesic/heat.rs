@@ -18,7 +18,7 @@
 
 use super::intrinsic::{self, Intrinsic};
 use super::ldlt::{nested_dissection, Ldlt, NotPositiveDefinite};
-use crate::mesh::{dot, sub, Topology};
+use crate::mesh::{dot, find, sub, Topology};
 
 /// Marks a vertex in no triangle with area.
 pub(crate) const NO_PIECE: u32 = u32::MAX;
@@ -99,14 +99,6 @@ fn element(corners: [u32; 3], lengths: [f64; 3]) -> Option<Element> {
         area,
         grad,
     })
-}
-
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        parent[v as usize] = parent[parent[v as usize] as usize];
-        v = parent[v as usize];
-    }
-    v
 }
 
 /// Matrix `diag`, `off` with the `held` vertices' rows and columns replaced by identity.

@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use crate::mesh::Topology;
+use crate::mesh::{find, Topology};
 use crate::model::VertexSets;
 
 /// A mask's sides could not be read from a vertex attribute.
@@ -94,7 +94,7 @@ pub(crate) fn weld_pieces(
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
     let (by_position, _) = weld_positions(positions);
     let at = |v: u32| by_position.get(v as usize).copied();
-    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (i, t) in triangles.iter().enumerate() {
         let Some(w) = t.iter().map(|&v| at(v)).collect::<Option<Vec<u32>>>() else {
             continue;
@@ -104,31 +104,27 @@ pub(crate) fn weld_pieces(
         }
         for k in 0..3 {
             let (a, b) = (w[k], w[(k + 1) % 3]);
-            edges.entry((a.min(b), a.max(b))).or_default().push(i);
+            edges
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push(i as u32);
         }
     }
-    let mut parent: Vec<usize> = (0..triangles.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
+    let mut parent: Vec<u32> = (0..triangles.len() as u32).collect();
     for pair in edges.values().filter(|t| t.len() == 2) {
-        let (a, b) = (root(&mut parent, pair[0]), root(&mut parent, pair[1]));
-        parent[a.max(b)] = a.min(b);
+        let (a, b) = (find(&mut parent, pair[0]), find(&mut parent, pair[1]));
+        parent[a.max(b) as usize] = a.min(b);
     }
-    let mut piece = vec![usize::MAX; positions.len()];
+    let mut piece = vec![u32::MAX; positions.len()];
     for (i, t) in triangles.iter().enumerate() {
-        let r = root(&mut parent, i);
+        let r = find(&mut parent, i as u32);
         for &v in t {
             if let Some(slot) = piece.get_mut(v as usize) {
                 *slot = (*slot).min(r);
             }
         }
     }
-    weld_by(positions, |v| piece[v])
+    weld_by(positions, |v| piece[v] as usize)
 }
 
 /// Welds vertices with bit-identical positions and the same `key`.
