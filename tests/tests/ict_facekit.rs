@@ -97,7 +97,10 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 /// markers' triangles numbered as in the whole mesh, two eye-corner markers sat on a socket
 /// (the skin without its bags lists fewer triangles) and the jaw open flipped 261 triangles
 /// (face mean 0.83 mm, over all 57 of its shapes); with cheek and chin markers snapped to the
-/// nearest surface of all, four of them went onto the sockets.
+/// nearest surface of all, four of them went onto the sockets. With the skin under the jaw
+/// handed to the throat within one margin, as the neck's sides are, the jaw open turned 112
+/// triangles over in a line along the jaw's underside (3.11×, 15 edges over 2×; face mean /
+/// max 0.744 / 14.21 mm; `surface::anchoring::THROAT_REACH`).
 #[test]
 fn place_and_the_default_bake_play_its_expressions() {
     let mesh = head();
@@ -127,12 +130,12 @@ fn place_and_the_default_bake_play_its_expressions() {
             drift_mm: 1.74,
             lips_mm: 6.2,
             eyelids_mm: 3.6,
-            stretch: 3.11,
-            over_2x: 15,
-            flipped: 112,
+            stretch: 2.60,
+            over_2x: 5,
+            flipped: 7,
         },
     );
-    assert!(face.mean_mm <= 0.745 && face.max_mm <= 14.3, "{face:?}");
+    assert!(face.mean_mm <= 0.75 && face.max_mm <= 14.9, "{face:?}");
 }
 
 /// The whole model as one primitive (`ICTFaceKitWhole.glb`: teeth, tongue, eyeballs, tear

@@ -19,6 +19,9 @@
 //!   or the nape's and stays anchored. Without that, a head pitched a few degrees in its file
 //!   dropped its nape under the mouth's height and the jaw dragged it (FaceCap pitched 8.6°:
 //!   4.4 mm where the truth is still).
+//! * Between the jaw's sides, though, the skin under the jaw is the throat's, which an open jaw
+//!   stretches a long way down: there the hand-over starts nearer ([`THROAT_REACH`]) and runs
+//!   longer ([`THROAT_BAND`]), or the skin folds along the jaw's underside.
 //!
 //! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the head markers'
 //! mean: the weights still sum to one (uniform translation stays exact) and with the head
@@ -235,6 +238,38 @@ pub const SKULL_SHARE: f64 = 0.75;
 /// 3.5 the nape is left to the jaw again (3.95 mm pitched 8.6° down, `tests/tests/pose.rs`).
 pub const JAW_REACH: f64 = 3.0;
 
+/// Between the jaw's sides (no farther from the face's middle than the jaw's widest marker),
+/// how far from the nearest of the jaw's markers, in anchoring margins, the skin under the mouth
+/// is still wholly the jaw's; over the next [`THROAT_BAND`] margins it becomes the throat's and
+/// rides the head. Outside the jaw's sides (the neck's sides, the nape) [`JAW_REACH`] and one
+/// margin hold. A jaw open pulls the skin under the chin down 25–30 mm and the throat below it
+/// still follows some way: ICT-FaceKit's own jaw open moves its throat 16 / 8.5 / 3.7 / 1.6 mm
+/// at 5 / 6.5 / 8 / 10 cm from the chin. Handed over within one margin (14.5 mm on that head)
+/// the skin turned over in a line along the jaw's underside. FaceCap's skin stops at the jaw's
+/// underside, so only its neck's sides, which its shapes keep still, lie under the mouth.
+/// Measured 2026-12-03 (`--test ict_facekit`, `--test pose`, `-- --nocapture`): ICT's truth
+/// through JawMoCap's placed markers, flips / face mean / max:
+///
+/// | reach, band (margins) | flips | face mean | max |
+/// |---|---|---|---|
+/// | 3, 1 (as the neck's sides) | 112 | 0.744 mm | 14.21 mm |
+/// | 3, 3 | 13 | 0.753 | 15.58 |
+/// | 3, 4 | 7 | 0.763 | 15.24 |
+/// | 2, 3 | 91 | 0.737 | 12.31 |
+/// | **2, 5** | **7** | **0.749** | **14.89** |
+/// | 2, 6 | 5 | 0.759 | 15.00 |
+///
+/// JawMoCap played on ICT through `bake --capture`: 76 → 12 flips, frames with an edge over
+/// 2×: 216 → 135 of 1590. FaceCap pitched ±5.7° and ±8.6° keeps its static skin within
+/// 0.34 mm as before; with the band widened all round instead (1.5 / 2 / 3 margins), FaceCap
+/// pitched 8.6° down (`--test pose`'s −8.6°) moved the neck's sides under its ears 1.47 / 4.35 /
+/// 6.99 mm.
+pub const THROAT_REACH: f64 = 2.0;
+
+/// Over how many anchoring margins the skin under the jaw between its sides becomes the
+/// throat's (see [`THROAT_REACH`]).
+pub const THROAT_BAND: f64 = 5.0;
+
 /// How far the floor rises near the jaw's markers (within [`JAW_REACH`]), in anchoring
 /// margins. On FaceCap's truth with the JawMoCap layout (`--test structure`, `--test pose`):
 /// face mean / max 0.556 / 9.07 → 0.550 / 8.85 mm upright, max 10.94 → 9.02 mm pitched 8.6°
@@ -287,7 +322,11 @@ pub fn static_anchoring(
     // The jaw's markers: those under the floor. Skin under the floor but far from all of them
     // is the neck's and the nape's, not the jaw's.
     let jaw: Vec<&[f64; 3]> = markers.iter().filter(|m| m[1] < floor).collect();
-    let reach = JAW_REACH * margin;
+    let middle = middle_x(markers);
+    let jaw_half_width = jaw
+        .iter()
+        .map(|m| (m[0] - middle).abs())
+        .fold(0.0, f64::max);
     let strength = positions
         .iter()
         .map(|p| {
@@ -299,10 +338,15 @@ pub fn static_anchoring(
                 .iter()
                 .map(|m| distance(m, p))
                 .fold(f64::INFINITY, f64::min);
+            // Between the jaw's sides (fading out over a margin beyond them) the skin under
+            // the jaw is the throat's, which the jaw's markers stretch a long way down.
+            let between = 1.0 - smoothstep(((p[0] - middle).abs() - jaw_half_width) / margin);
+            let reach = margin * (JAW_REACH + (THROAT_REACH - JAW_REACH) * between);
+            let band = margin * (1.0 + (THROAT_BAND - 1.0) * between);
             let behind = if jaw.is_empty() {
                 0.0
             } else {
-                smoothstep((near - reach) / margin)
+                smoothstep((near - reach) / band)
             };
             // Near the jaw's markers the floor is higher: the jaw's sides, just above the
             // mouth's height, are the jaw's too.
@@ -543,6 +587,43 @@ mod tests {
         let positions = vec![[0.35, -0.7, 0.94], [-0.35, -0.7, 0.94], [0.0, -1.0, -1.0]];
         let a = static_anchoring(&positions, &markers, &[3, 4], Some(0.0), 0.2);
         assert_eq!(a.strength, vec![0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn the_throat_between_the_jaws_sides_is_handed_over_longer() {
+        // A jaw 0.4 wide under the floor (0) on the front of a cylinder of radius 1.
+        let markers = vec![
+            [0.0, -0.5, 1.0],
+            [0.2, -0.5, 0.98],
+            [-0.2, -0.5, 0.98],
+            [0.3, 0.0, 0.95],
+            [-0.3, 0.0, 0.95],
+            [0.0, 1.0, 1.0],
+            [0.3, 1.0, 0.95],
+        ];
+        let margin = 0.2;
+        // Under the chin (between the jaw's sides), and as far under the jaw's side but well
+        // beside it (more than a margin beyond its widest marker).
+        let positions = vec![[0.0, -1.2, 1.0], [0.75, -0.9, 0.66]];
+        let a = static_anchoring(&positions, &markers, &[5, 6], Some(0.0), margin);
+        let near = |p: &[f64; 3]| {
+            markers[..3]
+                .iter()
+                .map(|m| distance(m, p))
+                .fold(f64::INFINITY, f64::min)
+                / margin
+        };
+        let throat = smoothstep((near(&positions[0]) - THROAT_REACH) / THROAT_BAND);
+        let side = smoothstep(near(&positions[1]) - JAW_REACH);
+        assert!((a.strength[0] - throat).abs() < 1e-12, "{:?}", a.strength);
+        assert!((a.strength[1] - side).abs() < 1e-12, "{:?}", a.strength);
+        // 3.5 margins from the chin the throat still follows it by more than half; as far
+        // from the jaw, the neck's side is mostly the head's.
+        assert!(
+            a.strength[0] < 0.5 && a.strength[1] > 0.5,
+            "{:?}",
+            a.strength
+        );
     }
 
     #[test]
