@@ -270,6 +270,7 @@ fn masks_from_cylindrical_mask_images_match_the_automatic_sides() {
         groups: &s.groups,
         sides,
         head_fit: false,
+        held: None,
     };
     let c = masked_euclidean();
     let auto = mask_sides(&input(&SideRule::Auto), &c.surface).expect("automatic sides");

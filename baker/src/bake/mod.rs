@@ -117,6 +117,7 @@ impl<'a> Scene<'a> {
             groups: &self.groups,
             sides: &self.sides,
             head_fit: self.capture.is_some(),
+            held: None,
         }
     }
 }
@@ -316,7 +317,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let names = scene.marker_names();
     let rest = scene.marker_rest();
     let space = crate::space::space_for(&scene.mesh.positions);
-    let d = bake_deformer(scene, options, &rest, &space)?;
+    let mut d = bake_deformer(scene, options, &rest, &space, None)?;
     let stages = match scene.capture {
         Some(capture) => {
             // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
@@ -352,6 +353,21 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         }
         None => None,
     };
+    // The skin beyond the markers follows the markers the head fit holds still. The first bake
+    // took the head candidates, which the stages pick all of unless there are more of them
+    // than they keep or the user named others: then the deformer is baked again.
+    if let Some(st) = &stages {
+        let held: Vec<usize> = st
+            .report
+            .head_markers
+            .iter()
+            .filter_map(|h| names.iter().position(|n| n == h))
+            .collect();
+        let followed = d.surface.as_ref().and_then(|s| s.anchoring.as_ref());
+        if followed.is_some_and(|a| !same_markers(&a.markers, &st.report.head_markers)) {
+            d = bake_deformer(scene, options, &rest, &space, Some(&held))?;
+        }
+    }
     let normals = crate::normals::bake(scene.mesh)?;
     let (blob, sizes) = blob::write(&BlobContents {
         space,
@@ -557,12 +573,23 @@ fn planar_anchor(
     Some((triangle, strength))
 }
 
-/// The deformer by the options' strategy.
+/// Whether two lists name the same markers, in any order.
+fn same_markers(a: &[String], b: &[String]) -> bool {
+    let mut a: Vec<&String> = a.iter().collect();
+    let mut b: Vec<&String> = b.iter().collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    a == b
+}
+
+/// The deformer by the options' strategy; with a capture, `held` names the markers its head
+/// fit holds still (`None`: the head candidates).
 fn bake_deformer(
     scene: &Scene<'_>,
     options: &BakeOptions,
     rest: &[[f64; 3]],
     space: &Space,
+    held: Option<&[usize]>,
 ) -> Result<DeformerBake, BakeError> {
     let mesh = scene.mesh;
     if options.deformer == DeformerKind::Planar {
@@ -628,7 +655,11 @@ fn bake_deformer(
             surface_markers: None,
         });
     }
-    let s = crate::surface::dense_weights(&scene.surface_input(), options, space)?;
+    let input = SurfaceInput {
+        held,
+        ..scene.surface_input()
+    };
+    let s = crate::surface::dense_weights(&input, options, space)?;
     let output = match options.deformer {
         DeformerKind::Linear => s.linear(options)?,
         DeformerKind::Rbf => s.rbf(options)?,

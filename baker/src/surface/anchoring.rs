@@ -116,7 +116,9 @@ pub(crate) fn middle_x(markers: &[[f64; 3]]) -> f64 {
 }
 
 /// The markers anchored skin follows: the `skull` markers and, unless the rig fits the head
-/// itself (`head_fit`), each eye's inner-corner marker.
+/// itself (`head_fit`), each eye's inner-corner marker. (Planar bones' anchor takes it so; the
+/// surface-aware bake with a capture follows the markers its head fit holds,
+/// `surface::SurfaceInput::held`, by default these with the inner corners.)
 ///
 /// With a head fit (a bake with a capture) the stages fit the head to the skull markers every
 /// frame, which leaves their mean displacement at zero, so skin that follows it stays still.

@@ -82,9 +82,14 @@ pub struct SurfaceInput<'a> {
     pub groups: &'a [MarkerGroups],
     /// How vertex sides are found.
     pub sides: &'a SideRule,
-    /// The rig fits the head to the skull markers every frame (a bake with a capture): the skin
-    /// beyond the markers then follows the skull markers alone, whose mean the fit keeps still.
+    /// The rig fits the head every frame (a bake with a capture) and holds its head markers
+    /// still: the skin beyond the markers then follows them (see [`SurfaceInput::held`]).
     pub head_fit: bool,
+    /// With `head_fit`, the markers the fit holds (the capture stages' head markers, rig order);
+    /// `None` before the stages have picked them: the head candidates, all of which they pick
+    /// when there are at most [`crate::stages::DEFAULT_HEAD_MARKERS`]. Empty: none held, as
+    /// without a head fit.
+    pub held: Option<&'a [usize]>,
 }
 
 /// A surface-aware bake failed.
@@ -432,8 +437,17 @@ pub(crate) fn dense_weights(
     // Without the rig's own head fit the skin beyond the markers also follows the inner corners
     // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
     let eyes = eye_rims(&rims, mouth);
-    let anchors =
-        anchoring::anchor_markers(&rest, &skull, &eyes, input.head_fit, corners::CORNER_REACH);
+    // With the rig's own head fit, the markers it holds still, whose displacement is then
+    // zero: ICT-FaceKit's truth played as a capture with the skull markers alone anchoring (the
+    // stages held the inner eye corners too) moved its throat twice as far as the truth in the
+    // jaw open (13.8 mm off where the bake without a capture is 6.2) and flipped 20 triangles
+    // where that bake flips 7: the eight weights a vertex keeps went to the markers the
+    // anchored share was not split over (`--test ict_facekit`).
+    let head_fit = input.head_fit && input.held.is_none_or(|h| !h.is_empty());
+    let anchors = match input.held.filter(|_| head_fit) {
+        Some(held) => held.to_vec(),
+        None => head_candidates(&rest, &skull, &eyes),
+    };
     // The RBF deformer cannot blend weights towards the anchor markers as the linear one does;
     // its affine part is prescribed as the anchor markers' mean displacement instead
     // (`RbfSystem::anchored_coefficient_map`), so its far field follows them, and its radial
@@ -552,7 +566,7 @@ pub(crate) fn dense_weights(
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             let a = anchoring::static_anchoring(
                 &mesh.positions,
-                &anchoring::hull_markers(&rest, &anchors, input.head_fit),
+                &anchoring::hull_markers(&rest, &anchors, head_fit),
                 &anchors,
                 floor,
                 factor * spacing,

@@ -76,6 +76,7 @@ pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
             groups,
             sides: &SideRule::Auto,
             head_fit: false,
+            held: None,
         },
         &SurfaceOptions::default(),
     )
