@@ -434,8 +434,8 @@ pub(crate) fn dense_weights(
     let floor = mouth.map(|i| geometry.openings[i].centre[1]);
     let rims = rims_of(&geometry, mesh);
     let skull = anchoring::skull_markers(&rest, &rims, spacing);
-    // Without the rig's own head fit the skin beyond the markers also follows the inner corners
-    // of the eyes, which expressions move least (see `anchoring::anchor_markers`).
+    // The skin beyond the markers follows the head candidates: the skull markers and the inner
+    // corners of the eyes, which expressions move least (see `anchoring::anchor_markers`).
     let eyes = eye_rims(&rims, mouth);
     // With the rig's own head fit, the markers it holds still, whose displacement is then
     // zero: ICT-FaceKit's truth played as a capture with the skull markers alone anchoring (the
