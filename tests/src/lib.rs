@@ -1,5 +1,7 @@
 //! Shared helpers for the cross-crate tests: fixture paths and the FaceCap ground-truth rig.
 
+pub mod rehearsal;
+
 use std::path::PathBuf;
 
 use facebake::geodesic::Source;

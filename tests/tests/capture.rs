@@ -12,8 +12,8 @@ use facebake_tests::{jawmocap_rig, rotate, JawMoCapRig};
 /// runtime's own tests cover it).
 fn unsmoothed() -> StagesConfig {
     StagesConfig {
-        smoothing: None,
-        head_smoothing: facebake::stages::HeadSmoothing::Off,
+        smoothing: facebake::stages::SmoothingUse::Off,
+        head_smoothing: facebake::stages::SmoothingUse::Off,
         ..StagesConfig::default()
     }
 }
@@ -122,7 +122,24 @@ fn anchored_runtime_matches_the_f64_pipeline_on_jawmocap() {
     matches_the_f64_pipeline(j);
 }
 
+/// With the head moving and a fifth of the samples dropped, head markers among them: a frame
+/// that lacks some head markers fits the others to their last residuals
+/// (`facebake_runtime::stages`' `with_residuals`), in the runtime as in the f64 reference.
+#[test]
+fn runtime_matches_the_f64_pipeline_with_dropped_markers() {
+    let j = rig();
+    let dropped = facebake_tests::moved_and_dropped(&j.capture.in_metres(), 0.2, false);
+    let frames =
+        facebake_tests::frames_in_order(&dropped, j.placed.iter().map(|m| m.name.as_str()));
+    matches_the_f64_pipeline_on(j, &frames);
+}
+
 fn matches_the_f64_pipeline(j: &JawMoCapRig) {
+    matches_the_f64_pipeline_on(j, &j.frames);
+}
+
+/// [`matches_the_f64_pipeline`] on `frames` (metres, rig marker order).
+fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]) {
     let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let sparse = SparseF64::from_rig(&rig);
     let mut state = PlayState::new();
@@ -132,7 +149,8 @@ fn matches_the_f64_pipeline(j: &JawMoCapRig) {
     let space = rig.space();
     let diag = j.mesh.diagonal();
     let mut markers_q = vec![[0i32; 3]; rig.marker_count()];
-    for frame in &j.frames {
+    let mut marker_state = PlayState::new();
+    for frame in frames {
         let report = rig
             .play(&mut state, &to_actor(&rig, frame), &mut out)
             .expect("plays");
@@ -143,11 +161,7 @@ fn matches_the_f64_pipeline(j: &JawMoCapRig) {
         assert_eq!(report.rebuilt.len(), ref_report.rebuilt.len());
         assert_eq!(report.held.len(), ref_report.held.len());
         let stages = rig.stages().expect("stages");
-        stages.solve(
-            &mut PlayState::new(),
-            &to_actor(&rig, frame),
-            &mut markers_q,
-        );
+        stages.solve(&mut marker_state, &to_actor(&rig, frame), &mut markers_q);
         let markers_asset: Vec<[f64; 3]> = markers_f64
             .iter()
             .map(|m| {
@@ -260,20 +274,21 @@ fn the_head_noise_gain_measures_how_well_the_head_markers_pin_the_pose() {
     assert_eq!(default, with_canthi);
 }
 
-/// Smoothing the head's pose lags a moving head: forced on, measured 2026-11-27, 2.91 mm at the
-/// most under the same motion (36°/s), pinned. (Smoothing the head markers themselves before the
-/// fit, tried first, lagged it by 8 mm.)
+/// Smoothing the head's pose lags a moving head: forced on, measured 2026-12-03, 3.48 mm at the
+/// most under the same motion (36°/s), pinned (2.91 mm on 2026-11-27, when the markers' filter,
+/// which the default bake no longer runs on this clean take, smoothed some of it away).
+/// (Smoothing the head markers themselves before the fit, tried first, lagged it by 8 mm.)
 #[test]
 fn head_pose_smoothing_lags_head_motion_by_a_bounded_amount() {
     let j = jawmocap_rig(&StagesConfig {
-        head_smoothing: facebake::stages::HeadSmoothing::On(
+        head_smoothing: facebake::stages::SmoothingUse::On(
             facebake::stages::temporal::SmoothingConfig::HEAD,
         ),
         ..StagesConfig::default()
     });
     let worst = head_motion_error(&j) * 1000.0;
     println!("smoothed head pose: worst vertex difference under head motion {worst:.2} mm");
-    assert!(worst < 3.0, "{worst}");
+    assert!(worst < 3.6, "{worst}");
 }
 
 /// Play the first 400 frames as captured and moved rigidly (a known rotation and translation
@@ -367,12 +382,13 @@ fn knocked_out_markers_are_rebuilt() {
     sorted.sort_by(f64::total_cmp);
     let p99 = sorted[sorted.len() * 99 / 100];
     println!("knock-out: {missing} missing samples; vertex error vs complete mean {mean:.3} p99 {p99:.3} max {max:.3} mm");
-    // Pinned (measured 2026-11-27 on the default bake: mean 0.461, p99 4.59, max 23.2 mm, since
+    // Pinned (measured 2026-12-03: mean 0.122, p99 1.47, max 9.9 mm, since a frame lacking head
+    // markers fits the others to their residuals; 2026-11-27: mean 0.461, p99 4.59, max 23.2 mm, since
     // the head markers hold still: a head marker knocked out no longer moves by its neighbours'
     // fill, which moved the forehead and the far skin with it, 0.596 / 4.89 / 40.0 mm before;
     // the lip markers on the lip rims, rebuilt from neighbours along the same lip, miss the
     // rim's own motion when the mouth is widest).
-    assert!(mean < 0.55 && p99 < 5.0 && max < 28.0, "{mean} {p99} {max}");
+    assert!(mean < 0.15 && p99 < 1.7 && max < 11.0, "{mean} {p99} {max}");
 }
 
 /// Retargeting the actor onto himself is the identity, and onto a copy scaled by 1.5 scales the

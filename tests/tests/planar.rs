@@ -348,8 +348,8 @@ fn runtime_matches_the_f64_equations_on_jawmocap() {
         &facebake_tests::planar_config(8),
         // The f64 chain has no smoothing.
         &StagesConfig {
-            smoothing: None,
-            head_smoothing: facebake::stages::HeadSmoothing::Off,
+            smoothing: facebake::stages::SmoothingUse::Off,
+            head_smoothing: facebake::stages::SmoothingUse::Off,
             ..StagesConfig::default()
         },
     );

@@ -14,12 +14,16 @@ use facebake_tests::{jawmocap_rig, reseal, JawMoCapRig};
 
 /// JawMoCap's rig with the RBF retargeting map, whose sections have the most fields to damage
 /// (the default's proportional retargeting is checked in
-/// [`proportional_retargeting_errors_are_distinct`]).
+/// [`proportional_retargeting_errors_are_distinct`]), and the markers' smoothing on (the
+/// default bake leaves this clean take unsmoothed).
 fn rig() -> &'static JawMoCapRig {
     static CELL: std::sync::OnceLock<JawMoCapRig> = std::sync::OnceLock::new();
     CELL.get_or_init(|| {
         jawmocap_rig(&StagesConfig {
             retarget: RetargetKind::Rbf,
+            smoothing: facebake::stages::SmoothingUse::On(
+                facebake::stages::temporal::SmoothingConfig::default(),
+            ),
             ..StagesConfig::default()
         })
     })
@@ -170,7 +174,7 @@ fn every_stages_error_is_distinct() {
             StagesLoadError::BadMaxStep
         );
     }
-    let smoothing = s.smoothing.expect("the default bake smooths");
+    let smoothing = s.smoothing.expect("the rig smooths");
     use facebake_runtime::stages::smoothing::{MAX_CUTOFF, MAX_SPEED_GAIN};
     for bad in [0, MAX_CUTOFF + 1] {
         assert_eq!(

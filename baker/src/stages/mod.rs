@@ -72,18 +72,27 @@ pub enum RetargetKind {
     Geodesic,
 }
 
-/// Whether the head's pose is smoothed (the runtime's head smoothing: the fit's motion filtered
-/// like a marker's, then fitted again). A fit from a few close head markers magnifies their
-/// noise at the face (JawMoCap's three forehead markers 6.4×: ±0.5 mm of jitter moves the chin
-/// by up to 14 mm), and the markers' own filter lets that through while they move fast; the
-/// price of smoothing it is a lag of the head's pose while the head moves, which shows as
-/// drift of the skull (0.96 mm on JawMoCap as captured, against 0.49 unsmoothed).
+/// When a smoothing filter runs: the markers' ([`StagesConfig::smoothing`]) or the head pose's
+/// ([`StagesConfig::head_smoothing`]).
+///
+/// The head pose's filter (the runtime's head smoothing: the fit's motion filtered like a
+/// marker's, then fitted again): a fit from a few close head markers magnifies their noise at
+/// the face (JawMoCap's three forehead markers 6.4×: ±0.5 mm of jitter moves the chin by up to
+/// 14 mm), and the markers' own filter lets that through while they move fast; the price of
+/// smoothing it is a lag of the head's pose while the head moves, which shows as drift of the
+/// skull (0.96 mm on JawMoCap as captured, against 0.49 unsmoothed).
+///
+/// The markers' filter: it averages a noisy capture's jitter away, and lags every expression
+/// (its lag when still is rate / (2π · its minimum cutoff) frames); on a clean capture
+/// the lag is all it brings (see [`temporal::MARKER_NOISE_LIMIT`]).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub enum HeadSmoothing {
+pub enum SmoothingUse {
     /// Never.
     Off,
-    /// With these parameters when the head fit would carry more than
-    /// [`temporal::HEAD_NOISE_LIMIT`] of the capture's own noise to the face.
+    /// With these parameters when the capture's noise calls for it: for the head pose, when the
+    /// head fit would carry more than [`temporal::HEAD_NOISE_LIMIT`] of the capture's own noise
+    /// to the face; for the markers, when the capture's noise is over
+    /// [`temporal::MARKER_NOISE_LIMIT`].
     Auto(temporal::SmoothingConfig),
     /// Always, with these parameters.
     On(temporal::SmoothingConfig),
@@ -129,10 +138,10 @@ pub struct StagesConfig {
     /// Largest plausible movement of a compensated marker from one frame to the next, as a
     /// fraction of the actor's half extent; `None`: learned from the capture ([`temporal`]).
     pub max_step: Option<f64>,
-    /// The smoothing filter, or `None` for none.
-    pub smoothing: Option<temporal::SmoothingConfig>,
+    /// The markers' smoothing filter: when to use it.
+    pub smoothing: SmoothingUse,
     /// The head pose's smoothing filter: when to use it.
-    pub head_smoothing: HeadSmoothing,
+    pub head_smoothing: SmoothingUse,
     /// The character's skin and the rig markers' places on it, for
     /// [`RetargetKind::Geodesic`] (positions in asset units); [`crate::bake()`] fills it from
     /// the scene when that retargeting is asked for.
@@ -155,8 +164,8 @@ impl Default for StagesConfig {
             head_candidates: None,
             head_tolerance: None,
             max_step: None,
-            smoothing: Some(temporal::SmoothingConfig::default()),
-            head_smoothing: HeadSmoothing::Auto(temporal::SmoothingConfig::HEAD),
+            smoothing: SmoothingUse::Auto(temporal::SmoothingConfig::default()),
+            head_smoothing: SmoothingUse::Auto(temporal::SmoothingConfig::HEAD),
             character_surface: None,
             face_axes: None,
         }
@@ -302,7 +311,7 @@ pub struct StagesReport {
     pub max_displacement: f64,
     /// The smoothing filter, if any.
     pub smoothing: Option<temporal::SmoothingConfig>,
-    /// The head pose's smoothing filter, if any (see [`HeadSmoothing`]).
+    /// The head pose's smoothing filter, if any (see [`SmoothingUse`]).
     pub head_smoothing: Option<temporal::SmoothingConfig>,
     /// The capture's measurement noise, metres ([`temporal::capture_noise`]).
     pub capture_noise: f64,
@@ -665,17 +674,21 @@ pub fn bake_stages(
     };
     bytes.head_tolerance = temporal::encode_bound(head_tolerance, "head tolerance")?;
     bytes.max_step = temporal::encode_bound(max_step, "max step")?;
-    bytes.smoothing = config
-        .smoothing
+    let capture_noise = temporal::capture_noise(&frames);
+    let smoothing = match config.smoothing {
+        SmoothingUse::Off => None,
+        SmoothingUse::On(s) => Some(s),
+        SmoothingUse::Auto(s) => (capture_noise > temporal::MARKER_NOISE_LIMIT).then_some(s),
+    };
+    bytes.smoothing = smoothing
         .map(|s| s.encode(capture.rate_hz, half_extent))
         .transpose()?;
     let head_points: Vec<[f64; 3]> = head.iter().map(|&h| reference.neutral[h]).collect();
     let head_noise_gain = rigid::fit_noise_gain(&head_points, &reference.neutral);
-    let capture_noise = temporal::capture_noise(&frames);
     let head_smoothing = match config.head_smoothing {
-        HeadSmoothing::Off => None,
-        HeadSmoothing::On(s) => Some(s),
-        HeadSmoothing::Auto(s) => head_noise_gain
+        SmoothingUse::Off => None,
+        SmoothingUse::On(s) => Some(s),
+        SmoothingUse::Auto(s) => head_noise_gain
             .is_some_and(|g| g * capture_noise > temporal::HEAD_NOISE_LIMIT)
             .then_some(s),
     }
@@ -710,7 +723,7 @@ pub fn bake_stages(
         head_tolerance: head_tolerance * half_extent,
         max_step: max_step * half_extent,
         max_displacement: reference.max_displacement * half_extent,
-        smoothing: config.smoothing,
+        smoothing,
         head_smoothing,
         head_noise_gain,
         capture_noise,

@@ -64,6 +64,9 @@ pub struct StateF64 {
     /// Per marker, its offset from each of its fill neighbours (in `fill`'s order).
     offsets: Vec<Vec<[f64; 3]>>,
     fit: Option<RigidTransform>,
+    /// Per head marker (in `head`'s order), its residual in the head's frame when last fitted;
+    /// empty until a frame has fitted every head marker (the runtime's, unsmoothed).
+    head_residuals: Vec<[f64; 3]>,
 }
 
 /// The share of its offsets a missing marker loses each frame (the runtime's
@@ -152,8 +155,17 @@ impl StagesF64 {
             .copied()
             .filter(|&h| actor[h].is_some())
             .collect();
+        // A head marker's neutral place, plus its residual when some head marker is missing.
+        let target = |h: usize, all: bool| {
+            let slot = self.head.iter().position(|&m| m == h);
+            match (all, slot.and_then(|k| state.head_residuals.get(k))) {
+                (false, Some(r)) => [0, 1, 2].map(|c| self.neutral[h][c] + r[c]),
+                _ => self.neutral[h],
+            }
+        };
         let fit_of = |used: &[usize]| {
-            let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
+            let all = used.len() == self.head.len();
+            let from: Vec<[f64; 3]> = used.iter().map(|&h| target(h, all)).collect();
             let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
             kabsch(&from, &to)
         };
@@ -166,6 +178,18 @@ impl StagesF64 {
             });
             if used.len() < before {
                 fitted = fit_of(&used);
+            }
+        }
+        if let Ok(fit) = &fitted {
+            if used.len() == self.head.len() || !state.head_residuals.is_empty() {
+                state.head_residuals.resize(self.head.len(), [0.0; 3]);
+                for &h in &used {
+                    let (Some(k), Some(q)) = (self.head.iter().position(|&m| m == h), actor[h])
+                    else {
+                        continue;
+                    };
+                    state.head_residuals[k] = sub(&fit.apply_inverse(&q), &self.neutral[h]);
+                }
             }
         }
         match fitted {

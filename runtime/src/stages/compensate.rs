@@ -159,6 +159,11 @@ impl HeadPairs {
         }
     }
 
+    /// Pair `i`: its neutral and current points.
+    pub fn pair(&self, i: usize) -> ([i32; 3], [i32; 3]) {
+        (self.neutral[i], self.current[i])
+    }
+
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.len

@@ -19,7 +19,7 @@ use facebake::model::{
     place_markers, FaceMesh, MarkerGroups, Units, VertexSets, DEFAULT_MAX_SNAP_FRACTION,
 };
 use facebake::stages::temporal::SmoothingConfig;
-use facebake::stages::{HeadSmoothing, Neutral};
+use facebake::stages::{Neutral, SmoothingUse};
 use facebake::surface::SideRule;
 use facebake::{
     BakeError, BakeOptions, BakeReport, DeformerKind, HeadMarkers, RetargetKind, Scene,
@@ -175,17 +175,19 @@ pub struct BakeArgs {
     /// capture's 99.9th percentile per-frame movement, at least 0.02).
     #[arg(long, value_name = "F", requires = "capture")]
     pub max_step: Option<f64>,
-    /// The one-euro smoothing of the compensated markers: `MIN_HZ,BETA,SPEED_HZ` (cutoff when
-    /// still, Hz added per m/s of speed, cutoff of the speed estimate), or `off`. Its lag when
-    /// still is rate / (2π MIN_HZ) frames.
-    #[arg(long, value_name = "PARAMS", default_value = "1,10,1", value_parser = parse_smoothing, requires = "capture")]
-    pub smoothing: SmoothingChoice,
+    /// The one-euro smoothing of the compensated markers: `auto` (3 Hz, β 50, 2 Hz when the
+    /// capture's noise is over 0.15 mm; a clean capture is not smoothed, since the filter's lag
+    /// costs more than it removes), `off`, or `MIN_HZ,BETA,SPEED_HZ` (cutoff when still, Hz
+    /// added per m/s of speed, cutoff of the speed estimate) for always with these parameters.
+    /// Its lag when still is rate / (2π MIN_HZ) frames.
+    #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_smoothing, requires = "capture")]
+    pub smoothing: SmoothingUse,
     /// The one-euro smoothing of the head's pose: `auto` (when the head fit would carry more
     /// than 1 mm of the capture's own noise to the face: a few close head markers on a noisy
     /// capture), `off`, or `MIN_HZ,BETA,SPEED_HZ` for always with these parameters. It lags
     /// the pose while the head moves.
     #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_head_smoothing, requires = "capture")]
-    pub head_smoothing: HeadSmoothing,
+    pub head_smoothing: SmoothingUse,
     /// How the actor's markers become the character's: per-region proportional scaling (paper
     /// 003 §4; the default: it keeps the actor's jaw opening, where the RBF map of a layout
     /// whose lip markers sit closer on the character than on the actor exaggerates it), the
@@ -270,7 +272,7 @@ impl BakeArgs {
                 anchor_markers: self.anchor_markers.clone(),
                 head_tolerance: self.head_tolerance,
                 max_step: self.max_step,
-                smoothing: self.smoothing.0,
+                smoothing: self.smoothing,
                 head_smoothing: self.head_smoothing,
                 ..StagesConfig::default()
             },
@@ -777,15 +779,18 @@ fn print_text(s: &BakeSummary) {
         };
         outln!(
             out,
-            "  smoothing     markers {} (lag when still {} frames); head pose {}{}",
+            "  smoothing     the capture's noise {:.3} mm (markers smoothed by default over {:.2} mm); markers {}{}; head pose {}{}",
+            st.capture_noise * 1000.0,
+            facebake::stages::temporal::MARKER_NOISE_LIMIT * 1000.0,
             filter(&st.smoothing),
-            st.smoothing_lag_frames,
+            if st.smoothing.is_some() {
+                format!(" (lag when still {} frames)", st.smoothing_lag_frames)
+            } else {
+                String::new()
+            },
             filter(&st.head_smoothing),
             match st.head_noise_gain {
-                Some(g) => format!(
-                    " (the head fit magnifies marker noise {g:.1}×; the capture's noise {:.3} mm)",
-                    st.capture_noise * 1000.0
-                ),
+                Some(g) => format!(" (the head fit magnifies marker noise {g:.1}×)"),
                 None => String::new(),
             }
         );
@@ -889,42 +894,40 @@ fn parse_frames(s: &str) -> Result<Range<usize>, String> {
 }
 
 /// Parse `--head-smoothing`: `auto`, `off` or `MIN_HZ,BETA,SPEED_HZ`.
-pub fn parse_head_smoothing(s: &str) -> Result<HeadSmoothing, String> {
-    if s.trim() == "auto" {
-        return Ok(HeadSmoothing::Auto(SmoothingConfig::HEAD));
-    }
-    Ok(match parse_smoothing(s)?.0 {
-        Some(config) => HeadSmoothing::On(config),
-        None => HeadSmoothing::Off,
-    })
+pub fn parse_head_smoothing(s: &str) -> Result<SmoothingUse, String> {
+    parse_use(s, SmoothingConfig::HEAD)
 }
 
-/// `--smoothing`: the filter's parameters, or `None` for `off`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SmoothingChoice(pub Option<SmoothingConfig>);
+/// Parse `--smoothing`: `auto`, `off` or `MIN_HZ,BETA,SPEED_HZ`.
+pub fn parse_smoothing(s: &str) -> Result<SmoothingUse, String> {
+    parse_use(s, SmoothingConfig::default())
+}
 
-/// Parse `--smoothing`: `off` or `MIN_HZ,BETA,SPEED_HZ`, each finite and non-negative.
-pub fn parse_smoothing(s: &str) -> Result<SmoothingChoice, String> {
-    if s.trim() == "off" {
-        return Ok(SmoothingChoice(None));
+/// `auto` (with `auto`'s parameters), `off` or `MIN_HZ,BETA,SPEED_HZ`, each finite and
+/// non-negative, for always.
+fn parse_use(s: &str, auto: SmoothingConfig) -> Result<SmoothingUse, String> {
+    match s.trim() {
+        "auto" => return Ok(SmoothingUse::Auto(auto)),
+        "off" => return Ok(SmoothingUse::Off),
+        _ => {}
     }
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("{s:?} is not `off` or three numbers MIN_HZ,BETA,SPEED_HZ"))?;
+        .map_err(|_| format!("{s:?} is not `auto`, `off` or three numbers MIN_HZ,BETA,SPEED_HZ"))?;
     match v[..] {
         [min_cutoff_hz, beta, derivative_cutoff_hz]
             if v.iter().all(|x| x.is_finite() && *x >= 0.0) =>
         {
-            Ok(SmoothingChoice(Some(SmoothingConfig {
+            Ok(SmoothingUse::On(SmoothingConfig {
                 min_cutoff_hz,
                 beta,
                 derivative_cutoff_hz,
-            })))
+            }))
         }
         _ => Err(format!(
-            "{s:?} is not `off` or three non-negative numbers MIN_HZ,BETA,SPEED_HZ"
+            "{s:?} is not `auto`, `off` or three non-negative numbers MIN_HZ,BETA,SPEED_HZ"
         )),
     }
 }

@@ -97,8 +97,8 @@ pub fn run(
     // Its twin without smoothing, for the runtime-against-f64 figure alone: the f64 reference
     // of the stages has no smoothing.
     let mut unsmoothed = options.clone();
-    unsmoothed.stages.smoothing = None;
-    unsmoothed.stages.head_smoothing = facebake::stages::HeadSmoothing::Off;
+    unsmoothed.stages.smoothing = facebake::stages::SmoothingUse::Off;
+    unsmoothed.stages.head_smoothing = facebake::stages::SmoothingUse::Off;
     let twin = bake(&unsmoothed)?;
     let space = twin.space;
     let (Some(stages), Some(stages_report)) = (&twin.reference.stages, &baked.report.stages) else {

@@ -1,0 +1,157 @@
+//! Rehearsals of the held-out set on a face with a truth: the truth's expressions played as a
+//! capture take (the markers' paths between the neutral and each expression), with what a real
+//! take brings (jitter, head motion, dropouts), baked with `bake --capture` and scored against
+//! the truth on the frames in between as well as on the held expressions, so that the marker
+//! smoothing's lag is charged as well as the jitter it removes.
+
+use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
+use facebake::model::{Capture, Units};
+use facebake::surface::evaluate::Benchmark;
+use facebake::{BakeOptions, Baked};
+use facebake_runtime::{PlayState, Rig};
+
+use crate::{jittered, moved_and_dropped};
+
+/// How the take is paced and spoilt.
+#[derive(Clone, Copy, Debug)]
+pub struct Pace {
+    /// Frames per second.
+    pub rate_hz: f64,
+    /// Frames to ease into each expression (a half cosine, as a face starts and stops) and out.
+    pub ramp: usize,
+    /// Frames each expression is held.
+    pub hold: usize,
+    /// Uniform jitter on every coordinate, ± metres.
+    pub jitter: f64,
+    /// Share of the samples dropped (seeded), the head turning and moving as in
+    /// [`moved_and_dropped`].
+    pub dropped: f64,
+}
+
+impl Pace {
+    /// 60 frames a second, each expression eased in over a third of a second, held for a fifth
+    /// and eased out; ±0.5 mm of jitter and 5 % of the samples dropped.
+    pub const NATURAL: Self = Self {
+        rate_hz: 60.0,
+        ramp: 20,
+        hold: 12,
+        jitter: 0.0005,
+        dropped: 0.05,
+    };
+}
+
+/// Frames at rest before the first expression.
+const REST_FRAMES: usize = 10;
+/// Frames left out of the score: the rest and the smoothing's start-up.
+pub const SKIPPED: usize = 30;
+
+/// A take made of a truth, and where the truth is at each of its frames.
+pub struct Rehearsal {
+    /// The take (metres), spoilt as its [`Pace`] says.
+    pub capture: Capture,
+    /// Per take frame: the truth frame it heads to (`None`: at rest) and how far, 0 to 1.
+    keys: Vec<(Option<usize>, f64)>,
+}
+
+/// A rig's figures on a rehearsal.
+#[derive(Clone, Debug)]
+pub struct Score {
+    /// Mean error over the skin's vertices and the scored frames, mm.
+    pub mean_mm: f64,
+    /// 99th percentile of the same errors, mm.
+    pub p99_mm: f64,
+    /// The structure metrics, worst over the scored frames.
+    pub take: TakeMetrics,
+}
+
+impl Rehearsal {
+    /// The truth of `scene` played at `pace` through its markers.
+    pub fn new(scene: &Benchmark, pace: Pace) -> Self {
+        let mut keys = vec![(None, 0.0); REST_FRAMES];
+        let ease =
+            |k: usize| 0.5 - 0.5 * (std::f64::consts::PI * k as f64 / pace.ramp as f64).cos();
+        for f in 0..scene.truth.frames.len() {
+            keys.extend((1..=pace.ramp).map(|k| (Some(f), ease(k))));
+            keys.extend((0..pace.hold).map(|_| (Some(f), 1.0)));
+            keys.extend((1..=pace.ramp).map(|k| (Some(f), ease(pace.ramp - k))));
+        }
+        let rest = scene.markers_of(&scene.truth.mesh.positions);
+        let frames = keys
+            .iter()
+            .map(|&(f, t)| {
+                let to = f.map_or_else(
+                    || rest.clone(),
+                    |f| scene.markers_of(&scene.truth.positions(f)),
+                );
+                lerp(&rest, &to, t).into_iter().map(Some).collect()
+            })
+            .collect();
+        let clean = Capture {
+            source: "rehearsal.csv".into(),
+            rate_hz: pace.rate_hz,
+            units: Units::Metres,
+            marker_names: scene.markers.iter().map(|m| m.name.clone()).collect(),
+            frames,
+        };
+        Self {
+            capture: moved_and_dropped(&jittered(&clean, pace.jitter), pace.dropped, false),
+            keys,
+        }
+    }
+
+    /// Bake the scene with this take as its capture.
+    pub fn bake(&self, scene: &Benchmark, options: &BakeOptions) -> Baked {
+        let mut with_capture = crate::benchmark_scene(scene);
+        with_capture.capture = Some(&self.capture);
+        facebake::bake(&with_capture, options).expect("the rehearsal bakes")
+    }
+
+    /// Play the take through `blob` and score every `every`-th frame past [`SKIPPED`] against
+    /// the truth where the take has it (frame by frame: nothing but the errors is kept).
+    pub fn score(&self, scene: &Benchmark, blob: &[u8], every: usize) -> Score {
+        let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
+        let (space, actor) = (rig.space(), rig.actor_space().expect("capture stages"));
+        let regions =
+            Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
+        let mut state = PlayState::new();
+        let mut out = vec![[0i32; 3]; rig.vertex_count()];
+        let (mut errors, mut metrics) = (Vec::new(), Vec::<FrameMetrics>::new());
+        for (i, frame) in self.capture.frames.iter().enumerate() {
+            let markers: Vec<Option<[i32; 3]>> = frame
+                .iter()
+                .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
+                .collect();
+            rig.play(&mut state, &markers, &mut out).expect("plays");
+            if i < SKIPPED || i % every != 0 {
+                continue;
+            }
+            let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+            let rest = &scene.truth.mesh.positions;
+            let truth = match self.keys[i] {
+                (None, _) => rest.clone(),
+                (Some(f), t) => lerp(rest, &scene.truth.positions(f), t),
+            };
+            metrics.push(regions.measure(&played, Some(&truth), false));
+            errors.extend(
+                (0..played.len())
+                    .filter(|&v| scene.truth.skin[v])
+                    .map(|v| 1000.0 * facebake::mesh::distance(&played[v], &truth[v])),
+            );
+        }
+        let mean_mm = errors.iter().sum::<f64>() / errors.len() as f64;
+        errors.sort_by(f64::total_cmp);
+        Score {
+            mean_mm,
+            p99_mm: errors[(errors.len() - 1) * 99 / 100],
+            take: TakeMetrics::of(&metrics),
+        }
+    }
+}
+
+/// `from` moved `t` of the way to `to`, point by point.
+fn lerp(from: &[[f64; 3]], to: &[[f64; 3]], t: f64) -> Vec<[f64; 3]> {
+    from.iter()
+        .zip(to)
+        .map(|(p, q)| [0, 1, 2].map(|c| p[c] + t * (q[c] - p[c])))
+        .collect()
+}
