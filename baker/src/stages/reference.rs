@@ -180,25 +180,25 @@ impl StagesF64 {
                 fitted = fit_of(&used);
             }
         }
-        if let Ok(fit) = &fitted {
-            if used.len() == self.head.len() || !state.head_residuals.is_empty() {
-                state.head_residuals.resize(self.head.len(), [0.0; 3]);
-                for &h in &used {
-                    let (Some(k), Some(q)) = (self.head.iter().position(|&m| m == h), actor[h])
-                    else {
-                        continue;
-                    };
-                    state.head_residuals[k] = sub(&fit.apply_inverse(&q), &self.neutral[h]);
-                }
-            }
-        }
+        // Against the points fitted: with residuals when some head marker is missing.
+        let all = used.len() == self.head.len();
+        let from: Vec<[f64; 3]> = used.iter().map(|&h| target(h, all)).collect();
+        let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
         match fitted {
             Ok(fit) => {
-                let from: Vec<[f64; 3]> = used.iter().map(|&h| self.neutral[h]).collect();
-                let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
                 report.residual = fit.rms_residual(&from, &to);
                 report.fit = Some(fit);
                 state.fit = Some(fit);
+                if all || !state.head_residuals.is_empty() {
+                    state.head_residuals.resize(self.head.len(), [0.0; 3]);
+                    for &h in &used {
+                        let (Some(k), Some(q)) = (self.head.iter().position(|&m| m == h), actor[h])
+                        else {
+                            continue;
+                        };
+                        state.head_residuals[k] = sub(&fit.apply_inverse(&q), &self.neutral[h]);
+                    }
+                }
                 fit
             }
             Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),

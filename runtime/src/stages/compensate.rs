@@ -159,9 +159,17 @@ impl HeadPairs {
         }
     }
 
-    /// Pair `i`: its neutral and current points.
-    pub fn pair(&self, i: usize) -> ([i32; 3], [i32; 3]) {
-        (self.neutral[i], self.current[i])
+    /// Pair `i`'s current point.
+    pub fn current(&self, i: usize) -> [i32; 3] {
+        self.current[i]
+    }
+
+    /// Move pair `i`'s neutral point by `by` (within ±64 units: the sum stays in range for
+    /// neutral points within ±4).
+    pub fn shift_neutral(&mut self, i: usize, by: [i32; 3]) {
+        if let Some(p) = self.neutral.get_mut(i) {
+            *p = [0, 1, 2].map(|c| p[c].saturating_add(by[c]));
+        }
     }
 
     /// Number of pairs.

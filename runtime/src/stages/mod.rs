@@ -186,13 +186,12 @@ impl<'a> Stages<'a> {
     }
 
     /// Rigid fits per frame at most: one, then with a head marker off it one per head marker
-    /// left out and one without the worst, one to the head markers' residuals when some are
-    /// missing, and one of the smoothed head points.
+    /// left out and one without the worst, and one of the smoothed head points.
     #[cfg(feature = "format")]
     fn rigid_fits(&self) -> usize {
         match self.head_markers.0.len() {
             0 => 0,
-            head => head + 3 + usize::from(self.head_smoothing.is_some()),
+            head => head + 2 + usize::from(self.head_smoothing.is_some()),
         }
     }
 
@@ -385,6 +384,8 @@ impl<'a> Stages<'a> {
                 pairs.push(p, *q);
             }
         }
+        // Whether the pairs' neutral points carry the residuals (`fit_to_residuals`).
+        let mut corrected = false;
         let mut fitted = if pairs.len() >= 3 && pairs.current_collinear() {
             Err(FitFailure::Collinear)
         } else {
@@ -405,6 +406,7 @@ impl<'a> Stages<'a> {
                 }
             }
             report.head_markers_dropped = (given - pairs.len()) as u8;
+            corrected = self.fit_to_residuals(state, &mut pairs, &which);
             match pairs.fit() {
                 Err(FitFailure::TooFew) if given >= 3 => Err(FitFailure::NotRigid),
                 other => other,
@@ -422,15 +424,19 @@ impl<'a> Stages<'a> {
                 present.remove(h);
                 report.rejected.insert(h);
                 pairs.retain(|i| i != w);
+                which.copy_within(w + 1.., w);
                 report.head_markers_dropped += 1;
+                if !corrected {
+                    self.fit_to_residuals(state, &mut pairs, &which);
+                }
                 fitted = match pairs.fit() {
                     Err(FitFailure::TooFew) => Err(FitFailure::NotRigid),
                     other => other,
                 };
             }
         }
-        if let Ok(fit) = fitted {
-            fitted = Ok(self.with_residuals(state, &pairs, &which, fit));
+        if let Ok(fit) = &fitted {
+            self.keep_residuals(state, &pairs, &which, fit);
         }
         let fit = match fitted {
             Ok(fit) => {
@@ -453,59 +459,71 @@ impl<'a> Stages<'a> {
     /// forehead's markers), so a fit from some of them is not the fit from all: on JawMoCap
     /// with a fifth of the samples dropped, a fit from three of the five moved the chin 12 mm.
     /// So each head marker's residual (its place in the head's frame less its neutral one) is
-    /// kept from the last frame that fitted it (smoothed like a marker when the markers are),
-    /// and a frame that lacks some head markers fits the others to their neutral places plus
-    /// their residuals: the fit they would have with the missing ones where they were. Until
-    /// a frame has fitted every head marker there are no residuals and the plain fit is used.
-    /// `fit` is this frame's fit from `pairs` (`which`: each pair's marker).
-    fn with_residuals(
+    /// kept from the last frame that fitted it ([`Self::keep_residuals`]), and a frame that
+    /// lacks some head markers fits the others to their neutral places plus their residuals:
+    /// the fit they would have with the missing ones where they were. This moves `pairs`'
+    /// neutral points so (`which`: each pair's marker) when they are fewer than the head
+    /// markers and residuals are known (a frame has fitted every head marker), and says
+    /// whether it did. No fit of its own: the frame's fits use the moved points.
+    fn fit_to_residuals(
+        &self,
+        state: &PlayState,
+        pairs: &mut HeadPairs,
+        which: &[usize; MAX_HEAD_MARKERS],
+    ) -> bool {
+        let head = self.head_markers.0;
+        if pairs.len() >= head.len() || !state.head_residuals_known {
+            return false;
+        }
+        for (i, &h) in which.iter().enumerate().take(pairs.len()) {
+            if let Some(k) = head.iter().position(|&m| usize::from(m) == h) {
+                // Within ± the head tolerance (≤ 64 units).
+                pairs.shift_neutral(i, state.head_residuals[k]);
+            }
+        }
+        true
+    }
+
+    /// After a fit from `pairs` (`which`: each pair's marker), each fitted head marker's
+    /// residual: its current place brought into the head's frame less its neutral place,
+    /// within ± the head tolerance, through the markers' smoothing filter when there is one
+    /// (in the head marker's own filter: its displacement is held at zero and not smoothed),
+    /// so a noisy capture's residuals are averaged and a clean one's taken as they are.
+    /// Residuals are known from the first frame that fits every head marker.
+    fn keep_residuals(
         &self,
         state: &mut PlayState,
         pairs: &HeadPairs,
         which: &[usize; MAX_HEAD_MARKERS],
-        fit: RigidFit,
-    ) -> RigidFit {
+        fit: &RigidFit,
+    ) {
         let head = self.head_markers.0;
-        let slot = |h: usize| head.iter().position(|&m| usize::from(m) == h);
-        let fit = if pairs.len() == head.len() || !state.head_residuals_known {
-            fit
-        } else {
-            let mut corrected = HeadPairs::new();
-            for (i, &h) in which.iter().enumerate().take(pairs.len()) {
-                let (p, q) = pairs.pair(i);
-                let r = slot(h).map_or([0; 3], |k| state.head_residuals[k]);
-                // |p| ≤ 4 units, |r| ≤ the tolerance ≤ 64.
-                corrected.push([0, 1, 2].map(|c| p[c] + r[c]), q);
-            }
-            corrected.fit().unwrap_or(fit)
-        };
-        if pairs.len() == head.len() || state.head_residuals_known {
-            let limit = i64::from(self.head_tolerance);
-            for (i, &h) in which.iter().enumerate().take(pairs.len()) {
-                let (Some(k), (p, q)) = (slot(h), pairs.pair(i)) else {
-                    continue;
-                };
-                let a = fit.compensate(q);
-                // |a − p| ≤ 2^31: clamped to ± the head tolerance (≤ 2^30).
-                let now = [0, 1, 2]
-                    .map(|c| (i64::from(a[c]) - i64::from(p[c])).clamp(-limit, limit) as i32);
-                // Through the markers' smoothing, in the head marker's own filter (its
-                // displacement is held at zero and not smoothed): a noisy capture's residuals
-                // are averaged, a clean one's taken as they are.
-                state.head_residuals[k] = match (&self.smoothing, state.filters.get_mut(h)) {
-                    (Some(smoothing), Some(filter)) => {
-                        let first = !state.filtering.contains(h);
-                        state.filtering.insert(h);
-                        let alpha_d = smoothing.derivative_alpha();
-                        // A convex combination of values within ± the tolerance.
-                        smoothing.step(alpha_d, filter, now, first)
-                    }
-                    _ => now,
-                };
-            }
-            state.head_residuals_known = true;
+        if pairs.len() < head.len() && !state.head_residuals_known {
+            return;
         }
-        fit
+        let limit = i64::from(self.head_tolerance);
+        for (i, &h) in which.iter().enumerate().take(pairs.len()) {
+            let (Some(k), Some(p)) = (
+                head.iter().position(|&m| usize::from(m) == h),
+                self.neutral(h),
+            ) else {
+                continue;
+            };
+            let a = fit.compensate(pairs.current(i));
+            // |a − p| ≤ 2^31: clamped to ± the head tolerance (≤ 2^30).
+            let now =
+                [0, 1, 2].map(|c| (i64::from(a[c]) - i64::from(p[c])).clamp(-limit, limit) as i32);
+            state.head_residuals[k] = match (&self.smoothing, state.filters.get_mut(h)) {
+                (Some(smoothing), Some(filter)) => {
+                    let first = !state.filtering.contains(h);
+                    state.filtering.insert(h);
+                    // A convex combination of values within ± the tolerance.
+                    smoothing.step(smoothing.derivative_alpha(), filter, now, first)
+                }
+                _ => now,
+            };
+        }
+        state.head_residuals_known = true;
     }
 
     /// The head fit smoothed: the four [`HEAD_FRAME_POINTS`] around the head markers' neutral
