@@ -146,8 +146,9 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// take with the defaults, played through the runtime and measured against the truth on every
 /// third frame, in between expressions too. The head fit takes the motion out (the rig draws
 /// the face in the head's frame), so the static skin stays within 0.05 mm. Measured
-/// 2026-12-03: face mean 0.637 mm, p99 3.88 mm, lips 4.8 and eyelids 3.7 mm off at worst,
-/// 2.54× (4 edges over 2×), 5 flips. With the markers' filter before (1 Hz, β 10, 1 Hz):
+/// 2026-12-03: face mean 0.632 mm, p99 3.78 mm, lips 4.8 and eyelids 3.7 mm off at worst,
+/// 2.55× (4 edges over 2×), 5 flips (with the filter's speed gain not scaled to the noise, β
+/// 50: 0.637 / 3.88 mm, 2.54×). With the markers' filter before (1 Hz, β 10, 1 Hz):
 /// 0.736 / 5.08 mm, lips 11.1, eyelids 4.2, 2.59×, 5 flips; unsmoothed 0.684 / 3.83 mm, lips
 /// 4.8, eyelids 4.0, 2.62×, 6 flips. (Scored on the held frames alone, the old filter's figure
 /// was 0.872 mm, on a take eased linearly: it hid the lag.)
@@ -177,12 +178,12 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
             drift_mm: 0.0,
             lips_mm: 4.8,
             eyelids_mm: 3.7,
-            stretch: 2.54,
+            stretch: 2.55,
             over_2x: 4,
             flipped: 5,
         },
     );
-    assert!(score.mean_mm <= 0.645, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.64, "{}", score.mean_mm);
 }
 
 /// The whole model as one primitive (`ICTFaceKitWhole.glb`: teeth, tongue, eyeballs, tear

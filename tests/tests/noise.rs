@@ -144,7 +144,9 @@ fn check(name: &str, bake: &BakeOptions) {
     );
 }
 
-/// The bar (p99 ≤ 2 mm, max ≤ 4 mm), met by every deformer. Measured 2026-12-02 with the inner
+/// The bar (p99 ≤ 2 mm, max ≤ 4 mm), met by every deformer. Measured 2026-12-03 with the
+/// filter tuned against the truth (`smoothing_cuts_the_jitter`): linear 0.68 / 1.33 mm, rbf
+/// 0.62 / 1.36, planar 0.67 / 1.65. Measured 2026-12-02 with the inner
 /// eye corners among the head markers (the head pose no longer smoothed): linear 0.34 / 0.65 mm,
 /// rbf 0.32 / 0.65, planar 0.35 / 0.88 (unsmoothed 1.18 / 1.99, 1.14 / 2.03, 1.21 / 2.66).
 /// Before, with the forehead's three: measured 2026-11-27, smoothed
@@ -166,25 +168,27 @@ fn every_deformer_stays_within_the_jitter_bar() {
     check("planar", &planar_product(8));
 }
 
-/// The smoothing's effect: half the unsmoothed 99th percentile or less (measured 2026-12-03
-/// with the filter tuned against the truth, 3 Hz, β 50, 2 Hz: linear 0.55 of 1.18 mm, planar
-/// 0.55 of 1.21 mm, the lag on the clean take p99 0.78 mm and 3 frames when still; the filter
-/// before, 1 Hz, β 10, 1 Hz, took a third, 0.34 of 1.18 and 0.35 of 1.21, for a lag of p99
-/// 1.9 mm and 10 frames, and against the truth its lag cost more than the jitter it took:
-/// `tests/tests/rehearsal.rs`).
+/// The smoothing's effect: three fifths of the unsmoothed 99th percentile or less, for a lag
+/// of 3 frames when still. Measured 2026-12-03 with the filter tuned against the truth (3 Hz,
+/// 2 Hz, the speed gain scaled to this take's noise, β 200): linear 0.68 of 1.18 mm, planar
+/// 0.67 of 1.21 mm, the lag on the clean take p99 0.41 mm. With β 50, 0.55 of 1.18 for a lag
+/// of p99 0.78 mm; the filter before, 1 Hz, β 10, 1 Hz, took two thirds, 0.34 of 1.18 and 0.35
+/// of 1.21, for a lag of p99 1.9 mm and 10 frames. Against the truth the lag costs more than
+/// the jitter (`tests/tests/rehearsal.rs`), so the lighter filter wins there.
 #[test]
-fn smoothing_halves_the_jitter() {
+fn smoothing_cuts_the_jitter() {
     for (name, bake) in [
         ("linear", BakeOptions::product_default()),
         ("planar", planar_product(8)),
     ] {
         let m = measure_and_print(name, &bake);
         assert!(
-            m.smoothed.p99 <= 0.5 * m.unsmoothed.p99,
+            m.smoothed.p99 <= 0.6 * m.unsmoothed.p99,
             "{name}: {:?}",
             m.smoothed
         );
         assert!(m.lag_frames <= 3, "{name}: {}", m.lag_frames);
+        assert!(m.lag.p99 <= 0.5, "{name}: {:?}", m.lag);
     }
 }
 

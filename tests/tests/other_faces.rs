@@ -608,9 +608,11 @@ fn a_pinned_chin_brings_the_chin_markers_onto_a_heavier_jaw() {
 /// within 0.05 mm, stretches and flips no more than the clean take on the warped layout does
 /// (`jawmocap_plays_on_other_proportions`: the narrower face's lower lip 2.18× and one flip)
 /// and stays within 1 mm (p99) of the clean take played through the same rig. Measured
-/// 2026-12-02, face vs clean p99 / max and stretch: FaceCap 0.51 / 1.30 mm, 1.91×; wider 0.53 /
-/// 1.23, 1.76×; narrower 0.53 / 1.47, 2.17× (one flip, as the clean take; 2.13× since the
-/// mouth's corrections fade in linearly, 2026-12-03); heavier jaw 0.49 / 1.11, 1.88×.
+/// 2026-12-03 with the markers' filter tuned against the truth (lighter: it lets more jitter
+/// through and lags less), face vs clean p99 / max and stretch: FaceCap 0.76 / 2.20 mm, 1.92×;
+/// wider 0.80 / 2.16, 1.77×; narrower 0.78 / 2.41, 2.15× (one flip, as the clean take); heavier
+/// jaw 0.76 / 1.97, 1.90×. Measured 2026-12-02 with the filter before: FaceCap 0.51 / 1.30 mm,
+/// 1.91×; wider 0.53 / 1.23, 1.76×; narrower 0.53 / 1.47, 2.17×; heavier jaw 0.49 / 1.11, 1.88×.
 #[test]
 fn a_noisy_moving_take_with_dropouts_plays_on_other_faces() {
     let (capture, neutral) = facebake_tests::jawmocap_neutral();
@@ -622,7 +624,7 @@ fn a_noisy_moving_take_with_dropouts_plays_on_other_faces() {
         ("FaceCap", unwarped as HeadMap, 1.92, 0),
         ("wider and shorter", wide, 1.80, 0),
         ("narrower and longer", long, 2.18, 1),
-        ("a heavier jaw", jaw, 1.89, 0),
+        ("a heavier jaw", jaw, 1.90, 0),
     ] {
         let mesh = Warp::of(&upright, map).mesh(&upright);
         let placed = auto_placed(&mesh, &capture.marker_names, &neutral, &[]);

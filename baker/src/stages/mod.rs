@@ -92,7 +92,8 @@ pub enum SmoothingUse {
     /// With these parameters when the capture's noise calls for it: for the head pose, when the
     /// head fit would carry more than [`temporal::HEAD_NOISE_LIMIT`] of the capture's own noise
     /// to the face; for the markers, when the capture's noise is over
-    /// [`temporal::MARKER_NOISE_LIMIT`].
+    /// [`temporal::MARKER_NOISE_LIMIT`], with the speed gain scaled to the noise
+    /// ([`temporal::SmoothingConfig::for_noise`]).
     Auto(temporal::SmoothingConfig),
     /// Always, with these parameters.
     On(temporal::SmoothingConfig),
@@ -678,7 +679,9 @@ pub fn bake_stages(
     let smoothing = match config.smoothing {
         SmoothingUse::Off => None,
         SmoothingUse::On(s) => Some(s),
-        SmoothingUse::Auto(s) => (capture_noise > temporal::MARKER_NOISE_LIMIT).then_some(s),
+        SmoothingUse::Auto(s) => {
+            (capture_noise > temporal::MARKER_NOISE_LIMIT).then(|| s.for_noise(capture_noise))
+        }
     };
     bytes.smoothing = smoothing
         .map(|s| s.encode(capture.rate_hz, half_extent))

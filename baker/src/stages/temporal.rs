@@ -56,12 +56,27 @@ pub const MIN_DISPLACEMENT: f64 = 0.5;
 /// smoothing, with ±0.5 mm of jitter (0.32 mm) it does (2 mm).
 pub const HEAD_NOISE_LIMIT: f64 = 0.001;
 
+/// The largest speed gain [`SmoothingConfig::for_noise`] gives, Hz·s/m: the gain at
+/// [`MARKER_NOISE_LIMIT`] by the rule, 882, rounded up.
+pub const MAX_BETA: f64 = 1000.0;
+
+/// The capture noise (metres) at which the default filter's speed gain is its configured β;
+/// at another noise σ the bake uses β (this / σ)² ([`SmoothingConfig::for_noise`]). A quiet
+/// take's speed estimate is quiet, so a larger gain lets fast moves (a blink) through sooner
+/// without letting jitter through; a noisy one needs a smaller gain. FaceCap's rehearsal
+/// (`tests/tests/rehearsal.rs`), face mean and eyelids, by β: at 0.189 mm of noise, β 50
+/// 0.455 / 1.7 mm, 330 0.437 / 1.1, 555 (the rule) 0.438 / 1.0; at 0.315 mm, 50 0.533 / 1.8,
+/// 100 0.527 / 1.6, 200 (the rule) 0.526 / 1.4, 400 0.526 / 1.4 (lips 7.1); at 0.63 mm, 50 (the
+/// rule) 0.771 / 2.2, 100 0.778 / 2.1, 200 0.794 / 2.0, 400 0.819 / 2.0.
+pub const SPEED_GAIN_NOISE: f64 = 0.000_63;
+
 /// The markers are smoothed by default when the capture's noise ([`capture_noise`], metres)
 /// is over this. Against the truth (`tests/tests/rehearsal.rs`, FaceCap at 60 Hz with the head
 /// moving and 5 % of the samples dropped), the default filter's lag costs more than the jitter
-/// it removes below about 0.13 mm of noise: face mean error smoothed / unsmoothed 0.396 / 0.369
+/// it removes below about 0.13 mm of noise: face mean error smoothed (β 50) / unsmoothed 0.396 / 0.369
 /// mm at 0.064 mm of noise, 0.422 / 0.419 at 0.126, 0.455 / 0.477 at 0.189, 0.533 / 0.609 at
-/// 0.315 (±0.5 mm); the eyelids favour no filter a little longer (1.7 / 1.2 mm off at 0.189).
+/// 0.315 (±0.5 mm); the eyelids favour no filter a little longer (1.7 / 1.2 mm off at 0.189),
+/// but not with the speed gain scaled to the noise ([`SPEED_GAIN_NOISE`]: 1.0 mm).
 /// JawMoCap as captured has 0.003 mm.
 pub const MARKER_NOISE_LIMIT: f64 = 0.000_15;
 
@@ -102,7 +117,9 @@ pub struct SmoothingConfig {
 
 impl Default for SmoothingConfig {
     /// Tuned against the truth (`tests/tests/rehearsal.rs`): FaceCap's expressions played as a
-    /// take with the head moving, jitter and dropouts, scored on every third frame. Heavier
+    /// take with the head moving, jitter and dropouts, scored on every third frame. Its β is
+    /// the gain at [`SPEED_GAIN_NOISE`]; the bake scales it to the capture's noise
+    /// ([`Self::for_noise`]). Heavier
     /// filters average more jitter away when the face is still but lag every expression: with
     /// ±0.5 mm of jitter at 60 Hz, (1 Hz, β 10, 1 Hz) had the face's mean error 0.645 mm, lips
     /// 11.6 mm and eyelids 3.9 mm off at worst; this one 0.533, 7.2 and 1.8 (none: 0.609, 7.1
@@ -117,6 +134,16 @@ impl Default for SmoothingConfig {
 }
 
 impl SmoothingConfig {
+    /// These parameters for a capture of noise `noise` (metres, [`capture_noise`]): the speed
+    /// gain scaled by ([`SPEED_GAIN_NOISE`] / noise)², at most [`MAX_BETA`].
+    pub fn for_noise(&self, noise: f64) -> Self {
+        let scale = (SPEED_GAIN_NOISE / noise).powi(2);
+        Self {
+            beta: (self.beta * scale).min(MAX_BETA),
+            ..*self
+        }
+    }
+
     /// The head pose's filter: the points it filters move only when the head does, so it can
     /// smooth harder when still than the markers' filter and let a turn through sooner.
     pub const HEAD: Self = Self {

@@ -175,11 +175,11 @@ pub struct BakeArgs {
     /// capture's 99.9th percentile per-frame movement, at least 0.02).
     #[arg(long, value_name = "F", requires = "capture")]
     pub max_step: Option<f64>,
-    /// The one-euro smoothing of the compensated markers: `auto` (3 Hz, β 50, 2 Hz when the
-    /// capture's noise is over 0.15 mm; a clean capture is not smoothed, since the filter's lag
-    /// costs more than it removes), `off`, or `MIN_HZ,BETA,SPEED_HZ` (cutoff when still, Hz
-    /// added per m/s of speed, cutoff of the speed estimate) for always with these parameters.
-    /// Its lag when still is rate / (2π MIN_HZ) frames.
+    /// The one-euro smoothing of the compensated markers: `auto` (when the capture's noise σ
+    /// is over 0.15 mm: 3 Hz, β 50 (0.63 mm / σ)², 2 Hz; a clean capture is not smoothed, since
+    /// the filter's lag costs more than it removes), `off`, or `MIN_HZ,BETA,SPEED_HZ` (cutoff
+    /// when still, Hz added per m/s of speed, cutoff of the speed estimate) for always with
+    /// these parameters. Its lag when still is rate / (2π MIN_HZ) frames.
     #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_smoothing, requires = "capture")]
     pub smoothing: SmoothingUse,
     /// The one-euro smoothing of the head's pose: `auto` (when the head fit would carry more
