@@ -5,7 +5,7 @@
 //! its place among its neighbours instead of jumping to their mean (JawMoCap with 5 % of the
 //! samples dropped: the face's worst error against the clean take 2.95 → 0.96 mm). While
 //! the marker is missing its offsets shrink by a 2^−[`OFFSET_DECAY_SHIFT`] share a frame, so
-//! one lost for good settles at its neighbours' mean. Neighbours that are themselves missing
+//! one lost for good settles at its neighbours' mean over seconds. Neighbours that are themselves missing
 //! are skipped (never chained), so the cost is fixed: [`FILL_NEIGHBOURS`] terms per marker and
 //! frame, present (the offsets are kept) or not.
 //!
@@ -49,8 +49,12 @@ pub(crate) fn has_no_neighbours(fill: Bytes<'_>, marker: usize) -> bool {
 }
 
 /// A marker lost for good drifts back to its neighbours' mean: each frame of its gap its
-/// offsets lose a 2^−this share (1/64: half is left after 44 frames, 0.7 s at 60 Hz).
-pub const OFFSET_DECAY_SHIFT: u32 = 6;
+/// offsets lose a 2^−this share (1/256: half is left after 177 frames, 3 s at 60 Hz). Over
+/// JawMoCap's frames, a gap's mean error by its length (5 / 30 / 120 / 600 frames): 1/64
+/// 0.190 / 0.643 / 1.238 / 1.726 mm, 1/256 0.169 / 0.560 / 1.039 / 1.566, 1/1024 0.167 /
+/// 0.559 / 1.057 / 1.538, none 0.168 / 0.563 / 1.085 / 1.674: the offset when last seen is
+/// worth keeping for seconds.
+pub const OFFSET_DECAY_SHIFT: u32 = 8;
 
 /// One marker's offsets from its [`FILL_NEIGHBOURS`] fill neighbours (in the order of its fill
 /// words), Q8.24 like the displacements: its displacement less the neighbour's when both were
