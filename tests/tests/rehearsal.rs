@@ -79,7 +79,7 @@ fn the_default_smoothing_beats_a_heavier_filter_and_none_on_a_noisy_take() {
 }
 
 /// A clean take (the capture's noise 0.003 mm) is not smoothed: there the filter's lag is all
-/// it brings. Measured 2026-12-03: face mean 0.339 mm unsmoothed, 0.383 smoothed.
+/// it brings. Measured 2026-12-03: face mean 0.339 mm unsmoothed, 0.382 smoothed.
 #[test]
 fn a_clean_take_is_not_smoothed() {
     let scene = layout_benchmark(false);
@@ -102,4 +102,47 @@ fn a_clean_take_is_not_smoothed() {
     print("clean, smoothed", &smoothed);
     assert!(default.mean_mm < smoothed.mean_mm);
     assert!(default.mean_mm <= 0.35, "{}", default.mean_mm);
+}
+
+/// Occlusions as a real take has them: each marker lost in runs of 0.2 to 2 s besides the
+/// noisy take's jitter, head motion and 5 % dropped samples (11.8 % of the samples lost in
+/// all). Measured 2026-12-03: face mean
+/// 0.599 mm (0.526 without the runs), p99 4.27 mm, lips 7.5 and eyelids 1.9 mm off, 2.13× (1
+/// edge over 2×) and 5 flips in one frame (164). Without the independent drops (7.1 % lost,
+/// all in runs) that frame has lost three of the five head markers, so the last pose is held
+/// while the head turns, and both of the left eye's lid markers, rebuilt from their
+/// neighbours. Pinned so that it does not get worse; the bars (2×, no flip) are not
+/// met here.
+#[test]
+fn occlusions_in_runs() {
+    let scene = layout_benchmark(false);
+    let take = Rehearsal::new(
+        &scene,
+        Pace {
+            occlusion_starts: 0.00125,
+            ..Pace::NATURAL
+        },
+    );
+    let samples = take.capture.frames.iter().flatten();
+    let lost = samples.clone().filter(|p| p.is_none()).count();
+    println!(
+        "occlusions in runs: {:.1} % of the samples lost",
+        100.0 * lost as f64 / samples.count() as f64
+    );
+    let baked = take.bake(&scene, &BakeOptions::product_default());
+    let score = take.score(&scene, &baked.blob, 3);
+    print("occlusions in runs", &score);
+    assert!(score.mean_mm <= 0.61, "{}", score.mean_mm);
+    guard(
+        "occlusions in runs, the default bake",
+        &score.take,
+        &Pinned {
+            drift_mm: 0.0,
+            lips_mm: 7.5,
+            eyelids_mm: 1.9,
+            stretch: 2.13,
+            over_2x: 1,
+            flipped: 5,
+        },
+    );
 }
