@@ -5,9 +5,9 @@
 //! its place among its neighbours instead of jumping to their mean (JawMoCap with 5 % of the
 //! samples dropped: the face's worst error against the clean take 2.95 → 0.96 mm). While
 //! the marker is missing its offsets shrink by a 2^−[`OFFSET_DECAY_SHIFT`] share a frame, so
-//! one lost for good settles at its neighbours' mean over seconds. Neighbours that are themselves missing
-//! are skipped (never chained), so the cost is fixed: [`FILL_NEIGHBOURS`] terms per marker and
-//! frame, present (the offsets are kept) or not.
+//! one lost for good settles at its neighbours' mean over seconds. Neighbours that are
+//! themselves missing are skipped (never chained), so the cost is fixed: [`FILL_NEIGHBOURS`]
+//! terms per marker and frame, present (the offsets are kept) or not.
 //!
 //!
 //! Formats: displacements Q8.24 (`i32`), weights Q8.16 non-negative (24-bit field of a packed

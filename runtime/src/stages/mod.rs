@@ -332,7 +332,7 @@ impl<'a> Stages<'a> {
                 .take(markers)
             {
                 if self.head_markers.0.contains(&(j as u8)) {
-                    // Held at zero; its filter smooths its residual (`with_residuals`).
+                    // Held at zero; its filter smooths its residual (`keep_residuals`).
                     continue;
                 }
                 *d = smoothing.step(alpha_d, filter, *d, !state.filtering.contains(j));
@@ -476,12 +476,17 @@ impl<'a> Stages<'a> {
             return false;
         }
         for (i, &h) in which.iter().enumerate().take(pairs.len()) {
-            if let Some(k) = head.iter().position(|&m| usize::from(m) == h) {
+            if let Some(k) = self.head_slot(h) {
                 // Within ± the head tolerance (≤ 64 units).
                 pairs.shift_neutral(i, state.head_residuals[k]);
             }
         }
         true
+    }
+
+    /// Marker `h`'s place among the head markers (the index of its residual), if it is one.
+    fn head_slot(&self, h: usize) -> Option<usize> {
+        self.head_markers.0.iter().position(|&m| usize::from(m) == h)
     }
 
     /// After a fit from `pairs` (`which`: each pair's marker), each fitted head marker's
@@ -503,10 +508,7 @@ impl<'a> Stages<'a> {
         }
         let limit = i64::from(self.head_tolerance);
         for (i, &h) in which.iter().enumerate().take(pairs.len()) {
-            let (Some(k), Some(p)) = (
-                head.iter().position(|&m| usize::from(m) == h),
-                self.neutral(h),
-            ) else {
+            let (Some(k), Some(p)) = (self.head_slot(h), self.neutral(h)) else {
                 continue;
             };
             let a = fit.compensate(pairs.current(i));
@@ -637,8 +639,6 @@ pub struct PlayState {
     /// Whether a frame has fitted every head marker yet.
     head_residuals_known: bool,
 }
-
-
 
 impl Default for PlayState {
     fn default() -> Self {
