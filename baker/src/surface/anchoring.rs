@@ -279,6 +279,24 @@ pub const THROAT_BAND: f64 = 5.0;
 /// head in the smile (4 flipped triangles at 0.75, 10 at 1.25, 16 at 1.5).
 pub const JAW_LIFT: f64 = 0.5;
 
+/// How tall, in anchoring margins, the band over which the skin above the floor is anchored
+/// near the jaw's markers (within [`JAW_REACH`]; one margin far from them). The jaw open drags
+/// the skin beside the jaw down by a centimetre and more while the anchored cheek above holds,
+/// and within one margin that showed as a crease along the mouth's height from the mouth to
+/// below the ear on ICT-FaceKit's head (edges there stretched 1.6–1.9×); the truth fades it out
+/// up to the ear. Measured 2026-12-03 (`--test ict_facekit`, `--test other_faces`, `--test
+/// structure`, `--test pose`, `-- --nocapture`), ICT's jaw open:
+///
+/// | fade (margins) | crease edges over 1.6× | ICT face mean; rehearsal mean | narrower and longer face, JawMoCap: static drift |
+/// |---|---|---|---|
+/// | 1 (before) | 12, up to 1.88× | 0.749; 0.632 mm | 0.00 mm |
+/// | **2** | **0** (1.68× at the jaw's reach, below the ear) | **0.745; 0.631 mm** | **0.00 mm** |
+/// | 3 | 0 | 0.744; 0.630 | 0.06 |
+/// | 4 | 0 | 0.743; 0.631 | – |
+///
+/// FaceCap's figures barely move (its skin beside the jaw lies within the markers' hull).
+pub const JAW_FLOOR_FADE: f64 = 2.0;
+
 /// Over what share of the anchoring margin the strength rises beyond the markers' hull, linearly
 /// from 0 on the hull. A brow raise moves the skin at the hull by centimetres while the skin a
 /// margin out holds still, so the rise compresses the skin between them, and where the fade is
@@ -329,6 +347,7 @@ pub fn static_anchoring(
         .iter()
         .map(|m| (m[0] - middle).abs())
         .fold(0.0, f64::max);
+
     let strength = positions
         .iter()
         .map(|p| {
@@ -351,9 +370,11 @@ pub fn static_anchoring(
                 smoothstep((near - reach) / band)
             };
             // Near the jaw's markers the floor is higher: the jaw's sides, just above the
-            // mouth's height, are the jaw's too.
+            // mouth's height, are the jaw's too,
             let raised = floor + JAW_LIFT * margin * (1.0 - behind);
-            let above = smoothstep((p[1] - (raised - margin)) / margin);
+            // and there the anchored skin above fades in over a taller band.
+            let height = margin * (1.0 + (JAW_FLOOR_FADE - 1.0) * (1.0 - behind));
+            let above = smoothstep((p[1] - (raised - margin)) / height);
             (outside / (HULL_RISE * margin)).clamp(0.0, 1.0) * above.max(behind)
         })
         .collect();
@@ -644,12 +665,13 @@ mod tests {
         let positions = vec![[0.6, 0.0, 0.8], [-0.6, 0.0, 0.8], [0.0, 0.5, -1.0]];
         let near = static_anchoring(&positions, &face(-0.2), &[3, 4], Some(0.0), 0.2);
         let far = static_anchoring(&positions, &face(-50.0), &[3, 4], Some(0.0), 0.2);
-        // At the floor: anchored by the band (smoothstep(1) = 1) away from the jaw, by
-        // smoothstep(0.5) = 0.5 within its reach, where the floor stands half a margin higher
-        // (the points are far outside the hull).
+        // At the floor: anchored by the band (smoothstep(1) = 1) away from the jaw; within its
+        // reach the floor stands half a margin higher and the band is two margins tall, so
+        // a quarter of the way up it: smoothstep(0.25) = 0.15625 (the points are far outside
+        // the hull).
         assert_eq!(far.strength[0], 1.0);
         assert!(
-            (near.strength[0] - 0.5).abs() < 1e-12,
+            (near.strength[0] - 0.15625).abs() < 1e-12,
             "{:?}",
             near.strength
         );
