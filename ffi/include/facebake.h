@@ -181,7 +181,8 @@ enum FbRigidStatus
    */
   FB_RIGID_STATUS_FITTED = 1,
   /**
-   * Fewer than three head markers present: the last good fit (or none) was held.
+   * Fewer than three head markers present and no pose to track from (no fit yet, or too
+   * few markers present in this frame and the last): the last good fit (or none) was held.
    */
   FB_RIGID_STATUS_HELD_TOO_FEW = 2,
   /**
@@ -193,6 +194,11 @@ enum FbRigidStatus
    * others swapped, jumped or ghosts): the last good fit (or none) was held.
    */
   FB_RIGID_STATUS_HELD_NOT_RIGID = 4,
+  /**
+   * Fewer than three head markers were present (`head_markers_fitted` of them): the pose was
+   * tracked from the last frame through them and the other markers present in both frames.
+   */
+  FB_RIGID_STATUS_TRACKED = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -247,7 +253,8 @@ typedef struct FbFrameReport {
    */
   FbRigidStatus rigid;
   /**
-   * Head markers the fit used (when `rigid` is `FB_RIGID_STATUS_FITTED`).
+   * Head markers the fit used (when `rigid` is `FB_RIGID_STATUS_FITTED`), or present (when
+   * it is `FB_RIGID_STATUS_TRACKED`).
    */
   uint32_t head_markers_fitted;
   /**

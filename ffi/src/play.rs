@@ -38,13 +38,17 @@ pub enum FbRigidStatus {
     NotUsed = 0,
     /// Fitted from `head_markers_fitted` head markers.
     Fitted = 1,
-    /// Fewer than three head markers present: the last good fit (or none) was held.
+    /// Fewer than three head markers present and no pose to track from (no fit yet, or too
+    /// few markers present in this frame and the last): the last good fit (or none) was held.
     HeldTooFew = 2,
     /// The present head markers are (nearly) collinear: the last good fit (or none) was held.
     HeldCollinear = 3,
     /// Fewer than three head markers kept their mutual distances from the neutral frame (the
     /// others swapped, jumped or ghosts): the last good fit (or none) was held.
     HeldNotRigid = 4,
+    /// Fewer than three head markers were present (`head_markers_fitted` of them): the pose was
+    /// tracked from the last frame through them and the other markers present in both frames.
+    Tracked = 5,
 }
 
 /// What the capture stages did with one frame. Marker sets are bitsets: marker `j` is in the
@@ -54,7 +58,8 @@ pub enum FbRigidStatus {
 pub struct FbFrameReport {
     /// Head-motion compensation.
     pub rigid: FbRigidStatus,
-    /// Head markers the fit used (when `rigid` is `FB_RIGID_STATUS_FITTED`).
+    /// Head markers the fit used (when `rigid` is `FB_RIGID_STATUS_FITTED`), or present (when
+    /// it is `FB_RIGID_STATUS_TRACKED`).
     pub head_markers_fitted: u32,
     /// RMS distance of the fitted head markers from their rigid positions, Q8.24 actor units.
     pub rigid_residual: i32,
@@ -91,6 +96,7 @@ impl From<&FrameReport> for FbFrameReport {
             RigidStatus::Held(FitFailure::TooFew) => (FbRigidStatus::HeldTooFew, 0),
             RigidStatus::Held(FitFailure::Collinear) => (FbRigidStatus::HeldCollinear, 0),
             RigidStatus::Held(FitFailure::NotRigid) => (FbRigidStatus::HeldNotRigid, 0),
+            RigidStatus::Tracked { head_markers } => (FbRigidStatus::Tracked, head_markers),
         };
         let count = |s: &MarkerSet| s.len() as u32;
         Self {

@@ -131,15 +131,19 @@ fn runtime_matches_the_f64_pipeline_with_dropped_markers() {
     let dropped = facebake_tests::moved_and_dropped(&j.capture.in_metres(), 0.2, false);
     let frames =
         facebake_tests::frames_in_order(&dropped, j.placed.iter().map(|m| m.name.as_str()));
-    matches_the_f64_pipeline_on(j, &frames);
+    let tracked = matches_the_f64_pipeline_on(j, &frames);
+    println!("{tracked} frames with fewer than three head markers, the pose tracked");
+    assert!(tracked > 20, "{tracked}");
 }
 
 fn matches_the_f64_pipeline(j: &JawMoCapRig) {
     matches_the_f64_pipeline_on(j, &j.frames);
 }
 
-/// [`matches_the_f64_pipeline`] on `frames` (metres, rig marker order).
-fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]) {
+/// [`matches_the_f64_pipeline`] on `frames` (metres, rig marker order); the frames whose pose
+/// was tracked (fewer than three head markers), the reference tracking them too.
+fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]) -> usize {
+    let mut tracked = 0;
     let rig = Rig::from_bytes(&j.baked.blob).expect("loads");
     let sparse = SparseF64::from_rig(&rig);
     let mut state = PlayState::new();
@@ -155,6 +159,10 @@ fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]
             .play(&mut state, &to_actor(&rig, frame), &mut out)
             .expect("plays");
         let (markers_f64, ref_report) = j.stages().solve(&mut ref_state, frame);
+        if matches!(report.rigid, facebake_runtime::RigidStatus::Tracked { .. }) {
+            assert!(ref_report.fit.is_some());
+            tracked += 1;
+        }
         assert_eq!(report.rejected.len(), ref_report.rejected.len());
         let residual = f64::from(report.rigid_residual) / f64::from(1u32 << 24);
         worst_residual = worst_residual.max((residual - ref_report.residual).abs());
@@ -185,6 +193,7 @@ fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]
     assert!(worst_vertex / diag < 2e-5);
     assert!(worst_marker < 2e-6, "{worst_marker}");
     assert!(worst_residual < 1e-6, "{worst_residual}");
+    tracked
 }
 
 /// Play `frames` through the runtime: vertex positions (asset units) per frame, and the reports.

@@ -35,10 +35,11 @@ use facebake_tests::{
 };
 
 /// The capture edge frames appended after the JawMoCap frames, in order.
-const CAPTURE_EDGE_FRAMES: [&str; 6] = [
+const CAPTURE_EDGE_FRAMES: [&str; 7] = [
     "every marker missing",
     "every head marker missing (the last fit is held)",
     "the last frame turned 90 degrees about the vertical and moved 1 m",
+    "turned 5 degrees more, one head marker present (the pose tracked)",
     "one head marker 10 cm off (dropped from the fit), one marker 20 cm off (rejected)",
     "a coordinate at i32::MAX (rejected as out of range)",
     "every coordinate at +/- 60 actor units",
@@ -110,9 +111,20 @@ fn actor_frames(j: &JawMoCapRig) -> Vec<Vec<Option<[i32; 3]>>> {
             })
             .collect(),
     );
+    // The last frame turned `degrees` about the vertical and moved 1 m.
+    let turned = |p: &[f64; 3], degrees: f64| {
+        let (sin, cos) = degrees.to_radians().sin_cos();
+        [
+            p[0] * cos + p[2] * sin + 1.0,
+            p[1],
+            -p[0] * sin + p[2] * cos,
+        ]
+    };
+    edge.push(last.iter().map(|p| Some(to_q(&turned(p, 90.0)))).collect());
     edge.push(
         last.iter()
-            .map(|p| Some(to_q(&[p[2] + 1.0, p[1], -p[0]])))
+            .enumerate()
+            .map(|(m, p)| (!head[1..].contains(&m)).then(|| to_q(&turned(p, 95.0))))
             .collect(),
     );
     edge.push(
@@ -455,11 +467,17 @@ fn capture_edge_frames_do_what_they_say() {
     let stages = rig.stages().unwrap();
     let mut state = PlayState::new();
     let mut markers = vec![[0i32; 3]; rig.marker_count()];
+    let mut solved = Vec::new();
     let reports: Vec<_> = frames
         .iter()
-        .map(|a| stages.solve(&mut state, a, &mut markers))
+        .map(|a| {
+            let report = stages.solve(&mut state, a, &mut markers);
+            solved.push(markers.clone());
+            report
+        })
         .collect();
     let edge = &reports[reports.len() - CAPTURE_EDGE_FRAMES.len()..];
+    let solved = &solved[solved.len() - CAPTURE_EDGE_FRAMES.len()..];
     let n = rig.marker_count();
     for r in edge {
         println!("{r:?}");
@@ -470,6 +488,7 @@ fn capture_edge_frames_do_what_they_say() {
         n,
         "nothing to rebuild from: every marker held"
     );
+    // Every marker is missing in the frame before, so nothing was measured in both: held.
     assert_eq!(edge[1].rigid, RigidStatus::Held(FitFailure::TooFew));
     assert_eq!(
         edge[1].rebuilt.len(),
@@ -481,13 +500,32 @@ fn capture_edge_frames_do_what_they_say() {
         RigidStatus::Fitted { head_markers: 4 }
     ));
     assert!(edge[2].rejected.is_empty() && edge[2].rebuilt.is_empty());
-    assert_eq!(edge[3].head_markers_dropped, 1);
+    // Three of the four head markers lost as the head turns on: the pose tracked through the
+    // one left and the face's markers, so the face's markers come out where they were (held,
+    // the 5° turn would move the chin by several millimetres).
+    assert_eq!(edge[3].rigid, RigidStatus::Tracked { head_markers: 1 });
+    let moved = solved[3]
+        .iter()
+        .zip(&solved[2])
+        .map(|(a, b)| {
+            (0..3)
+                .map(|c| (a[c] - b[c]).unsigned_abs())
+                .max()
+                .unwrap_or(0)
+        })
+        .max()
+        .unwrap_or(0);
+    let moved_mm =
+        f64::from(moved) / f64::from(1u32 << 24) * f64::from(rig.space().half_extent) * 1000.0;
+    println!("tracked frame: markers {moved_mm:.3} mm from the frame before");
+    assert!(moved_mm < 1.0, "{moved_mm}");
+    assert_eq!(edge[4].head_markers_dropped, 1);
     assert!(matches!(
-        edge[3].rigid,
+        edge[4].rigid,
         RigidStatus::Fitted { head_markers: 3 }
     ));
-    assert!(edge[3].rejected.contains(n - 1));
-    assert!(edge[4].rejected.contains(5) && edge[4].rebuilt.contains(5));
+    assert!(edge[4].rejected.contains(n - 1));
+    assert!(edge[5].rejected.contains(5) && edge[5].rebuilt.contains(5));
     // Far out of the face: everything rejected, every marker held at its last value.
-    assert_eq!(edge[5].held.len() + edge[5].rebuilt.len(), n);
+    assert_eq!(edge[6].held.len() + edge[6].rebuilt.len(), n);
 }

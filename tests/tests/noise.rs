@@ -300,7 +300,9 @@ fn a_take_that_never_has_every_marker_still_bakes() {
 /// through the clean take's rig, against the clean take with the same head motion (every
 /// vertex of every frame past the smoothing's start-up). The take as captured is clean, so
 /// the default bake does not smooth it. Measured 2026-12-03, the face's p99 / max error: 5 %:
-/// 0.11 / 0.64 mm, 20 %: 0.49 / 2.77 mm, stretch 1.90× as the clean take. Unsmoothed, before a
+/// 0.11 / 0.64 mm, 20 %: 0.39 / 2.77 mm, stretch 1.90× as the clean take (20 %: 0.49 / 2.77
+/// while a frame with fewer than three head markers held the last pose instead of tracking
+/// it, `RigidStatus::Tracked`). Unsmoothed, before a
 /// frame lacking head markers fitted the others to their residuals (`with_residuals` in
 /// `facebake_runtime::stages`), 1.28 / 4.99 and 2.67 / 12.6 mm: a fit from three of the five
 /// head markers moved the chin 12 mm. Measured 2026-12-02 with the markers smoothed (1 Hz,
@@ -314,7 +316,7 @@ fn dropped_markers_keep_their_place_among_their_neighbours() {
     let clean = moved_and_dropped(&j.capture.in_metres(), 0.0, false);
     let want = play_take(&rig, &take(&j, &clean)).0;
     let regions = facebake::metrics::Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
-    for (rate, p99, max) in [(0.05, 0.15, 0.8), (0.2, 0.6, 3.2)] {
+    for (rate, p99, max) in [(0.05, 0.15, 0.8), (0.2, 0.45, 3.2)] {
         let dropped = moved_and_dropped(&j.capture.in_metres(), rate, false);
         let got = play_take(&rig, &take(&j, &dropped)).0;
         let f = figures(&want[START_UP..], &got[START_UP..]);

@@ -106,13 +106,13 @@ fn a_clean_take_is_not_smoothed() {
 
 /// Occlusions as a real take has them: each marker lost in runs of 0.2 to 2 s besides the
 /// noisy take's jitter, head motion and 5 % dropped samples (11.8 % of the samples lost in
-/// all). Measured 2026-12-03: face mean
-/// 0.599 mm (0.526 without the runs), p99 4.27 mm, lips 7.5 and eyelids 1.9 mm off, 2.13× (1
-/// edge over 2×) and 5 flips in one frame (164). Without the independent drops (7.1 % lost,
-/// all in runs) that frame has lost three of the five head markers, so the last pose is held
-/// while the head turns, and both of the left eye's lid markers, rebuilt from their
-/// neighbours. Pinned so that it does not get worse; the bars (2×, no flip) are not
-/// met here.
+/// all). In 70 frames three of the five head markers are lost at once while the head turns.
+/// Measured 2026-12-03: with the last pose held through them, face mean 0.599 mm (0.526 without
+/// the runs), p99 4.27 mm, 2.13× (1 edge over 2×) and 5 flips at the end of a 20-frame run;
+/// with the pose tracked from the last frame through the markers present
+/// (`RigidStatus::Tracked`), 0.554 mm, p99 3.59 mm, 1.96× and no flip the take without the
+/// runs does not have (its 2 in frame 35). The lips (7.5 mm) and eyelids (1.9 mm) are the
+/// rebuilt lid and lip markers' (the bars 2 and 1.5 mm are not met here).
 #[test]
 fn occlusions_in_runs() {
     let scene = layout_benchmark(false);
@@ -132,7 +132,7 @@ fn occlusions_in_runs() {
     let baked = take.bake(&scene, &BakeOptions::product_default());
     let score = take.score(&scene, &baked.blob, 3);
     print("occlusions in runs", &score);
-    assert!(score.mean_mm <= 0.61, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.56, "{}", score.mean_mm);
     guard(
         "occlusions in runs, the default bake",
         &score.take,
@@ -140,9 +140,9 @@ fn occlusions_in_runs() {
             drift_mm: 0.0,
             lips_mm: 7.5,
             eyelids_mm: 1.9,
-            stretch: 2.13,
-            over_2x: 1,
-            flipped: 5,
+            stretch: 1.96,
+            over_2x: 0,
+            flipped: 2,
         },
     );
 }

@@ -61,6 +61,8 @@ pub struct FrameReportF64 {
 #[derive(Clone, Debug, Default)]
 pub struct StateF64 {
     last: Vec<Option<[f64; 3]>>,
+    /// Per marker, whether it was present in the last frame.
+    measured: Vec<bool>,
     /// Per marker, its offset from each of its fill neighbours (in `fill`'s order).
     offsets: Vec<Vec<[f64; 3]>>,
     fit: Option<RigidTransform>,
@@ -100,6 +102,7 @@ impl StagesF64 {
     ) -> (Vec<[f64; 3]>, FrameReportF64) {
         let n = self.neutral.len();
         state.last.resize(n, None);
+        state.measured.resize(n, false);
         if state.offsets.len() != n {
             state.offsets = self.fill.iter().map(|f| vec![[0.0; 3]; f.len()]).collect();
         }
@@ -184,6 +187,9 @@ impl StagesF64 {
         let all = used.len() == self.head.len();
         let from: Vec<[f64; 3]> = used.iter().map(|&h| target(h, all)).collect();
         let to: Vec<[f64; 3]> = used.iter().filter_map(|&h| actor[h]).collect();
+        if used.len() < 3 && state.fit.is_some() {
+            return self.track(state, actor, &from, &to, report);
+        }
         match fitted {
             Ok(fit) => {
                 report.residual = fit.rms_residual(&from, &to);
@@ -203,6 +209,48 @@ impl StagesF64 {
             }
             Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),
         }
+    }
+
+    /// The runtime's `Stages::track`: with fewer than three head markers
+    /// present (`from` → `to`, their targets and samples), the pose tracked from the last
+    /// frame: each head marker present counted `PRESENT_WEIGHT` times, and every other marker
+    /// present now and in the last frame paired from its last place in the head's frame, in
+    /// marker order up to `TRACKED_PAIRS` pairs, fitted. The last fit held when that fails.
+    /// No residual is kept.
+    fn track(
+        &self,
+        state: &mut StateF64,
+        actor: &[Option<[f64; 3]>],
+        from: &[[f64; 3]],
+        to: &[[f64; 3]],
+        report: &mut FrameReportF64,
+    ) -> RigidTransform {
+        use facebake_runtime::stages::{PRESENT_WEIGHT, TRACKED_PAIRS};
+        let mut pairs: Vec<([f64; 3], [f64; 3])> = Vec::new();
+        for _ in 0..PRESENT_WEIGHT {
+            pairs.extend(from.iter().copied().zip(to.iter().copied()));
+        }
+        let others = self
+            .neutral
+            .iter()
+            .zip(actor)
+            .zip(state.last.iter().zip(&state.measured))
+            .enumerate()
+            .filter(|(j, _)| !self.head.contains(j));
+        for (_, ((u, q), (d, measured))) in others {
+            if let (Some(q), Some(d), true) = (q, d, measured) {
+                pairs.push(([0, 1, 2].map(|c| u[c] + d[c]), *q));
+            }
+        }
+        pairs.truncate(TRACKED_PAIRS);
+        let (a, b): (Vec<[f64; 3]>, Vec<[f64; 3]>) = pairs.into_iter().unzip();
+        let Ok(fit) = kabsch(&a, &b) else {
+            return state.fit.unwrap_or_else(RigidTransform::identity);
+        };
+        report.residual = fit.rms_residual(&a, &b);
+        report.fit = Some(fit);
+        state.fit = Some(fit);
+        fit
     }
 
     /// Step 3: each present marker's compensated displacement from neutral; those further than
@@ -240,6 +288,7 @@ impl StagesF64 {
         (0..present.len())
             .map(|j| {
                 let offsets = &mut state.offsets[j];
+                state.measured[j] = present[j].is_some();
                 if let Some(d) = present[j] {
                     state.last[j] = Some(d);
                     for (o, &(k, _)) in offsets.iter_mut().zip(&self.fill[j]) {

@@ -26,7 +26,7 @@ use crate::sqrt::{isqrt_u64, normalize, UNIT_FRAC_BITS};
 /// Most head markers a rig may name.
 pub const MAX_HEAD_MARKERS: usize = 32;
 /// Fewest head markers a rig may name when it names any, and a rigid fit needs: three.
-const MIN_HEAD_MARKERS: usize = 3;
+pub const MIN_HEAD_MARKERS: usize = 3;
 
 /// Check the `head_markers` section: `u8` indices below `markers`, strictly ascending; none (no
 /// compensation) or 3 to [`MAX_HEAD_MARKERS`].
@@ -156,6 +156,14 @@ impl HeadPairs {
             self.neutral[self.len] = neutral;
             self.current[self.len] = current;
             self.len += 1;
+        }
+    }
+
+    /// Add a copy of pair `i` (a pair counted twice weighs twice in the fit); ignored like
+    /// [`Self::push`].
+    pub fn push_copy(&mut self, i: usize) {
+        if i < self.len {
+            self.push(self.neutral[i], self.current[i]);
         }
     }
 

@@ -59,6 +59,12 @@ pub enum RigidStatus {
         /// Head markers used.
         head_markers: u8,
     },
+    /// Fewer than three head markers were present (this many): the pose was tracked from the
+    /// last frame through them and the other markers present in both frames.
+    Tracked {
+        /// Head markers present (0 to 2).
+        head_markers: u8,
+    },
     /// No fit this frame; the last good one (or none) was used.
     Held(FitFailure),
 }

@@ -320,10 +320,12 @@ pub fn text(s: &MocapSummary) -> String {
     let st = &s.stages;
     outln!(
         out,
-        "  head fit        residual mean {:.3} mm, max {:.3} mm; held in {} frames",
+        "  head fit        residual mean {:.3} mm, max {:.3} mm; held in {} frames, \
+         tracked in {}",
         st.head_residual_mean_mm,
         st.head_residual_max_mm,
-        st.frames_head_held
+        st.frames_head_held,
+        st.frames_head_tracked
     );
     outln!(
         out,

@@ -343,6 +343,8 @@ pub struct StagesSummary {
     pub held_samples: usize,
     /// Frames whose head fit was held from an earlier frame.
     pub frames_head_held: usize,
+    /// Frames with fewer than three head markers, the pose tracked from the last frame.
+    pub frames_head_tracked: usize,
     /// Mean RMS residual of the head fit, mm (over fitted frames).
     pub head_residual_mean_mm: f64,
     /// Largest RMS residual of the head fit, mm.
@@ -387,6 +389,7 @@ pub fn play_stages(
         s.held_samples += report.held.len();
         match report.rigid {
             RigidStatus::Held(_) => s.frames_head_held += 1,
+            RigidStatus::Tracked { .. } => s.frames_head_tracked += 1,
             RigidStatus::Fitted { .. } => {
                 let r = f64::from(report.rigid_residual) * unit;
                 s.head_residual_mean_mm += r;
@@ -683,12 +686,14 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             outln!(
                 out,
                 "capture stages: {} samples missing, {} rejected; {} rebuilt from neighbours, {} held; \
-                 head fit held in {} frames, head residual mean {:.3} mm, max {:.3} mm",
+                 head fit held in {} frames, tracked in {}, \
+                 head residual mean {:.3} mm, max {:.3} mm",
                 st.missing_samples,
                 st.rejected_samples,
                 st.rebuilt_samples,
                 st.held_samples,
                 st.frames_head_held,
+                st.frames_head_tracked,
                 st.head_residual_mean_mm,
                 st.head_residual_max_mm
             );
