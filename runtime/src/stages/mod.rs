@@ -61,6 +61,10 @@ use crate::space::Space;
 use crate::stages::compensate::{
     FitFailure, HeadPairs, RigidFit, MAX_HEAD_MARKERS, MIN_HEAD_MARKERS,
 };
+use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
+use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
+use crate::fixed::POS_FRAC_BITS;
+use crate::stages::smoothing::{MarkerFilter, Smoothing};
 
 /// How many times a present head marker counts in a frame whose pose is tracked from the last
 /// frame (`Stages::track`), and how many pairs such a frame fits at most. FaceCap rehearsal
@@ -68,16 +72,12 @@ use crate::stages::compensate::{
 /// without the runs (`docs/measurements.md`), (pairs, times): (32, 1) 0.54, (32, 4) 0.53,
 /// (32, 8) 0.36, (32, 12) 0.41, (24, 6) 0.43, **(16, 4) 0.35**, (16, 2) 0.40, (16, 6) 0.49,
 /// (12, 3) 0.39, (8, 2) 0.46 mm. Each pair costs the Cortex-M4 about 1,400 instructions
-/// (two fits' sums and the residual): 32 pairs took the budget frame to 25.9 % of a 60 fps
+/// (the fit's sums and the residual): 32 pairs took the budget frame to 25.9 % of a 60 fps
 /// frame, 16 keep it at 24.9 % (`.ci/cross.sh`).
 pub const PRESENT_WEIGHT: usize = 4;
 
 /// Most pairs a tracked frame fits (see [`PRESENT_WEIGHT`]).
 pub const TRACKED_PAIRS: usize = 16;
-use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
-use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
-use crate::fixed::POS_FRAC_BITS;
-use crate::stages::smoothing::{MarkerFilter, Smoothing};
 
 /// Largest accepted input coordinate magnitude: 64 actor units in Q8.24.
 pub const INPUT_LIMIT: i32 = 1 << 30;
