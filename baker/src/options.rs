@@ -76,7 +76,28 @@ pub struct SurfaceOptions {
     /// mean marker spacing ([`crate::surface::corners::balance_past_mouth_corners`]; linear
     /// deformer, with the corners reshaped).
     pub past_corner_reach: f64,
+    /// At the mouth, the share of the corners' square-root profile taken ([`MOUTH_SHARE`];
+    /// with a capture the bake may take less, `bake::mouth_share`).
+    pub mouth_share: f64,
 }
+
+/// At the mouth, the share of the corners' square-root profile taken (`surface::corners`) (the rest stays linear): the
+/// largest step of 0.05 that stretches no edge past 2× that the plain bake does not. On
+/// FaceCap's truth with the JawMoCap layout, worst over the takes (`--test structure`):
+///
+/// | share | truth lips | truth stretch (edges > 2×), flips | JawMoCap stretch (frames) |
+/// |---|---|---|---|
+/// | 0 (linear) | 12.5 mm | 2.19× (2), 1 | 2.04× (82) |
+/// | 0.6 | 7.4 | 2.19× (2), 1 | 2.04× (82) |
+/// | **0.7** | **6.8** | 2.19× (2), 1 | 2.04× (82) |
+/// | 0.75 | 6.5 | 2.19× (2), 1 | 2.04× (82), 2 edges in a frame |
+/// | 0.8 | 6.3 | 2.19× (2, in 2 frames), 1 | 2.06× (90) |
+/// | 1.0 | 6.3 | 2.30× (4), 1 | 2.26× (115) |
+///
+/// Past 0.7 the open funnel's corner edges stretch (the truth keeps the corners shut there
+/// while the lip markers part). 0.7 also gives the truth's lip band p99 4.18 mm (0.6: 4.24) and
+/// face mean 0.605 mm (0.606), `--test surface`.
+pub const MOUTH_SHARE: f64 = 0.7;
 
 impl Default for SurfaceOptions {
     /// Heat-method geodesics; hybrid region and decay [`HYBRID_REACH`] × spacing; masks at
@@ -96,6 +117,7 @@ impl Default for SurfaceOptions {
             corners: true,
             rim_across: RIM_ACROSS,
             past_corner_reach: PAST_CORNER_REACH,
+            mouth_share: MOUTH_SHARE,
         }
     }
 }

@@ -7,6 +7,7 @@
 //! blob is written with everything in it.
 
 mod euclidean;
+pub mod mouth_share;
 
 use facebake_runtime::Space;
 use serde::Serialize;
@@ -190,6 +191,10 @@ pub struct BakeReport {
     /// The capture stages, when the scene has a capture.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stages: Option<StagesReport>,
+    /// With a capture and the mouth's corners reshaped: the share of their crack profile kept
+    /// so that the capture does not tear the rig (`mouth_share`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mouth_share: Option<mouth_share::MouthShareChoice>,
 }
 
 /// The f64 twin of a baked deformer: what the runtime approximates.
@@ -356,8 +361,9 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     // The skin beyond the markers follows the markers the head fit holds still. The first bake
     // took the head candidates, which the stages pick all of unless there are more of them
     // than they keep or the user named others: then the deformer is baked again.
+    let mut held = None;
     if let Some(st) = &stages {
-        let held: Vec<usize> = st
+        let markers: Vec<usize> = st
             .report
             .head_markers
             .iter()
@@ -365,19 +371,62 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             .collect();
         let followed = d.surface.as_ref().and_then(|s| s.anchoring.as_ref());
         if followed.is_some_and(|a| !same_markers(&a.markers, &st.report.head_markers)) {
-            d = bake_deformer(scene, options, &rest, &space, Some(&held))?;
+            d = bake_deformer(scene, options, &rest, &space, Some(&markers))?;
+            held = Some(markers);
         }
     }
     let normals = crate::normals::bake(scene.mesh)?;
-    let (blob, sizes) = blob::write(&BlobContents {
-        space,
-        vertices: &scene.mesh.positions,
-        normals: &normals,
-        marker_names: &names,
-        marker_rest: &rest,
-        deformer: &d.output.bytes,
-        stages: stages.as_ref().map(|s| &s.bytes),
-    })?;
+    let write = |d: &DeformerBake| {
+        blob::write(&BlobContents {
+            space,
+            vertices: &scene.mesh.positions,
+            normals: &normals,
+            marker_names: &names,
+            marker_rest: &rest,
+            deformer: &d.output.bytes,
+            stages: stages.as_ref().map(|s| &s.bytes),
+        })
+    };
+    let (mut blob, mut sizes) = write(&d)?;
+    // With a capture, as much of the mouth's corner profile as the capture does not tear.
+    let mut mouth_share = None;
+    let corners = d.surface.as_ref().and_then(|s| s.corners.as_ref());
+    let at_mouth = corners.is_some_and(|c| c.balanced_vertices > 0);
+    if let (Some(capture), true) = (scene.capture, at_mouth && options.surface.mouth_share > 0.0) {
+        let with_share = |share: f64| {
+            let mut o = options.clone();
+            o.surface.mouth_share = share;
+            bake_deformer(scene, &o, &rest, &space, held.as_deref())
+        };
+        let linear = with_share(0.0)?;
+        let (linear_blob, linear_sizes) = write(&linear)?;
+        let mut shares = mouth_share::MOUTH_SHARES
+            .iter()
+            .copied()
+            .filter(|&s| s < options.surface.mouth_share && s > 0.0);
+        let mut tried = Vec::new();
+        let mut share = options.surface.mouth_share;
+        let chosen = loop {
+            let (torn, frames) =
+                mouth_share::frames_torn(&blob, &linear_blob, scene.mesh, capture)?;
+            if torn as f64 <= mouth_share::TORN_SHARE * frames as f64 {
+                break Some((share, frames));
+            }
+            tried.push((share, torn));
+            let Some(next) = shares.next() else {
+                (d, blob, sizes) = (linear, linear_blob, linear_sizes);
+                break Some((0.0, frames));
+            };
+            share = next;
+            d = with_share(share)?;
+            (blob, sizes) = write(&d)?;
+        };
+        mouth_share = chosen.map(|(share, frames)| mouth_share::MouthShareChoice {
+            share,
+            frames,
+            tried,
+        });
+    }
     let dropped = &d.output.dropped;
     let mean_dropped_mass = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
     let mut warnings = d.warnings;
@@ -435,6 +484,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         planar: d.planar,
         surface: d.surface,
         stages: stages.as_ref().map(|s| s.report.clone()),
+        mouth_share,
     };
     Ok(Baked {
         blob,

@@ -81,23 +81,11 @@ pub struct CornerFigures {
     pub balanced_vertices: usize,
 }
 
-/// At the mouth, the share of the square-root profile taken (the rest stays linear): the
-/// largest step of 0.05 that stretches no edge past 2× that the plain bake does not. On
-/// FaceCap's truth with the JawMoCap layout, worst over the takes (`--test structure`):
-///
-/// | share | truth lips | truth stretch (edges > 2×), flips | JawMoCap stretch (frames) |
-/// |---|---|---|---|
-/// | 0 (linear) | 12.5 mm | 2.19× (2), 1 | 2.04× (82) |
-/// | 0.6 | 7.4 | 2.19× (2), 1 | 2.04× (82) |
-/// | **0.7** | **6.8** | 2.19× (2), 1 | 2.04× (82) |
-/// | 0.75 | 6.5 | 2.19× (2), 1 | 2.04× (82), 2 edges in a frame |
-/// | 0.8 | 6.3 | 2.19× (2, in 2 frames), 1 | 2.06× (90) |
-/// | 1.0 | 6.3 | 2.30× (4), 1 | 2.26× (115) |
-///
-/// Past 0.7 the open funnel's corner edges stretch (the truth keeps the corners shut there
-/// while the lip markers part). 0.7 also gives the truth's lip band p99 4.18 mm (0.6: 4.24) and
-/// face mean 0.605 mm (0.606), `--test surface`.
-pub const MOUTH_SHARE: f64 = 0.7;
+pub use crate::options::MOUTH_SHARE;
+
+/// The shares a bake with a capture tries, in order, until the capture plays through the rig
+/// without tearing where the linear profile does not (`bake::mouth_share`).
+pub const MOUTH_SHARES: [f64; 4] = [MOUTH_SHARE, 0.5, 0.35, 0.0];
 
 /// The mouth's corrections need K of at least this (they take one influence pair).
 pub const MOUTH_MIN_K: usize = 6;
@@ -118,6 +106,8 @@ pub const MOUTH_RING: f64 = 0.1;
 pub struct Mouth<'a> {
     /// The mouth's opening, an index into the geometry's.
     pub opening: usize,
+    /// The share of the square-root profile taken ([`MOUTH_SHARE`] by default).
+    pub share: f64,
     /// The corrections; `None` leaves the mouth alone.
     pub vertical: Option<Corrections<'a>>,
 }
@@ -153,9 +143,9 @@ pub fn reshape(
     let rest = markers.rest;
     let mut figures = CornerFigures::default();
     let mut touched = vec![false; dense.len()];
-    let (mouth, mut vertical) = match mouth {
-        Some(m) => (Some(m.opening), m.vertical),
-        None => (None, None),
+    let (mouth, mut vertical, mouth_share) = match mouth {
+        Some(m) => (Some(m.opening), m.vertical, m.share),
+        None => (None, None, MOUTH_SHARE),
     };
     let openings = geometry.openings.iter().zip(&geometry.opening_distance);
     for (index, (opening, from_rim)) in openings.enumerate() {
@@ -199,7 +189,7 @@ pub fn reshape(
                         ring(from_rim[welded] / width - BAND) * ring(-along) * ring(along - 0.5);
                     c.give_way[v] = c.give_way[v].max(beside);
                 }
-                let share = if at_mouth { MOUTH_SHARE } else { 1.0 };
+                let share = if at_mouth { mouth_share } else { 1.0 };
                 // The mouth's correction fades in linearly from each corner: a smoothstep's
                 // middle is 1.5 times as steep, and finer meshes sample it (see `FADE_IN`).
                 let fade_in = if at_mouth {
@@ -484,6 +474,7 @@ mod tests {
             &markers,
             Some(Mouth {
                 opening: 0,
+                share: MOUTH_SHARE,
                 vertical: None,
             }),
         );

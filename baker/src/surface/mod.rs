@@ -518,6 +518,7 @@ pub(crate) fn dense_weights(
             // The mouth's corrections take an influence pair of the K.
             let corrections = mouth.map(|opening| corners::Mouth {
                 opening,
+                share: config.surface.mouth_share,
                 vertical: (config.k >= corners::MOUTH_MIN_K).then_some(corners::Corrections {
                     vertical: vertical.as_mut_slice(),
                     give_way: give_way.as_mut_slice(),

@@ -816,6 +816,23 @@ fn print_text(s: &BakeSummary) {
             );
         }
     }
+    if let Some(m) = &r.mouth_share {
+        let tried: Vec<String> = m
+            .tried
+            .iter()
+            .map(|(share, torn)| format!("{share} tore {torn} of {} frames", m.frames))
+            .collect();
+        outln!(
+            out,
+            "  mouth corners {} of the crack's profile{}",
+            m.share,
+            if tried.is_empty() {
+                String::new()
+            } else {
+                format!(" (against the linear profile, {})", tried.join(", "))
+            }
+        );
+    }
     if let Some(t) = &s.on_capture {
         outln!(
             out,

@@ -1,0 +1,119 @@
+//! With a capture, how much of the crack's profile the mouth's corners take is chosen so that
+//! the capture does not tear the rig. The corners open as a crack does (`surface::corners`),
+//! and at the mouth the bake takes [`MOUTH_SHARE`] of the square-root profile, which FaceCap's
+//! truth wants (its worst lip pair 7.1 mm, 12.5 without). ICT-FaceKit's mouth, rounded where
+//! its lips roll into the corner, is pinched by it into a crack's tip and tears (JawMoCap
+//! through `bake --capture`: 3.20×, 5 flips; with the linear profile 1.95×, none).
+//!
+//! A take without a truth can only be measured against something the bake trusts, and rest is
+//! not it: FaceCap's own expressions stretch some edges past twice their rest length (a bake
+//! that judged against rest lowered FaceCap's share and lost its lips, 7.1 → 12.3 mm). The
+//! linear profile (share 0) is: it is the plain rig, smooth at the corners. So the bake plays
+//! the take through the rig and through the share-0 rig side by side, and a frame is torn where
+//! the rig flips a skin triangle the share-0 rig keeps upright or stretches a skin edge past
+//! twice its length there (or at rest, if longer). It keeps the first share of
+//! [`MOUTH_SHARES`] that tears at most [`TORN_SHARE`] of the frames, else the linear profile.
+//! Measured 2026-12-03 (`--test ict_facekit`, `--test other_faces`, `--test rehearsal`):
+//!
+//! | take | frames torn at 0.7 / 0.5 / 0.35 | kept |
+//! |---|---|---|
+//! | JawMoCap on FaceCap and on its wider, narrower and heavier-jawed warps; FaceCap's truth as takes and rehearsals | at most a tenth at 0.7 | 0.7 (nothing changes) |
+//! | the narrower FaceCap's truth as a 33-frame take | 3 of 33 (9 %) | 0.7 |
+//! | ICT-FaceKit's truth as a 30 Hz rehearsal | 112 of 842 (13 %) / 87 (10.3 %) / at most 84 | 0.35 |
+//! | JawMoCap placed on ICT-FaceKit | 280 of 1590 (18 %) / 143 (9 %) | 0.5 |
+//!
+//! At 5 % the narrower FaceCap's short take dropped to 0.5 and lost 1.2 mm of lip for no less
+//! stretch. ICT's rehearsal at 0.35: 1.86×, no edge over 2× against the truth (2.55×, 4 at
+//! 0.7), lips 5.3 mm off (4.8). JawMoCap on ICT at 0.5: 2.63×, 2 flips against 3.20×, 5 at
+//! 0.7; the linear profile would give 1.95× and none.
+
+use serde::Serialize;
+
+use super::BakeError;
+use crate::metrics::Regions;
+use crate::model::{Capture, FaceMesh};
+pub use crate::surface::corners::{MOUTH_SHARE, MOUTH_SHARES};
+
+/// The share of a take's frames a mouth share may tear and be kept (see the module docs).
+pub const TORN_SHARE: f64 = 0.1;
+
+/// What the bake chose for the mouth's corner profile, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MouthShareChoice {
+    /// The share kept.
+    pub share: f64,
+    /// The capture's frames.
+    pub frames: usize,
+    /// Each share tried before it, in order, with the frames it tore.
+    pub tried: Vec<(f64, usize)>,
+}
+
+/// Frames of `capture` that the rig in `blob` tears where the rig in `linear` (the same bake
+/// with the mouth's linear profile) does not (see the module docs), and the frames played.
+/// Both are played frame by frame through the runtime; nothing per frame is kept.
+pub fn frames_torn(
+    blob: &[u8],
+    linear: &[u8],
+    mesh: &FaceMesh,
+    capture: &Capture,
+) -> Result<(usize, usize), BakeError> {
+    let load = |b| {
+        facebake_runtime::Rig::from_bytes(b)
+            .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
+    };
+    let (rig, plain) = (load(blob)?, load(linear)?);
+    let regions = Regions::for_mesh(mesh, &[], &[])
+        .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
+    let rest = &mesh.positions;
+    let metres = capture.in_metres();
+    let columns: Vec<Option<usize>> = rig.marker_names().map(|n| metres.marker_index(n)).collect();
+    let actor_space = rig
+        .actor_space()
+        .ok_or_else(|| BakeError::Input("the rig just baked has no capture stages".into()))?;
+    let space = rig.space();
+    let (mut state, mut plain_state) = (
+        facebake_runtime::PlayState::new(),
+        facebake_runtime::PlayState::new(),
+    );
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let mut plain_out = out.clone();
+    let mut torn = 0;
+    for (f, frame) in metres.frames.iter().enumerate() {
+        let actor: Vec<Option<[i32; 3]>> = columns
+            .iter()
+            .map(|c| {
+                c.and_then(|c| frame[c])
+                    .and_then(|p| actor_space.to_rig_f64(p).ok())
+            })
+            .collect();
+        let failed = |e| BakeError::Input(format!("{}: frame {f}: {e}", capture.source.display()));
+        rig.play(&mut state, &actor, &mut out).map_err(failed)?;
+        plain
+            .play(&mut plain_state, &actor, &mut plain_out)
+            .map_err(failed)?;
+        let got: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+        let base: Vec<[f64; 3]> = plain_out.iter().map(|q| space.to_asset_f64(*q)).collect();
+        torn += usize::from(tears(&regions, rest, &got, &base));
+    }
+    Ok((torn, metres.frames.len()))
+}
+
+/// Whether `got` flips a skin triangle that `base` keeps upright or stretches a skin edge past
+/// twice its length in `base` (or at `rest`, if longer).
+fn tears(regions: &Regions, rest: &[[f64; 3]], got: &[[f64; 3]], base: &[[f64; 3]]) -> bool {
+    use crate::mesh::{cross, distance, dot, sub};
+    let normal = |p: &[[f64; 3]], t: &[u32; 3]| {
+        let [a, b, c] = t.map(|v| p[v as usize]);
+        cross(&sub(&b, &a), &sub(&c, &a))
+    };
+    let turned = |p: &[[f64; 3]], t: &[u32; 3]| dot(&normal(p, t), &normal(rest, t)) < 0.0;
+    let length = |p: &[[f64; 3]], [a, b]: [u32; 2]| distance(&p[a as usize], &p[b as usize]);
+    regions
+        .triangles
+        .iter()
+        .any(|t| turned(got, t) && !turned(base, t))
+        || regions
+            .edges
+            .iter()
+            .any(|&e| length(got, e) > 2.0 * length(base, e).max(length(rest, e)))
+}
