@@ -452,6 +452,11 @@ impl Regions {
         &self.rest
     }
 
+    /// Whether triangle `t` faces against its rest normal at `positions`.
+    pub fn turned(&self, positions: &[[f64; 3]], t: &[u32; 3]) -> bool {
+        dot(&normal(positions, t), &normal(&self.rest, t)) < 0.0
+    }
+
     /// Metrics of one frame: `positions` (one per vertex), `truth` if known (stretch and flips
     /// the truth has too then do not count; see the module docs). With
     /// `remove_rigid`, each of them is first brought back by its best rigid motion over the
@@ -522,8 +527,7 @@ impl Regions {
                 edges_over_limit += usize::from(ratio > STRETCH_LIMIT);
             }
         }
-        let turned =
-            |p: &[[f64; 3]], t: &[u32; 3]| dot(&normal(p, t), &normal(&self.rest, t)) < 0.0;
+        let turned = |p: &[[f64; 3]], t: &[u32; 3]| self.turned(p, t);
         let flipped = self
             .triangles
             .iter()

@@ -30,6 +30,7 @@
 use serde::Serialize;
 
 use super::BakeError;
+use crate::mesh::distance;
 use crate::metrics::Regions;
 use crate::model::{Capture, FaceMesh};
 pub use crate::surface::corners::{MOUTH_SHARE, MOUTH_SHARES};
@@ -64,7 +65,6 @@ pub fn frames_torn(
     let (rig, plain) = (load(blob)?, load(linear)?);
     let regions = Regions::for_mesh(mesh, &[], &[])
         .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
-    let rest = &mesh.positions;
     let metres = capture.in_metres();
     let columns: Vec<Option<usize>> = rig.marker_names().map(|n| metres.marker_index(n)).collect();
     let actor_space = rig
@@ -93,25 +93,20 @@ pub fn frames_torn(
             .map_err(failed)?;
         let got: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
         let base: Vec<[f64; 3]> = plain_out.iter().map(|q| space.to_asset_f64(*q)).collect();
-        torn += usize::from(tears(&regions, rest, &got, &base));
+        torn += usize::from(tears(&regions, &got, &base));
     }
     Ok((torn, metres.frames.len()))
 }
 
 /// Whether `got` flips a skin triangle that `base` keeps upright or stretches a skin edge past
-/// twice its length in `base` (or at `rest`, if longer).
-fn tears(regions: &Regions, rest: &[[f64; 3]], got: &[[f64; 3]], base: &[[f64; 3]]) -> bool {
-    use crate::mesh::{cross, distance, dot, sub};
-    let normal = |p: &[[f64; 3]], t: &[u32; 3]| {
-        let [a, b, c] = t.map(|v| p[v as usize]);
-        cross(&sub(&b, &a), &sub(&c, &a))
-    };
-    let turned = |p: &[[f64; 3]], t: &[u32; 3]| dot(&normal(p, t), &normal(rest, t)) < 0.0;
+/// twice its length in `base` (or at rest, if longer).
+fn tears(regions: &Regions, got: &[[f64; 3]], base: &[[f64; 3]]) -> bool {
+    let rest = regions.rest();
     let length = |p: &[[f64; 3]], [a, b]: [u32; 2]| distance(&p[a as usize], &p[b as usize]);
     regions
         .triangles
         .iter()
-        .any(|t| turned(got, t) && !turned(base, t))
+        .any(|t| regions.turned(got, t) && !regions.turned(base, t))
         || regions
             .edges
             .iter()
