@@ -296,9 +296,10 @@ fn jawmocap_take_on(mesh: &FaceMesh, placed: &[facebake::model::PlacedMarker]) -
     regions.measure_take(&played, None, false).1
 }
 
-/// Measured 2026-12-02, masked (the default): every face holds the static skin still (0.00 mm; 0.37 / 0.49 / 0.28 /
-/// 0.37 mm before the anchoring's hull left out the held head markers,
-/// `surface::anchoring::hull_markers`) and opens the mouth by its own proportions (37.5 to
+/// Measured 2026-12-02, masked (the default): every face holds the static skin within 0.1 mm
+/// (0.01 / 0.08 / 0.00 / 0.01 mm since the lowered head markers joined the anchoring's hull,
+/// 2026-12-04, `surface::anchoring::hull_markers`; 0.00 mm while the hull left them out; 0.37 /
+/// 0.49 / 0.28 / 0.37 mm with them in it unlowered) and opens the mouth by its own proportions (37.5 to
 /// 46.1 mm). The narrower, longer face stretches the lower lip beside its right corner 2.12×
 /// in 104 of 1590 frames (2.18× in 110 before the mouth's corrections faded in linearly,
 /// `surface::corners::FADE_IN`; 2.16× in 108 unmasked), with one flip: there the skin's weights pass from the corner's marker
@@ -315,7 +316,7 @@ fn jawmocap_plays_on_other_proportions() {
             "wider and shorter",
             wide,
             Pinned {
-                drift_mm: 0.0,
+                drift_mm: 0.08,
                 lips_mm: 37.5,
                 eyelids_mm: 10.8,
                 stretch: 1.80,
@@ -357,14 +358,16 @@ fn jawmocap_plays_on_other_proportions() {
             t.eyelids_mm.unwrap().0 > 0.9 * pinned.eyelids_mm,
             "{label}: {t}"
         );
-        assert!(t.static_drift_mm.0 <= 0.05, "{label}: {t}");
+        assert!(t.static_drift_mm.0 <= 0.1, "{label}: {t}");
     }
 }
 
 /// Each face's truth played as a capture ([`truth_as_capture`]: the head fitted to the
-/// forehead markers and the inner eye corners), scored against the truth. Measured 2026-12-02:
-/// static drift 0.00 mm on every face; skin mean / forehead mean FaceCap 0.550 / 0.313 mm,
-/// wider 0.558 / 0.259, longer 0.582 / 0.345, heavier jaw 0.564 / 0.312 (with the forehead's
+/// forehead markers and the inner eye corners), scored against the truth. Measured 2026-12-04:
+/// static drift within 0.02 mm on every face; skin mean / forehead mean FaceCap 0.546 / 0.325
+/// mm, wider 0.553 / 0.273, longer 0.577 / 0.357, heavier jaw 0.560 / 0.324 (with the head
+/// markers left out of the anchoring's hull, until 2026-12-04: 0.550 / 0.313, 0.558 / 0.259,
+/// 0.582 / 0.345, 0.564 / 0.312; with the forehead's
 /// three markers alone, which the truth moves in the frown and the surprise and the fit took
 /// for the head's motion: 0.678 / 0.343, 0.657 / 0.278, 0.733 / 0.383, 0.693 / 0.342); the rest
 /// as each face's own bake without a capture.
@@ -383,25 +386,25 @@ fn the_truth_through_the_capture_stages() {
             "FaceCap",
             unwarped,
             pin(7.1, 0.9, 1.89, 0, 1),
-            [0.5499, 0.3125],
+            [0.5457, 0.3249],
         ),
         (
             "wider and shorter",
             wide,
             pin(6.7, 0.8, 1.83, 0, 0),
-            [0.5580, 0.2586],
+            [0.5533, 0.2730],
         ),
         (
             "narrower and longer",
             long,
             pin(8.2, 1.0, 2.01, 1, 2),
-            [0.5817, 0.3453],
+            [0.5770, 0.3570],
         ),
         (
             "a heavier jaw",
             jaw,
             pin(6.8, 0.9, 1.84, 0, 1),
-            [0.5642, 0.3120],
+            [0.5601, 0.3244],
         ),
     ];
     for (label, map, pinned, [skin_mm, forehead_mm]) in faces {

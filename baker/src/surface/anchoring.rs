@@ -170,60 +170,58 @@ pub fn anchor_markers(
     chosen
 }
 
-/// Without a head fit, how far the hull comes in from each anchor marker towards its nearest
-/// other marker (a brow's, for a forehead marker): the skin just beyond a forehead marker that
-/// an expression moves is anchored a little, not dragged with it. With `facebake place`'s
-/// markers on the wider face the frown moved `ForeHead_R` and the static skin 5 mm above it
-/// 0.54 mm; the skull markers left out of the hull (1), as capture rigs leave out their held
-/// head markers, held it (0.36 mm) but anchored the skin right above the brows, and the
-/// surprise, which lifts that skin 9–14 mm, folded two triangles over the heavier jaw's right
-/// brow. Measured 2026-12-02 (`--test other_faces`, `--test structure`), placed markers, static
-/// drift: wider 0.54 / **0.36** / 0.36 mm, heavier jaw 0.44 / **0.35** / 0.35, narrower 0.37
-/// throughout, at 0 / **0.3** / 0.5, with no flip added and FaceCap's own truth unchanged
-/// (0.34 mm, mean 0.553).
+/// How far the hull comes in from each anchor marker towards its nearest other marker (a
+/// brow's, for a forehead marker): the skin just beyond a forehead marker that an expression
+/// moves is anchored a little, not dragged with it. With `facebake place`'s markers on the
+/// wider face the frown moved `ForeHead_R` and the static skin 5 mm above it 0.54 mm; the skull
+/// markers left out of the hull (1) held it (0.36 mm) but anchored the skin right above the
+/// brows, and the surprise, which lifts that skin 9–14 mm, folded two triangles over the
+/// heavier jaw's right brow. Measured 2026-12-02 (`--test other_faces`, `--test structure`),
+/// placed markers, static drift: wider 0.54 / **0.36** / 0.36 mm, heavier jaw 0.44 / **0.35**
+/// / 0.35, narrower 0.37 throughout, at 0 / **0.3** / 0.5, with no flip added and FaceCap's
+/// own truth unchanged (0.34 mm, mean 0.553).
 pub const HULL_LOWERING: f64 = 0.3;
 
 /// The markers whose hull bounds the skin left to the face ([`static_anchoring`]): every
-/// marker, each anchor marker moved [`HULL_LOWERING`] of the way towards its nearest other
-/// marker, or with the rig's own head fit (`head_fit`) every marker but the `anchors`, when at
-/// least three remain.
+/// marker, each of the `anchors` moved [`HULL_LOWERING`] of the way towards its nearest other
+/// marker (the nearest that is not an anchor, when there is one).
 ///
-/// With a head fit the anchor markers are the head markers, and the stages hold them still
-/// (`facebake_runtime::stages`: what is left of a head marker's motion once the head's is
-/// taken out is the fit's residual), so the skin beyond the expression's markers has nothing of
-/// its own to follow: it fades to the still head from the brows, not from past the forehead
-/// markers. Otherwise skin just above the forehead markers kept a tenth of the brows' ringing
-/// weights (`Reyebrow_M` −0.10, `Reyebrow_Inside` +0.10) and moved with a brow raise.
-/// Measured 2026-12-01 (`cargo test --release -p facebake-tests --test other_faces`): JawMoCap
-/// through `bake --capture`, static drift on FaceCap 0.37 → 0.00 mm, on the three faces of
-/// other proportions 0.49 / 0.28 / 0.37 → 0.00 mm, every other figure unchanged; the FaceCap
-/// truth played as a capture (head fit on the forehead markers), static drift 0.33 → 0.00 mm,
-/// skin mean 0.677 → 0.676 mm, forehead mean 0.359 → 0.341 mm.
-pub fn hull_markers(markers: &[[f64; 3]], anchors: &[usize], head_fit: bool) -> Vec<[f64; 3]> {
+/// A rig with its own head fit (a bake with a capture) holds its head markers still, and it
+/// once left them out of the hull: the skin past the brows then faded to the still head over
+/// [`HULL_RISE`] of a margin. ICT-FaceKit's surprise lifts its brows 5.5–7.8 mm while its
+/// forehead markers, 30 mm above, move 1–2.5 mm down: squeezed into 12 mm, the skin folded in
+/// a line across the forehead (5 triangles turned over in its rehearsal). With the lowered
+/// head markers in the hull, the skin between brows and forehead is the markers' to share out,
+/// as the truth shares it. Measured 2026-12-04 (`--test ict_facekit`, `--test rehearsal`,
+/// `--test other_faces`, `-- --nocapture`), left out / lowered 0.15 / **0.3** / 0.4:
+///
+/// | | left out | 0.15 | **0.3** | 0.4 |
+/// |---|---|---|---|---|
+/// | ICT's rehearsal: flips in its worst frame; face mean | 5; 0.631 mm | 1; 0.636 | **1; 0.636** | 2 |
+/// | FaceCap's rehearsal: static drift; face mean | 0.01; 0.525 mm | 0.14; 0.529 | **0.01; 0.528** | – |
+/// | FaceCap's truth as a capture: skin mean; forehead mean | 0.548; 0.311 mm | – | **0.546; 0.325** | – |
+/// | JawMoCap on the wider face: static drift | 0.00 mm | – | **0.08** | – |
+pub fn hull_markers(markers: &[[f64; 3]], anchors: &[usize]) -> Vec<[f64; 3]> {
     let face: Vec<[f64; 3]> = markers
         .iter()
         .enumerate()
         .filter(|(i, _)| !anchors.contains(i))
         .map(|(_, p)| *p)
         .collect();
-    if head_fit && face.len() >= 3 {
-        face
-    } else {
-        markers
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                if !anchors.contains(&i) {
-                    return *p;
-                }
-                face.iter()
-                    .min_by(|a, b| distance(a, p).total_cmp(&distance(b, p)))
-                    .map_or(*p, |q| {
-                        [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]))
-                    })
-            })
-            .collect()
-    }
+    markers
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if !anchors.contains(&i) {
+                return *p;
+            }
+            face.iter()
+                .min_by(|a, b| distance(a, p).total_cmp(&distance(b, p)))
+                .map_or(*p, |q| {
+                    [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]))
+                })
+        })
+        .collect()
 }
 
 /// How far from every opening a skull marker sits, at least: × the mean marker spacing.
@@ -498,19 +496,18 @@ mod tests {
             [0.0, 1.0, 1.0],
             [0.0, 2.0, 1.0],
         ];
-        // Without a head fit every marker, an anchor marker lowered towards its nearest other
-        // marker: marker 3 towards marker 2, 1 below it.
+        // Every marker, an anchor marker lowered towards its nearest other marker: marker 3
+        // towards marker 2, 1 below it.
         let towards =
             |p: [f64; 3], q: [f64; 3]| [0, 1, 2].map(|c| p[c] + HULL_LOWERING * (q[c] - p[c]));
         let mut expected = markers.to_vec();
         expected[3] = towards(markers[3], markers[2]);
-        assert_eq!(hull_markers(&markers, &[3], false), expected);
-        // With fewer than three face markers left, the same: markers 2 and 3 towards marker 0.
+        assert_eq!(hull_markers(&markers, &[3]), expected);
+        // Two anchors: markers 2 and 3 each towards its nearest face marker, marker 0.
         let mut expected = markers.to_vec();
         expected[2] = towards(markers[2], markers[0]);
         expected[3] = towards(markers[3], markers[0]);
-        assert_eq!(hull_markers(&markers, &[2, 3], true), expected);
-        assert_eq!(hull_markers(&markers, &[3], true), markers[..3].to_vec());
+        assert_eq!(hull_markers(&markers, &[2, 3]), expected);
     }
 
     #[test]

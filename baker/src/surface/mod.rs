@@ -567,7 +567,7 @@ pub(crate) fn dense_weights(
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             let a = anchoring::static_anchoring(
                 &mesh.positions,
-                &anchoring::hull_markers(&rest, &anchors, head_fit),
+                &anchoring::hull_markers(&rest, &anchors),
                 &anchors,
                 floor,
                 factor * spacing,
