@@ -1552,7 +1552,7 @@ fn a_take_starting_with_a_dropout_bakes_from_its_first_complete_frame() {
     let j = json_ok(&out);
     let warnings = j["report"]["warnings"].to_string();
     assert!(
-        warnings.contains("its neutral pose is frame 2"),
+        warnings.contains("its neutral pose starts at frame 2"),
         "{warnings}"
     );
     let neutral = &j["report"]["stages"]["neutral_frames"];

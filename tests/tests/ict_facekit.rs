@@ -146,17 +146,16 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// take with the defaults, played through the runtime and measured against the truth on every
 /// third frame, in between expressions too. The head fit takes the motion out (the rig draws
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
-/// mouth's corner profile, so the bake keeps the linear one (`facebake::bake::mouth_share`):
-/// face mean 0.636 mm, p99 3.78 mm, lips 5.3 and eyelids 3.7 mm off at worst, 1.86× (no edge
-/// over 2×), 1 flip (beside the right brow's outer end in the surprise). Measured 2026-12-04;
-/// with the head markers left out of the anchoring's hull (`surface::anchoring::hull_markers`)
-/// the surprise folded the forehead over in a line above the brows: 0.631 / 3.76 mm, 5 flips.
-/// Measured 2026-12-03 with the profile at 0.7: 0.632 mm, p99 3.78 mm,
-/// lips 4.8, 2.55× (4 edges over 2×), 5 flips (with the filter's speed gain not scaled to the noise, β
-/// 50: 0.637 / 3.88 mm, 2.54×). With the markers' filter before (1 Hz, β 10, 1 Hz):
-/// 0.736 / 5.08 mm, lips 11.1, eyelids 4.2, 2.59×, 5 flips; unsmoothed 0.684 / 3.83 mm, lips
-/// 4.8, eyelids 4.0, 2.62×, 6 flips. (Scored on the held frames alone, the old filter's figure
-/// was 0.872 mm, on a take eased linearly: it hid the lag.)
+/// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`).
+/// Measured 2026-12-04: face mean 0.601 mm, p99 3.75 mm, lips 5.3 and eyelids 3.7 mm off at
+/// worst, 1.83× (no edge over 2×), 1 flip (below the mouth's corner in the funnel). With the
+/// neutral pose from the take's first frame alone (`stages::settled_neutral`), 0.636 / 3.78 mm
+/// and 1.86×; with the head markers also left out of the anchoring's hull
+/// (`surface::anchoring::hull_markers`), 0.631 / 3.76 mm and 5 flips (the surprise folded the
+/// forehead over in a line above the brows, `docs/ict_surprise_forehead.png`). Measured
+/// 2026-12-03 with the profile at 0.7: 0.632 mm, lips 4.8, 2.55× (4 edges over 2×); with the
+/// markers' filter before (1 Hz, β 10, 1 Hz): 0.736 / 5.08 mm, lips 11.1, eyelids 4.2, 2.59×;
+/// unsmoothed 0.684 / 3.83 mm, 2.62×, 6 flips.
 #[test]
 fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
     let mesh = head();
@@ -183,7 +182,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
             drift_mm: 0.0,
             lips_mm: 5.3,
             eyelids_mm: 3.7,
-            stretch: 1.86,
+            stretch: 1.83,
             over_2x: 0,
             flipped: 1,
         },
@@ -194,7 +193,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         Some(0.35),
         "the take tears the mouth's corner profile on this head"
     );
-    assert!(score.mean_mm <= 0.64, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.61, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake

@@ -441,13 +441,13 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         let filled = &st.report.neutral_filled;
         if !filled.is_empty() {
             warnings.push(format!(
-                "no frame of the capture has every marker: its neutral pose is frame {first}, with {} marker(s) it lacks taken from the nearest frames that have them, moved rigidly onto it: {}",
+                "no frame of the capture has every marker: its neutral pose starts at frame {first}, with {} marker(s) it lacks taken from the nearest frames that have them, moved rigidly onto it: {}",
                 filled.len(),
                 filled.join(", ")
             ));
         } else if options.stages.neutral == crate::stages::Neutral::FirstComplete && first > 0 {
             warnings.push(format!(
-                "the capture's first {first} frame(s) lack a marker or hold a ghost: its neutral pose is frame {first} (--neutral chooses another)"
+                "the capture's first {first} frame(s) lack a marker or hold a ghost: its neutral pose starts at frame {first} (--neutral chooses others)"
             ));
         }
     }

@@ -739,6 +739,22 @@ pub fn bake_stages(
     })
 }
 
+/// How long after its first frame the neutral pose may run, seconds: the still frames that
+/// follow it ([`NEUTRAL_STILL_SIGMAS`]) are averaged into it ([`settled_neutral`]).
+pub const NEUTRAL_WINDOW_S: f64 = 0.5;
+
+/// A frame after the neutral one is still while every marker it has, the frame moved rigidly
+/// onto the pose so far, lies within this many times the capture's noise
+/// ([`temporal::capture_noise`], σ on each coordinate) of it. Two samples of pure noise lie
+/// about √2 σ × a chi of 3 degrees of freedom apart: 6 σ is passed by 1 marker in 2,000, and
+/// ±0.5 mm of uniform jitter can never exceed it; an expression's onset does within a few
+/// frames. One frame over it ends the window. Measured 2026-12-04 (`--test rehearsal`, `--test
+/// ict_facekit`, `-- --nocapture`), face mean on FaceCap's rehearsal / with occlusions / on
+/// ICT-FaceKit's: one frame (before) 0.528 / 0.558 / 0.636 mm; 4 σ 0.471 / 0.502 / 0.601;
+/// **6 σ 0.463 / 0.495 / 0.601**; 9 σ 0.463 / 0.495 / 0.620 (ICT's take is at 30 Hz: a looser
+/// bound lets more of an expression's onset in).
+pub const NEUTRAL_STILL_SIGMAS: f64 = 6.0;
+
 /// A neutral marker whose nearest neighbour is further than this many times the median of all
 /// markers' nearest-neighbour distances is refused as a ghost. On JawMoCap the largest ratio is
 /// about 2.
@@ -765,7 +781,8 @@ pub enum Neutral {
     /// The first frame in which every marker used is present and none is a ghost (a capture
     /// that starts with a dropout still bakes); when no frame has every marker, the first frame
     /// with half of them, each missing one taken from the nearest frame that has it (see
-    /// [`neutral_pose`]).
+    /// [`neutral_pose`]); with the still frames that follow it averaged in
+    /// ([`NEUTRAL_WINDOW_S`], [`NEUTRAL_STILL_SIGMAS`]).
     FirstComplete,
     /// These frames (0-based, end excluded), averaged: every marker used must be present in
     /// each, none a ghost.
@@ -810,8 +827,9 @@ impl NeutralPose {
 /// samples dropped at random, 41 markers are all there in one frame in 10,000), the first frame
 /// that has at least half the markers and no ghost among them, each missing marker taken from
 /// the nearest frame that has it, moved rigidly from that frame to this one by the markers both
-/// share (the head turns between them; the face barely changes in a few frames). Each failure
-/// is an error naming the file (and the marker and the frame).
+/// share (the head turns between them; the face barely changes in a few frames); then the
+/// still frames that follow are averaged in ([`settled_neutral`]). Each failure is an error
+/// naming the file (and the marker and the frame).
 pub fn neutral_pose(
     capture: &Capture,
     columns: &[usize],
@@ -834,7 +852,8 @@ pub fn neutral_pose(
                 Some(f) => f..f + 1,
                 None => match assembled_neutral(capture, columns) {
                     Some(pose) => {
-                        return check_assembled(pose, capture, columns, &file);
+                        let pose = check_assembled(pose, capture, columns, &file)?;
+                        return Ok(settled_neutral(capture, columns, pose));
                     }
                     // No frame has half the markers: frame 0's own failure below says what
                     // is wrong.
@@ -884,10 +903,86 @@ pub fn neutral_pose(
     let pose = (0..columns.len())
         .map(|i| [0, 1, 2].map(|c| neutral_frames.iter().map(|f| f[i][c]).sum::<f64>() / count))
         .collect();
-    Ok(NeutralPose {
+    let pose = NeutralPose {
         pose,
         frames: range,
         filled: Vec::new(),
+    };
+    Ok(match neutral {
+        Neutral::FirstComplete => settled_neutral(capture, columns, pose),
+        Neutral::Frames(_) => pose,
+    })
+}
+
+/// `pose` (one frame's, [`Neutral::FirstComplete`]) with the still frames that follow it
+/// averaged in: up to [`NEUTRAL_WINDOW_S`] of them, each moved rigidly onto the pose (the head
+/// may turn meanwhile) by the markers it has, while every one of them lies within
+/// [`NEUTRAL_STILL_SIGMAS`] × the capture's noise of the pose so far; each marker's pose is the
+/// median of its samples, coordinate by coordinate (the last frames before an expression
+/// starts weigh little). A frame with fewer than half the markers ends the window.
+///
+/// One frame's markers carry the capture's noise into every later frame's displacement: with
+/// ±0.5 mm of jitter on FaceCap's truth played as a take, the lids' markers so offset folded a
+/// triangle at each eye's outer corner over in the blink (turned 125–171°, the truth 24°) and
+/// one at a temple in the surprise, which a noiseless first frame did not.
+fn settled_neutral(capture: &Capture, columns: &[usize], pose: NeutralPose) -> NeutralPose {
+    let bound = NEUTRAL_STILL_SIGMAS * temporal::capture_noise(&capture.frames);
+    let window = (capture.rate_hz * NEUTRAL_WINDOW_S).round();
+    let window = if window.is_finite() {
+        window.clamp(0.0, 1e6) as usize
+    } else {
+        0
+    };
+    let start = pose.frames.end;
+    let at = |f: usize, i: usize| capture.frames[f].get(columns[i]).copied().flatten();
+    let mut samples: Vec<Vec<[f64; 3]>> = pose.pose.iter().map(|p| vec![*p]).collect();
+    let mut current = pose.pose.clone();
+    let mut end = start;
+    for f in start..start.saturating_add(window).min(capture.frame_count()) {
+        let have: Vec<usize> = (0..columns.len()).filter(|&i| at(f, i).is_some()).collect();
+        if have.len() < 3 || 2 * have.len() < columns.len() {
+            break;
+        }
+        let here: Vec<[f64; 3]> = have.iter().filter_map(|&i| at(f, i)).collect();
+        let there: Vec<[f64; 3]> = have.iter().map(|&i| current[i]).collect();
+        let Ok(motion) = rigid::kabsch(&here, &there) else {
+            break;
+        };
+        let moved: Vec<[f64; 3]> = here.iter().map(|p| motion.apply(p)).collect();
+        // Not NaN-blind: a non-finite sample ends the window too.
+        let still = moved
+            .iter()
+            .zip(&there)
+            .all(|(p, q)| distance(p, q) <= bound);
+        if !still {
+            break;
+        }
+        for (&i, p) in have.iter().zip(moved) {
+            samples[i].push(p);
+            current[i] = median_point(&samples[i]);
+        }
+        end = f + 1;
+    }
+    NeutralPose {
+        pose: current,
+        frames: pose.frames.start..end.max(start),
+        filled: pose.filled,
+    }
+}
+
+/// The coordinate-wise median of `points` (the mean of the middle two for an even count).
+fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
+    [0, 1, 2].map(|c| {
+        let mut x: Vec<f64> = points.iter().map(|p| p[c]).collect();
+        x.sort_by(f64::total_cmp);
+        let n = x.len();
+        if n == 0 {
+            0.0
+        } else if n % 2 == 1 {
+            x[n / 2]
+        } else {
+            0.5 * (x[n / 2 - 1] + x[n / 2])
+        }
     })
 }
 
@@ -1212,6 +1307,70 @@ mod tests {
             marker_names: (0..5).map(|i| format!("m{i}")).collect(),
             frames,
         }
+    }
+
+    /// The still frames after the first are averaged into the neutral pose, the head turning
+    /// meanwhile, up to the frames where an expression starts: ±0.5 mm of jitter, 12 still
+    /// frames, then marker 3 moving 1 mm a frame. The pose is nearer the truth than frame 0
+    /// alone; frames with fewer than half the markers end the window; `Neutral::Frames` is
+    /// left as asked.
+    #[test]
+    fn the_still_frames_after_the_first_are_averaged_into_the_neutral() {
+        let mut rng = crate::ground_truth::SplitMix64(7);
+        let truth: Vec<[f64; 3]> = frame(0.0, &[]).into_iter().flatten().collect();
+        let frames: Vec<Vec<Option<[f64; 3]>>> = (0..40)
+            .map(|f| {
+                let turn = 0.002 * f as f64;
+                let (sin, cos) = turn.sin_cos();
+                truth
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let lift = if i == 3 && f >= 12 {
+                            0.001 * (f - 11) as f64
+                        } else {
+                            0.0
+                        };
+                        let q = [p[0], p[1] + lift, p[2]];
+                        let turned = [cos * q[0] + sin * q[2], q[1], -sin * q[0] + cos * q[2]];
+                        Some(turned.map(|x| x + 0.0005 * (2.0 * rng.unit() - 1.0)))
+                    })
+                    .collect()
+            })
+            .collect();
+        let columns: Vec<usize> = (0..5).collect();
+        let worst = |pose: &[[f64; 3]]| {
+            let fit = rigid::kabsch(pose, &truth).expect("fits");
+            pose.iter()
+                .zip(&truth)
+                .map(|(p, q)| distance(&fit.apply(p), q))
+                .fold(0.0, f64::max)
+        };
+        let first: Vec<[f64; 3]> = frames[0].iter().flatten().copied().collect();
+        let take = capture(frames.clone());
+        let n = neutral_pose(&take, &columns, &Neutral::FirstComplete).expect("neutral");
+        // The onset's first frames may pass (1 and 2 mm against a 1.7 mm bound); the median
+        // keeps them from weighing.
+        assert!(
+            n.frames.start == 0 && (12..=14).contains(&n.frames.end),
+            "{:?}",
+            n.frames
+        );
+        assert!(
+            worst(&n.pose) < 0.5 * worst(&first),
+            "{} {}",
+            worst(&n.pose),
+            worst(&first)
+        );
+        // Frame 5 has two markers of five: the window ends before it.
+        let mut sparse = frames.clone();
+        for m in [0, 1, 2] {
+            sparse[5][m] = None;
+        }
+        let n = neutral_pose(&capture(sparse), &columns, &Neutral::FirstComplete).expect("ok");
+        assert_eq!(n.frames, 0..5);
+        let n = neutral_pose(&take, &columns, &Neutral::Frames(0..1)).expect("neutral");
+        assert_eq!((n.frames, n.pose), (0..1, first));
     }
 
     #[test]

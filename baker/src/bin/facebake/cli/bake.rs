@@ -149,8 +149,9 @@ pub struct BakeArgs {
     pub capture_units: Option<Units>,
     /// The actor's neutral pose: `auto` (the capture's first frame with every marker present
     /// and none a ghost; if no frame has them all, the first with half of them, each missing
-    /// one taken from the nearest frame that has it, moved rigidly onto it), a frame `N` or a
-    /// range `A..B` averaged (0-based, B excluded).
+    /// one taken from the nearest frame that has it, moved rigidly onto it; with the still
+    /// frames that follow it, up to half a second, moved onto it and averaged), a frame `N` or
+    /// a range `A..B` averaged (0-based, B excluded).
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral, requires = "capture")]
     pub neutral: Neutral,
     /// Head markers for compensation: comma-separated names, `auto` (the 5 most rigid over

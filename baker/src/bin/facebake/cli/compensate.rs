@@ -29,7 +29,8 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "UNITS", value_parser = parse_units)]
     pub capture_units: Option<Units>,
     /// The neutral pose the frames are brought back to: `auto` (the first frame with every
-    /// marker present and none a ghost), a frame `N` or a range `A..B` averaged.
+    /// marker present and none a ghost, with the still frames after it averaged in), a frame
+    /// `N` or a range `A..B` averaged.
     #[arg(long, value_name = "FRAMES", default_value = "auto", value_parser = parse_neutral)]
     pub neutral: Neutral,
     /// Head markers: comma-separated names, `auto` (the 5 most rigid) or `auto:N`. With
