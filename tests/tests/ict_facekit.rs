@@ -136,7 +136,7 @@ fn place_and_the_default_bake_play_its_expressions() {
             flipped: 7,
         },
     );
-    assert!(face.mean_mm <= 0.75 && face.max_mm <= 14.9, "{face:?}");
+    assert!(face.mean_mm <= 0.74 && face.max_mm <= 14.9, "{face:?}");
 }
 
 /// What the held-out set brings, rehearsed on this head ([`facebake_tests::rehearsal`]): its
@@ -147,10 +147,11 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// third frame, in between expressions too. The head fit takes the motion out (the rig draws
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
 /// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`).
-/// Measured 2026-12-04: face mean 0.601 mm, p99 3.75 mm, lips 5.3 and eyelids 3.7 mm off at
-/// worst, 1.83× (no edge over 2×), 1 flip (below the mouth's corner in the funnel). With the
-/// neutral pose from the take's first frame alone (`stages::settled_neutral`), 0.636 / 3.78 mm
-/// and 1.86×; with the head markers also left out of the anchoring's hull
+/// Measured 2026-12-04: face mean 0.594 mm, p99 3.65 mm, lips 5.3 and eyelids 3.7 mm off at
+/// worst, 1.85× (no edge over 2×), 1 flip (below the mouth's corner in the funnel). Before the
+/// lid markers let go of the skin past the lids (`surface::lids`), 0.601 / 3.75 mm and 1.83×;
+/// with the neutral pose from the take's first frame alone (`stages::settled_neutral`), 0.636 /
+/// 3.78 mm and 1.86×; with the head markers also left out of the anchoring's hull
 /// (`surface::anchoring::hull_markers`), 0.631 / 3.76 mm and 5 flips (the surprise folded the
 /// forehead over in a line above the brows, `docs/ict_surprise_forehead.png`). Measured
 /// 2026-12-03 with the profile at 0.7: 0.632 mm, lips 4.8, 2.55× (4 edges over 2×); with the
@@ -182,7 +183,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
             drift_mm: 0.0,
             lips_mm: 5.3,
             eyelids_mm: 3.7,
-            stretch: 1.83,
+            stretch: 1.85,
             over_2x: 0,
             flipped: 1,
         },
@@ -193,7 +194,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         Some(0.35),
         "the take tears the mouth's corner profile on this head"
     );
-    assert!(score.mean_mm <= 0.61, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.60, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake

@@ -376,24 +376,10 @@ mod tests {
         assert_eq!(profile(0.0, EYE_TIP), 0.0);
     }
 
-    /// [`crate::surface::slit`]'s eye-like slit. Markers: the slit's two corners (just past its
-    /// ends), two on each lid and four far out.
+    /// [`crate::surface::slit`]'s eye-like slit and its markers
+    /// ([`crate::surface::slit_markers`]).
     fn eye() -> (FaceMesh, Vec<usize>) {
-        let mesh = crate::surface::slit();
-        let vertex = |x: i32, y: i32| ((y + 10) * 41 + x + 20) as usize;
-        let markers = [
-            (-13, 0),
-            (13, 0),
-            (-5, 2),
-            (5, 2),
-            (-5, -2),
-            (5, -2),
-            (-18, 8),
-            (18, 8),
-            (-18, -8),
-            (18, -8),
-        ];
-        (mesh, markers.iter().map(|&(x, y)| vertex(x, y)).collect())
+        (crate::surface::slit(), crate::surface::slit_markers())
     }
 
     /// Inverse-square-distance weights on the markers, summing to one.

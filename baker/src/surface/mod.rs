@@ -24,6 +24,7 @@ pub mod distances;
 pub mod evaluate;
 pub mod geometry;
 pub(crate) mod interior;
+pub mod lids;
 pub mod masks;
 pub mod pbw;
 
@@ -141,6 +142,9 @@ pub struct SurfaceFigures {
     /// The opening corners' reshaping, when applied ([`corners`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub corners: Option<corners::CornerFigures>,
+    /// The lids' reshaping, when applied ([`lids`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lids: Option<lids::LidFigures>,
 }
 
 /// What static anchoring did.
@@ -547,6 +551,18 @@ pub(crate) fn dense_weights(
             }
             figures
         });
+    let lids =
+        (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
+            let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
+            lids::reshape(
+                &mut dense,
+                &geometry,
+                &mesh.welded_positions,
+                &rest,
+                &names,
+                mouth,
+            )
+        });
     let unreachable = geometry.pieces_of(&d.fallback);
     let pieces = interior::Piece::all(&unreachable, &mesh.positions, spacing);
     let jaw = mouth.map(|opening| {
@@ -608,6 +624,7 @@ pub(crate) fn dense_weights(
         },
         anchoring,
         corners,
+        lids,
     };
     Ok(SurfaceBake {
         between,
@@ -794,6 +811,28 @@ impl SurfaceBake {
 /// A 41 × 21 grid (1 mm spacing, z = 0, y up, centred; vertex `(y + 10) · 41 + x + 20` at
 /// (x, y)) with an eye-like slit: the cells inside the ellipse (x/12)² + (y/1.2)² < 1 left out,
 /// so the rims run from x = −11 to 11 at y = ±1. For the tests of what happens at openings.
+/// Markers on [`slit`] (its vertices): the slit's two corners (just past its ends), two on
+/// each lid and four far out.
+#[cfg(test)]
+pub(crate) fn slit_markers() -> Vec<usize> {
+    let vertex = |x: i32, y: i32| ((y + 10) * 41 + x + 20) as usize;
+    [
+        (-13, 0),
+        (13, 0),
+        (-5, 2),
+        (5, 2),
+        (-5, -2),
+        (5, -2),
+        (-18, 8),
+        (18, 8),
+        (-18, -8),
+        (18, -8),
+    ]
+    .iter()
+    .map(|&(x, y)| vertex(x, y))
+    .collect()
+}
+
 #[cfg(test)]
 pub(crate) fn slit() -> crate::model::FaceMesh {
     let (w, h) = (41u32, 21u32);

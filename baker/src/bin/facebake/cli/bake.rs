@@ -65,7 +65,9 @@ pub struct BakeArgs {
     /// and lips near each corner that has a marker open and close as a crack does (the
     /// displacement across the opening growing as the square root of the distance from the
     /// corner; at the mouth 70 % of it, on the vertical axis alone), so a blink closes the eye
-    /// and the lips part near their corners. Linear deformer; the mouth's part needs K ≥ 6.
+    /// and the lips part near their corners; and the lid markers' weights fade from the eye's
+    /// rim, so a blink does not drag the skin under the brow. Linear deformer; the mouth's part
+    /// needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
     /// Across a lip or lid, between the opening's rim and a marker worn on it, count this
@@ -661,6 +663,14 @@ fn print_text(s: &BakeSummary) {
                 c.markers.join(", "),
                 c.reshaped_vertices,
                 c.balanced_vertices
+            );
+        }
+        if let Some(l) = &f.lids {
+            outln!(
+                out,
+                "  lids          the lid markers ({}) let go of the skin past the lids' fold: {} vertices",
+                l.markers.join(", "),
+                l.reshaped_vertices
             );
         }
     }
