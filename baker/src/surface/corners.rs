@@ -273,14 +273,16 @@ pub fn balance_past_mouth_corners(
 
 /// An opening's two ends across the face (its rim's x extremes) and its width, measured once
 /// for the reshaping and the balance past the mouth's corners.
-struct RimEnds {
-    ends: [[f64; 3]; 2],
-    width: f64,
+pub(crate) struct RimEnds {
+    /// The rim's two ends across the face (its lowest and highest x).
+    pub(crate) ends: [[f64; 3]; 2],
+    /// The distance between them.
+    pub(crate) width: f64,
 }
 
 impl RimEnds {
     /// The ends of `opening` on the welded mesh; `None` for an empty or zero-width rim.
-    fn of(opening: &Opening, welded_positions: &[[f64; 3]]) -> Option<Self> {
+    pub(crate) fn of(opening: &Opening, welded_positions: &[[f64; 3]]) -> Option<Self> {
         if opening.vertices.is_empty() {
             return None;
         }

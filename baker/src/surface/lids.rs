@@ -30,9 +30,9 @@
 //! 0.12 / 0.35, 2.07× and 4 flips there; 0.12 / 0.5, ICT's rehearsal 1.90× (1.85× now). The
 //! rim pairs' eyelid figures do not move (they are on the rim).
 
-use crate::mesh::{distance, x_extremes};
+use crate::mesh::distance;
 use crate::surface::anchoring::smoothstep;
-use crate::surface::corners::CORNER_REACH;
+use crate::surface::corners::{RimEnds, CORNER_REACH};
 use crate::surface::geometry::SurfaceGeometry;
 
 /// Distance from the rim, as a fraction of the eye's width, within which a lid marker's weight
@@ -73,15 +73,12 @@ pub fn reshape(
     let mut touched = vec![false; dense.len()];
     let openings = geometry.openings.iter().zip(&geometry.opening_distance);
     for (index, (opening, from_rim)) in openings.enumerate() {
-        if Some(index) == mouth || opening.vertices.is_empty() {
+        if Some(index) == mouth {
             continue;
         }
-        let (low, high) = x_extremes(&opening.vertices, welded_positions);
-        let ends = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
-        let width = distance(&ends[0], &ends[1]);
-        if width <= 0.0 {
+        let Some(RimEnds { ends, width }) = RimEnds::of(opening, welded_positions) else {
             continue;
-        }
+        };
         let near_rim = |p: &[f64; 3]| {
             opening
                 .vertices
@@ -195,12 +192,9 @@ mod tests {
         );
         assert_eq!(figures.markers, ["M2", "M3", "M4", "M5"]);
         assert!(figures.reshaped_vertices > 100, "{figures:?}");
-        let rim = &geometry.openings[0];
-        let (low, high) = x_extremes(&rim.vertices, &mesh.welded_positions);
-        let width = distance(
-            &mesh.welded_positions[rim.vertices[low] as usize],
-            &mesh.welded_positions[rim.vertices[high] as usize],
-        );
+        let width = RimEnds::of(&geometry.openings[0], &mesh.welded_positions)
+            .expect("a rim")
+            .width;
         let mut faded = 0;
         for (v, (b, a)) in before.iter().zip(&after).enumerate() {
             assert!((b.iter().sum::<f64>() - a.iter().sum::<f64>()).abs() < 1e-12);
