@@ -965,7 +965,7 @@ fn settled_neutral(capture: &Capture, columns: &[usize], pose: NeutralPose) -> N
     }
     NeutralPose {
         pose: current,
-        frames: pose.frames.start..end.max(start),
+        frames: pose.frames.start..end,
         filled: pose.filled,
     }
 }

@@ -512,9 +512,9 @@ pub(crate) fn dense_weights(
     let (upper_lip, lower_lip) = masks::lips_from_openings(mesh, &rest);
     let mut vertical = vec![Vec::new(); dense.len()];
     let mut give_way = vec![0.0; dense.len()];
+    let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
     let corners =
         (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
-            let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
             let markers = corners::CornerMarkers {
                 rest: &rest,
                 names: &names,
@@ -553,7 +553,6 @@ pub(crate) fn dense_weights(
         });
     let lids =
         (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
-            let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
             lids::reshape(
                 &mut dense,
                 &geometry,
@@ -808,9 +807,6 @@ impl SurfaceBake {
     }
 }
 
-/// A 41 × 21 grid (1 mm spacing, z = 0, y up, centred; vertex `(y + 10) · 41 + x + 20` at
-/// (x, y)) with an eye-like slit: the cells inside the ellipse (x/12)² + (y/1.2)² < 1 left out,
-/// so the rims run from x = −11 to 11 at y = ±1. For the tests of what happens at openings.
 /// Markers on [`slit`] (its vertices): the slit's two corners (just past its ends), two on
 /// each lid and four far out.
 #[cfg(test)]
@@ -833,6 +829,9 @@ pub(crate) fn slit_markers() -> Vec<usize> {
     .collect()
 }
 
+/// A 41 × 21 grid (1 mm spacing, z = 0, y up, centred; vertex `(y + 10) · 41 + x + 20` at
+/// (x, y)) with an eye-like slit: the cells inside the ellipse (x/12)² + (y/1.2)² < 1 left out,
+/// so the rims run from x = −11 to 11 at y = ±1. For the tests of what happens at openings.
 #[cfg(test)]
 pub(crate) fn slit() -> crate::model::FaceMesh {
     let (w, h) = (41u32, 21u32);
