@@ -79,6 +79,9 @@ pub struct SurfaceOptions {
     /// At the mouth, the share of the corners' square-root profile taken ([`MOUTH_SHARE`];
     /// with a capture the bake may take less, `bake::mouth_share`).
     pub mouth_share: f64,
+    /// With a capture, relax the weights where the capture folds the skin (`bake::relax`;
+    /// linear deformer, surface path).
+    pub relax: bool,
 }
 
 /// At the mouth, the share of the corners' square-root profile taken (`surface::corners`) (the rest stays linear): the
@@ -118,6 +121,7 @@ impl Default for SurfaceOptions {
             rim_across: RIM_ACROSS,
             past_corner_reach: PAST_CORNER_REACH,
             mouth_share: MOUTH_SHARE,
+            relax: true,
         }
     }
 }

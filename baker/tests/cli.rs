@@ -594,6 +594,11 @@ fn bake_with_a_capture_then_play_a_take_with_gaps() {
         summary["report"]["stages"]["head_markers"][3], "NoseTop",
         "{summary}"
     );
+    // The take folds no skin triangle, so nothing is relaxed.
+    let relaxed = &summary["report"]["relaxed"];
+    assert_eq!(relaxed["frames"], 1590, "{summary}");
+    assert_eq!(relaxed["before"]["worst_frame"], 0, "{summary}");
+    assert_eq!(relaxed["rings"], 0, "{summary}");
     // The same take with marker 7's sample blanked in frames 3 to 5.
     let text = std::fs::read_to_string(&trc).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();

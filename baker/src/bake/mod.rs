@@ -8,6 +8,8 @@
 
 mod euclidean;
 pub mod mouth_share;
+mod playback;
+pub mod relax;
 
 use facebake_runtime::Space;
 use serde::Serialize;
@@ -195,6 +197,17 @@ pub struct BakeReport {
     /// so that the capture does not tear the rig (`mouth_share`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mouth_share: Option<mouth_share::MouthShareChoice>,
+    /// With a capture (linear deformer, surface path): the skin triangles the capture folded
+    /// and how the weights were relaxed round them (`relax`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relaxed: Option<relax::RelaxChoice>,
+}
+
+/// A patch of skin whose dense weights are relaxed (`relax`): the skin's welded neighbours and
+/// the patch's welded vertices.
+struct Relaxed<'a> {
+    neighbours: &'a [Vec<u32>],
+    patch: &'a [u32],
 }
 
 /// The f64 twin of a baked deformer: what the runtime approximates.
@@ -322,7 +335,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let names = scene.marker_names();
     let rest = scene.marker_rest();
     let space = crate::space::space_for(&scene.mesh.positions);
-    let mut d = bake_deformer(scene, options, &rest, &space, None)?;
+    let mut d = bake_deformer(scene, options, &rest, &space, None, None)?;
     let stages = match scene.capture {
         Some(capture) => {
             // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
@@ -371,7 +384,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             .collect();
         let followed = d.surface.as_ref().and_then(|s| s.anchoring.as_ref());
         if followed.is_some_and(|a| !same_markers(&a.markers, &st.report.head_markers)) {
-            d = bake_deformer(scene, options, &rest, &space, Some(&markers))?;
+            d = bake_deformer(scene, options, &rest, &space, Some(&markers), None)?;
             held = Some(markers);
         }
     }
@@ -396,7 +409,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         let with_share = |share: f64| {
             let mut o = options.clone();
             o.surface.mouth_share = share;
-            bake_deformer(scene, &o, &rest, &space, held.as_deref())
+            bake_deformer(scene, &o, &rest, &space, held.as_deref(), None)
         };
         let linear = with_share(0.0)?;
         let (linear_blob, linear_sizes) = write(&linear)?;
@@ -426,6 +439,53 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             frames,
             tried,
         });
+    }
+    // With a capture, the weights relax where it folds the skin.
+    let mut relaxed = None;
+    if let (Some(capture), true) = (
+        scene.capture,
+        options.surface.relax && options.deformer == DeformerKind::Linear && d.surface.is_some(),
+    ) {
+        let regions = crate::metrics::Regions::for_mesh(scene.mesh, &[], &[])
+            .map_err(|e| BakeError::Input(format!("{}: {e}", scene.mesh.source.display())))?;
+        let (mut folded, before) = relax::folds(&blob, &regions, capture)?;
+        let mut choice = relax::RelaxChoice {
+            frames: capture.frames.len(),
+            before,
+            after: before,
+            rings: 0,
+            vertices: 0,
+        };
+        if before.worst_frame > 0 {
+            let neighbours = relax::skin_neighbours(scene.mesh, &regions);
+            let mut o = options.clone();
+            o.surface.mouth_share = mouth_share
+                .as_ref()
+                .map_or(o.surface.mouth_share, |m| m.share);
+            for rings in (2..=relax::RINGS).step_by(2) {
+                let patch = relax::patch(scene.mesh, &regions, &neighbours, &folded, rings);
+                let r = Relaxed {
+                    neighbours: &neighbours,
+                    patch: &patch,
+                };
+                let candidate = bake_deformer(scene, &o, &rest, &space, held.as_deref(), Some(&r))?;
+                let (candidate_blob, candidate_sizes) = write(&candidate)?;
+                let (now, count) = relax::folds(&candidate_blob, &regions, capture)?;
+                if count < choice.after {
+                    choice.after = count;
+                    choice.rings = rings;
+                    choice.vertices = patch.len();
+                    (d, blob, sizes) = (candidate, candidate_blob, candidate_sizes);
+                }
+                if count.worst_frame == 0 {
+                    break;
+                }
+                folded.extend(now);
+                folded.sort_unstable();
+                folded.dedup();
+            }
+        }
+        relaxed = Some(choice);
     }
     let dropped = &d.output.dropped;
     let mean_dropped_mass = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
@@ -485,6 +545,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         surface: d.surface,
         stages: stages.as_ref().map(|s| s.report.clone()),
         mouth_share,
+        relaxed,
     };
     Ok(Baked {
         blob,
@@ -640,6 +701,7 @@ fn bake_deformer(
     rest: &[[f64; 3]],
     space: &Space,
     held: Option<&[usize]>,
+    relaxed: Option<&Relaxed<'_>>,
 ) -> Result<DeformerBake, BakeError> {
     let mesh = scene.mesh;
     if options.deformer == DeformerKind::Planar {
@@ -709,7 +771,10 @@ fn bake_deformer(
         held,
         ..scene.surface_input()
     };
-    let s = crate::surface::dense_weights(&input, options, space)?;
+    let mut s = crate::surface::dense_weights(&input, options, space)?;
+    if let Some(r) = relaxed {
+        relax::relax_rows(&mut s.dense, &s.vertical, &mesh.weld, r.neighbours, r.patch);
+    }
     let output = match options.deformer {
         DeformerKind::Linear => s.linear(options)?,
         DeformerKind::Rbf => s.rbf(options)?,

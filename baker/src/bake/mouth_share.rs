@@ -58,44 +58,13 @@ pub fn frames_torn(
     mesh: &FaceMesh,
     capture: &Capture,
 ) -> Result<(usize, usize), BakeError> {
-    let load = |b| {
-        facebake_runtime::Rig::from_bytes(b)
-            .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
-    };
-    let (rig, plain) = (load(blob)?, load(linear)?);
     let regions = Regions::for_mesh(mesh, &[], &[])
         .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
-    let metres = capture.in_metres();
-    let columns: Vec<Option<usize>> = rig.marker_names().map(|n| metres.marker_index(n)).collect();
-    let actor_space = rig
-        .actor_space()
-        .ok_or_else(|| BakeError::Input("the rig just baked has no capture stages".into()))?;
-    let space = rig.space();
-    let (mut state, mut plain_state) = (
-        facebake_runtime::PlayState::new(),
-        facebake_runtime::PlayState::new(),
-    );
-    let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    let mut plain_out = out.clone();
     let mut torn = 0;
-    for (f, frame) in metres.frames.iter().enumerate() {
-        let actor: Vec<Option<[i32; 3]>> = columns
-            .iter()
-            .map(|c| {
-                c.and_then(|c| frame[c])
-                    .and_then(|p| actor_space.to_rig_f64(p).ok())
-            })
-            .collect();
-        let failed = |e| BakeError::Input(format!("{}: frame {f}: {e}", capture.source.display()));
-        rig.play(&mut state, &actor, &mut out).map_err(failed)?;
-        plain
-            .play(&mut plain_state, &actor, &mut plain_out)
-            .map_err(failed)?;
-        let got: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
-        let base: Vec<[f64; 3]> = plain_out.iter().map(|q| space.to_asset_f64(*q)).collect();
-        torn += usize::from(tears(&regions, &got, &base));
-    }
-    Ok((torn, metres.frames.len()))
+    super::playback::play(&[blob, linear], capture, |_, played| {
+        torn += usize::from(tears(&regions, &played[0], &played[1]));
+    })?;
+    Ok((torn, capture.frames.len()))
 }
 
 /// Whether `got` flips a skin triangle that `base` keeps upright or stretches a skin edge past

@@ -70,6 +70,12 @@ pub struct BakeArgs {
     /// needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
+    /// Leave the weights as the method makes them where the capture folds the skin: by default
+    /// a bake with a capture plays it through the rig, and where a frame turns a skin triangle
+    /// over, the weights of a patch of skin round it are relaxed (each vertex the mean of its
+    /// neighbours, up to three rings out) if that folds fewer. Linear deformer.
+    #[arg(long)]
+    pub no_relax: bool,
     /// Across a lip or lid, between the opening's rim and a marker worn on it, count this
     /// fraction of a distance, so that the rim moves with the marker in front of it rather than
     /// with the next one along (default 0.2; 1 measures distances as they are). Linear and RBF
@@ -290,6 +296,7 @@ impl BakeArgs {
             surface: facebake::SurfaceOptions {
                 corners: d.surface.corners && !self.no_corners,
                 rim_across: self.rim_across.unwrap_or(d.surface.rim_across),
+                relax: d.surface.relax && !self.no_relax,
                 ..d.surface
             },
             ..d
@@ -843,6 +850,38 @@ fn print_text(s: &BakeSummary) {
                 format!(" (against the linear profile, {})", tried.join(", "))
             }
         );
+    }
+    if let Some(r) = &r.relaxed {
+        let folds = |f: &facebake::bake::relax::Folds| {
+            format!(
+                "{} skin triangle(s), at most {} in a frame, {} triangle-frames",
+                f.triangles, f.worst_frame, f.triangle_frames
+            )
+        };
+        if r.before.worst_frame == 0 {
+            outln!(
+                out,
+                "  folds         none in the capture's {} frames",
+                r.frames
+            );
+        } else if r.rings == 0 {
+            outln!(
+                out,
+                "  folds         {} of {} frames turned over; relaxing the weights round them folded no fewer: left as they are",
+                folds(&r.before),
+                r.frames
+            );
+        } else {
+            outln!(
+                out,
+                "  folds         {} of {} frames turned over; weights relaxed over {} vertices ({} rings round them): {}",
+                folds(&r.before),
+                r.frames,
+                r.vertices,
+                r.rings,
+                folds(&r.after)
+            );
+        }
     }
     if let Some(t) = &s.on_capture {
         outln!(
