@@ -45,10 +45,10 @@ impl Pace {
     };
 }
 
-/// Frames at rest before the first expression.
-const REST_FRAMES: usize = 10;
-/// Frames left out of the score: the rest and the smoothing's start-up.
-pub const SKIPPED: usize = 30;
+/// Frames at rest before the first expression; they are left out of the score, which starts
+/// with the first expression. (Until 2026-12-04 the score skipped 30 frames, so a take eased
+/// over 10 frames and held 6 was never scored on its first expression, the jaw open.)
+pub const REST_FRAMES: usize = 10;
 
 /// A take made of a truth, and where the truth is at each of its frames.
 pub struct Rehearsal {
@@ -110,7 +110,7 @@ impl Rehearsal {
         facebake::bake(&with_capture, options).expect("the rehearsal bakes")
     }
 
-    /// Play the take through `blob` and score every `every`-th frame past [`SKIPPED`] against
+    /// Play the take through `blob` and score every `every`-th frame past the rest ([`REST_FRAMES`]) against
     /// the truth where the take has it (frame by frame: nothing but the errors is kept).
     pub fn score(&self, scene: &Benchmark, blob: &[u8], every: usize) -> Score {
         let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
@@ -126,7 +126,7 @@ impl Rehearsal {
                 .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
                 .collect();
             rig.play(&mut state, &markers, &mut out).expect("plays");
-            if i < SKIPPED || i % every != 0 {
+            if i < REST_FRAMES || i % every != 0 {
                 continue;
             }
             let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();

@@ -146,9 +146,15 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// take with the defaults, played through the runtime and measured against the truth on every
 /// third frame, in between expressions too. The head fit takes the motion out (the rig draws
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
-/// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`).
-/// Measured 2026-12-04: face mean 0.594 mm, p99 3.65 mm, lips 5.3 and eyelids 3.7 mm off at
-/// worst, 1.85× (no edge over 2×), 1 flip (below the mouth's corner in the funnel). Before the
+/// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`), and
+/// folds the throat under the jaw open, so the bake relaxes the weights there
+/// (`facebake::bake::relax`). Measured 2026-12-04, the score now starting with the first
+/// expression, the jaw open: face mean 0.600 mm, p99 3.75 mm, lips 6.7 and eyelids 3.7 mm off
+/// at worst, 1.85× (no edge over 2×), 1 flip (below the mouth's corner); without the
+/// relaxation (`--no-relax`) 0.601 / 3.77 mm and 3 flips (two in the throat). The same take at
+/// 60 Hz, eased over 20 frames and held 12: 0.587 / 3.74 mm, 1.89×, 1 flip; without, 0.589 /
+/// 3.76 mm, 1.93×, 3. Scored from frame 30 as until then (no jaw open): 0.594 mm, p99 3.65
+/// mm, lips 5.3 and eyelids 3.7 mm off at worst, 1.85×, 1 flip. Before the
 /// lid markers let go of the skin past the lids (`surface::lids`), 0.601 / 3.75 mm and 1.83×;
 /// with the neutral pose from the take's first frame alone (`stages::settled_neutral`), 0.636 /
 /// 3.78 mm and 1.86×; with the head markers also left out of the anchoring's hull
@@ -181,7 +187,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         &score.take,
         &Pinned {
             drift_mm: 0.0,
-            lips_mm: 5.3,
+            lips_mm: 6.7,
             eyelids_mm: 3.7,
             stretch: 1.85,
             over_2x: 0,
@@ -189,12 +195,22 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         },
     );
     println!("mouth share {:?}", baked.report.mouth_share);
+    let relaxed = baked
+        .report
+        .relaxed
+        .as_ref()
+        .expect("a capture bake relaxes");
+    println!("relaxed {relaxed:?}");
+    assert!(
+        relaxed.before.worst_frame >= 3 && relaxed.after.worst_frame <= 1 && relaxed.rings > 0,
+        "the jaw open folds the throat and relaxing the weights there unfolds it: {relaxed:?}"
+    );
     assert_eq!(
         baked.report.mouth_share.as_ref().map(|m| m.share),
         Some(0.35),
         "the take tears the mouth's corner profile on this head"
     );
-    assert!(score.mean_mm <= 0.60, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.601, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake
