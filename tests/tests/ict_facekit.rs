@@ -229,7 +229,7 @@ fn jawmocap_on_this_head_bakes_the_mouth_corners_it_does_not_tear() {
     scene.capture = Some(&capture);
     let baked = facebake::bake(&scene, &BakeOptions::product_default()).expect("bakes");
     let choice = baked.report.mouth_share.expect("a mouth share chosen");
-    println!("mouth share {choice:?}");
+    println!("mouth share {choice:?}, relaxed {:?}", baked.report.relaxed);
     assert_eq!(choice.share, 0.5);
     assert_eq!(choice.frames, 1590);
     assert_eq!(choice.tried.len(), 1);
