@@ -854,7 +854,7 @@ fn print_text(s: &BakeSummary) {
     if let Some(r) = &r.relaxed {
         let folds = |f: &facebake::bake::relax::Folds| {
             format!(
-                "{} skin triangle(s), at most {} in a frame, {} triangle-frames",
+                "{} skin triangle(s) turned over (at most {} in a frame, {} triangle-frames)",
                 f.triangles, f.worst_frame, f.triangle_frames
             )
         };
@@ -867,16 +867,16 @@ fn print_text(s: &BakeSummary) {
         } else if r.rings == 0 {
             outln!(
                 out,
-                "  folds         {} of {} frames turned over; relaxing the weights round them folded no fewer: left as they are",
-                folds(&r.before),
-                r.frames
+                "  folds         in the capture's {} frames, {}; relaxing the weights round them folded no fewer: left as they are",
+                r.frames,
+                folds(&r.before)
             );
         } else {
             outln!(
                 out,
-                "  folds         {} of {} frames turned over; weights relaxed over {} vertices ({} rings round them): {}",
-                folds(&r.before),
+                "  folds         in the capture's {} frames, {}; weights relaxed over {} vertices ({} rings round them): {}",
                 r.frames,
+                folds(&r.before),
                 r.vertices,
                 r.rings,
                 folds(&r.after)
