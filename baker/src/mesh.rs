@@ -560,6 +560,33 @@ pub fn farthest_point_sampling(
     Ok(samples)
 }
 
+/// Harmonic interpolation of per-vertex rows over a graph: `sweeps` Gauss–Seidel sweeps in
+/// which each vertex of `free` (in that order) takes the mean of its `neighbours`' rows; every
+/// other row is held. A free vertex without neighbours keeps its row. A mouth's bag stretched
+/// between the lips (`surface::interior`) and weights relaxed round a fold (`bake::relax`).
+pub(crate) fn harmonic_sweeps(
+    rows: &mut [Vec<f64>],
+    neighbours: &[Vec<u32>],
+    free: &[usize],
+    sweeps: usize,
+) {
+    for _ in 0..sweeps {
+        for &w in free {
+            let around = &neighbours[w];
+            if around.is_empty() {
+                continue;
+            }
+            let mut mean = vec![0.0; rows[w].len()];
+            for &u in around {
+                for (m, r) in mean.iter_mut().zip(&rows[u as usize]) {
+                    *m += r / around.len() as f64;
+                }
+            }
+            rows[w] = mean;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -61,7 +61,7 @@ pub fn frames_torn(
     let regions = Regions::for_mesh(mesh, &[], &[])
         .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
     let mut torn = 0;
-    super::playback::play(&[blob, linear], capture, |_, played| {
+    super::playback::play(&[blob, linear], capture, |played| {
         torn += usize::from(tears(&regions, &played[0], &played[1]));
     })?;
     Ok((torn, capture.frames.len()))

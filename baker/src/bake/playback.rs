@@ -6,12 +6,12 @@ use facebake_runtime::{PlayState, Rig};
 use super::BakeError;
 use crate::model::Capture;
 
-/// Play every frame of `capture` through each rig of `blobs` side by side and hand `each` the
-/// frame's index and every rig's vertices (asset units, glTF order). Nothing per frame is kept.
+/// Play every frame of `capture` through each rig of `blobs` side by side and hand `each` every
+/// rig's vertices (asset units, glTF order). Nothing per frame is kept.
 pub(crate) fn play(
     blobs: &[&[u8]],
     capture: &Capture,
-    mut each: impl FnMut(usize, &[Vec<[f64; 3]>]),
+    mut each: impl FnMut(&[Vec<[f64; 3]>]),
 ) -> Result<(), BakeError> {
     let rigs = blobs
         .iter()
@@ -62,7 +62,7 @@ pub(crate) fn play(
                 *v = space.to_asset_f64(*q);
             }
         }
-        each(f, &vertices);
+        each(&vertices);
     }
     Ok(())
 }

@@ -72,7 +72,7 @@ pub(crate) fn folds(
 ) -> Result<(Vec<usize>, Folds), BakeError> {
     let mut folded = vec![false; regions.triangles.len()];
     let mut f = Folds::default();
-    super::playback::play(&[blob], capture, |_, played| {
+    super::playback::play(&[blob], capture, |played| {
         let mut here = 0;
         for (t, tri) in regions.triangles.iter().enumerate() {
             if regions.turned(&played[0], tri) {
@@ -177,21 +177,7 @@ pub(crate) fn relax_rows(
             v => dense[v].clone(),
         })
         .collect();
-    let mut mean = vec![0.0; width];
-    for _ in 0..SWEEPS {
-        for &w in &free {
-            mean.iter_mut().for_each(|m| *m = 0.0);
-            for &n in &neighbours[w] {
-                for (m, x) in mean.iter_mut().zip(&rows[n as usize]) {
-                    *m += x;
-                }
-            }
-            let share = 1.0 / neighbours[w].len() as f64;
-            for (r, m) in rows[w].iter_mut().zip(&mean) {
-                *r = m * share;
-            }
-        }
-    }
+    crate::mesh::harmonic_sweeps(&mut rows, neighbours, &free, SWEEPS);
     let mut is_free = vec![false; welded];
     for &w in &free {
         is_free[w] = true;

@@ -317,21 +317,7 @@ pub(crate) fn stretch_bags(
         }
     }
     let neighbours = mesh.welded_topology().neighbours;
-    for _ in 0..BAG_SWEEPS {
-        for &w in &bag {
-            let around = &neighbours[w];
-            if around.is_empty() {
-                continue;
-            }
-            let mut mean = vec![0.0; rows[w].len()];
-            for &u in around {
-                for (m, r) in mean.iter_mut().zip(&rows[u as usize]) {
-                    *m += r / around.len() as f64;
-                }
-            }
-            rows[w] = mean;
-        }
-    }
+    crate::mesh::harmonic_sweeps(&mut rows, &neighbours, &bag, BAG_SWEEPS);
     for (v, &w) in mesh.weld.iter().enumerate() {
         if in_bag[w as usize] {
             dense[v].clone_from(&rows[w as usize]);
