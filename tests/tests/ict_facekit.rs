@@ -49,6 +49,58 @@ fn placed_on_seen_skin(mesh: &FaceMesh) -> Vec<facebake::model::PlacedMarker> {
     placed
 }
 
+/// The eyes' skin ends at the lids' margin (`openings::lid_margin`), not on the lining behind
+/// it where the views round the front stop seeing the skin: the truth's blink brings every
+/// pair across the lids to within 2.5 mm (on the lining it left them 3.5 to 9.6 mm apart), and
+/// the two eyes' margins mirror each other (the lining's loops did not: 22 and 23 pairs).
+#[test]
+fn its_eyes_end_at_the_lids_margin() {
+    let truth = GroundTruth::new(head(), 40, 6).expect("a truth");
+    let regions = Regions::for_mesh(&truth.mesh, &truth.marker_rest(), &[]).expect("regions");
+    let blink = truth
+        .frames
+        .iter()
+        .position(|f| f.name == "blink")
+        .expect("a blink");
+    let (rest, closed) = (regions.rest(), truth.positions(blink));
+    let widest = |p: &[[f64; 3]], pairs: &[[u32; 2]]| {
+        pairs
+            .iter()
+            .map(|&[u, l]| 1000.0 * distance(&p[u as usize], &p[l as usize]))
+            .fold(0.0, f64::max)
+    };
+    assert_eq!(regions.eyes.len(), 2);
+    for pairs in &regions.eyes {
+        let (open, shut) = (widest(rest, pairs), widest(&closed, pairs));
+        println!(
+            "an eye's margin: {} pairs, open {open:.1} mm, blinking {shut:.1} mm",
+            pairs.len()
+        );
+        assert!(
+            open >= 9.0 && shut <= 2.5,
+            "open {open:.1}, blinking {shut:.1} mm"
+        );
+    }
+    let (a, b) = (&regions.eyes[0], &regions.eyes[1]);
+    assert_eq!(a.len(), b.len());
+    for &[u, l] in a {
+        for v in [u, l] {
+            let p = rest[v as usize];
+            let mirrored = [-p[0], p[1], p[2]];
+            let nearest = b
+                .iter()
+                .flatten()
+                .map(|&w| distance(&rest[w as usize], &mirrored))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest < 1e-4,
+                "{v}: {:.2} mm from its mirror image",
+                nearest * 1e3
+            );
+        }
+    }
+}
+
 /// The skin has no boundary loop but the neck; the mouth and the eyes are found behind it, in
 /// their places on this head (eyes 6.4 cm apart at its eyes' height, the mouth 6.9 cm below,
 /// in front of them).
@@ -93,6 +145,12 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 /// the `surprise` takes together). Its static drift is the crown in the surprise: beyond the
 /// markers the skin follows the anchor markers' mean (forehead and inner eye corners), which
 /// this head's brow raise moves 1.7 mm (0.7 mm in the frown).
+/// Measured 2026-12-04, the eyes' skin ending at the lids' margin (`openings::lid_margin`; the
+/// lids' lining behind it is no longer skin, and `place` moves the eye corners' markers off it,
+/// which moves the rest of the fit by up to 7.7 mm): face mean / max 0.7674 / 18.83 mm over the
+/// smaller skin, lips 5.9 and eyelids 1.5 mm off at worst, 2.33× (2 edges over 2×), 6 flips,
+/// drift 1.59 mm; before, 0.734 / 14.89 mm, 6.2 / 3.3 mm, 2.60× (5), 7, 1.74 mm. The old
+/// layout's markers with only the eyes' markers placed anew: 0.748 / 12.43 mm, 2.32×, no flip.
 /// Measured 2026-12-03: before the mouth and eyes were found behind the skin, `place` refused
 /// the head ("the skin has 0 openings") and a bake had no masks; with them found but the
 /// markers' triangles numbered as in the whole mesh, two eye-corner markers sat on a socket
@@ -128,15 +186,15 @@ fn place_and_the_default_bake_play_its_expressions() {
         "ICT-FaceKit, JawMoCap placed, the default",
         &take,
         &Pinned {
-            drift_mm: 1.74,
-            lips_mm: 6.2,
-            eyelids_mm: 3.6,
-            stretch: 2.60,
-            over_2x: 5,
-            flipped: 7,
+            drift_mm: 1.59,
+            lips_mm: 5.9,
+            eyelids_mm: 1.5,
+            stretch: 2.33,
+            over_2x: 2,
+            flipped: 6,
         },
     );
-    assert!(face.mean_mm <= 0.74 && face.max_mm <= 14.9, "{face:?}");
+    assert!(face.mean_mm <= 0.768 && face.max_mm <= 18.9, "{face:?}");
 }
 
 /// What the held-out set brings, rehearsed on this head ([`facebake_tests::rehearsal`]): its
@@ -148,8 +206,12 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
 /// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`), and
 /// folds the throat under the jaw open, so the bake relaxes the weights there
-/// (`facebake::bake::relax`). Measured 2026-12-04, the score now starting with the first
-/// expression, the jaw open: face mean 0.600 mm, p99 3.75 mm, lips 6.7 and eyelids 3.7 mm off
+/// (`facebake::bake::relax`). Measured 2026-12-04 with the eyes' skin ending at the lids'
+/// margin (`openings::lid_margin`): face mean 0.623 mm, p99 4.02 mm (over the skin without the
+/// lids' lining), lips 8.3 and eyelids 1.9 mm off at worst, 1.83×, no flip; the take tears every
+/// mouth share (0.35: 106 of 842 frames), so the linear profile is kept, and the relaxation
+/// unfolds the throat (6 triangles in a frame → none). Before that, the score now starting
+/// with the first expression, the jaw open: face mean 0.600 mm, p99 3.75 mm, lips 6.7 and eyelids 3.7 mm off
 /// at worst, 1.85× (no edge over 2×), 1 flip (below the mouth's corner); without the
 /// relaxation (`--no-relax`) 0.601 / 3.77 mm and 3 flips (two in the throat). The same take at
 /// 60 Hz, eased over 20 frames and held 12: 0.587 / 3.74 mm, 1.89×, 1 flip; without, 0.589 /
@@ -187,11 +249,11 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         &score.take,
         &Pinned {
             drift_mm: 0.0,
-            lips_mm: 6.7,
-            eyelids_mm: 3.7,
-            stretch: 1.85,
+            lips_mm: 8.3,
+            eyelids_mm: 1.9,
+            stretch: 1.83,
             over_2x: 0,
-            flipped: 1,
+            flipped: 0,
         },
     );
     println!("mouth share {:?}", baked.report.mouth_share);
@@ -202,22 +264,26 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         .expect("a capture bake relaxes");
     println!("relaxed {relaxed:?}");
     assert!(
-        relaxed.before.worst_frame >= 3 && relaxed.after.worst_frame <= 1 && relaxed.rings > 0,
+        relaxed.before.worst_frame >= 3 && relaxed.after.worst_frame == 0 && relaxed.rings > 0,
         "the jaw open folds the throat and relaxing the weights there unfolds it: {relaxed:?}"
     );
     assert_eq!(
         baked.report.mouth_share.as_ref().map(|m| m.share),
-        Some(0.35),
+        Some(0.0),
         "the take tears the mouth's corner profile on this head"
     );
-    assert!(score.mean_mm <= 0.601, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.623, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake
-/// --capture`): the take tears the mouth's corner profile at the default share where the
-/// linear profile does not (280 of 1590 frames: 3.20×, 5 flips), so the bake keeps the next
-/// share that tears at most a tenth of them, 0.5 (143 frames; 2.63×, 2 flips, measured with
-/// `facebake bake`), and says so (`facebake::bake::mouth_share`).
+/// --capture`). Since the eyes' skin ends at the lids' margin (`openings::lid_margin`, 2026-12-04)
+/// the take tears no mouth share more than the linear profile does and folds no triangle: the
+/// bake keeps the default 0.7 and relaxes nothing; the skull stays still and no triangle turns
+/// over, but a 0.07 mm edge just outside each mouth's corner stretches 5.07× (143 frames with
+/// an edge over 2×). Before, with the eye corners' markers placed on the lids' lining, it tore
+/// the mouth's corner profile at 0.7 where the linear profile did not (280 of 1590 frames:
+/// 3.20×, 5 flips), kept 0.5 (143 frames; 2.63×, 2 flips) and folded 279 triangle-frames
+/// (`facebake::bake::mouth_share`, `facebake::bake::relax`).
 #[test]
 fn jawmocap_on_this_head_bakes_the_mouth_corners_it_does_not_tear() {
     let mesh = head();
@@ -230,10 +296,20 @@ fn jawmocap_on_this_head_bakes_the_mouth_corners_it_does_not_tear() {
     let baked = facebake::bake(&scene, &BakeOptions::product_default()).expect("bakes");
     let choice = baked.report.mouth_share.expect("a mouth share chosen");
     println!("mouth share {choice:?}, relaxed {:?}", baked.report.relaxed);
-    assert_eq!(choice.share, 0.5);
+    assert_eq!(choice.share, 0.7);
     assert_eq!(choice.frames, 1590);
-    assert_eq!(choice.tried.len(), 1);
-    assert!(choice.tried[0].1 > 159, "{choice:?}");
+    assert!(choice.tried.is_empty(), "{choice:?}");
+    let relaxed = baked.report.relaxed.expect("a capture bake relaxes");
+    assert_eq!(relaxed.before.triangle_frames, 0, "{relaxed:?}");
+    let rig = facebake_runtime::Rig::from_bytes(&baked.blob).expect("loads");
+    let frames = facebake_tests::frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
+    let (played, _) = facebake_tests::play_take(&rig, &frames);
+    let regions =
+        Regions::for_mesh(&bench.truth.mesh, &bench.truth.marker_rest(), &[]).expect("regions");
+    let (_, take) = regions.measure_take(&played, None, false);
+    println!("JawMoCap on ICT-FaceKit through `bake --capture`: {take}");
+    assert_eq!(take.flipped.0, 0, "{take}");
+    assert!(take.static_drift_mm.0 <= 0.05, "{take}");
 }
 
 /// The whole model as one primitive (`ICTFaceKitWhole.glb`: teeth, tongue, eyeballs, tear

@@ -15,7 +15,7 @@
 //! [`DEPTH_TOLERANCE`] cells in front of it.
 
 use crate::mesh::{cross, distance, dot, sub, unit, Topology};
-use crate::openings::{find_openings, Opening};
+use crate::openings::{find_openings, lid_margin, Opening};
 
 /// Views around the front, besides the front itself.
 pub const VIEWS: usize = 8;
@@ -97,8 +97,8 @@ pub const WIDE_TILT: f64 = 50.0;
 /// through the lids, so "seen by any view" keeps most of it; its walls are seen through the
 /// fissure by a few views near the front only. On the ICT-FaceKit head (skin, mouth socket and
 /// eye sockets in one piece), seen by 3 of 17 views the eyes' loops ran deep on the sockets'
-/// walls (25 cm long, with the ears' hollows as long); by 6, along the lids, 8.5 and 8.9 cm
-/// round, and the mouth's along the lips (10.8 cm); by 9, the ears' hollows came first.
+/// walls (25 cm long, with the ears' hollows as long); by 6, along the lids' lining just
+/// behind their margin (which [`lid_margin`] then finds), 8.5 and 8.9 cm round, and the mouth's along the lips (10.8 cm); by 9, the ears' hollows came first.
 pub const SEEN_BY: usize = 6;
 /// Depth-buffer cells across the skin's bounding-box diagonal when no eyes give a scale (about
 /// 1.5 mm on a head).
@@ -131,7 +131,8 @@ pub struct ClosedFace {
 /// [`WIDE_TILT`]), each vertex skin where [`SEEN_BY`] of them see it, and the loops of the skin
 /// so seen. The eyes are the two loops in front of the bulk, alike in length, side by side and
 /// level, the longest such pair with a mouth: the longest loop about as far from either,
-/// below them ([`crate::openings::below_eyes`]). `None` when no front gives one.
+/// below them ([`crate::openings::below_eyes`]). Each eye's skin then ends at its lids' margin
+/// ([`lid_margin`]), the narrowest loop round its socket. `None` when no front gives one.
 pub fn face_behind_skin(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Option<ClosedFace> {
     let (lo, hi) = crate::model::bounds(positions.iter().copied());
     let cell = distance(&lo, &hi) / CELLS_PER_DIAGONAL;
@@ -159,14 +160,35 @@ pub fn face_behind_skin(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Optio
         }
         let seen: Vec<bool> = count.iter().map(|&c| c >= SEEN_BY).collect();
         let loops = loops_of_seen(positions, triangles, &seen)?;
-        let [mouth, a, b] = face_among(&loops, bulk, front, up)?;
-        let rims: Vec<u32> = [mouth, a, b]
+        let found = face_among(&loops, bulk, front, up)?.map(Opening::clone);
+        // The eyes' loops run on the lids' lining, behind their margin: end the skin there.
+        let mut seen = seen;
+        let mut grown = false;
+        for eye in &found[1..] {
+            grown |= lid_margin::grow_to_margin(positions, triangles, &mut seen, &eye.vertices);
+        }
+        let openings = if grown {
+            let loops = loops_of_seen(positions, triangles, &seen)?;
+            let nearest = |o: &Opening| {
+                loops
+                    .iter()
+                    .min_by(|p, q| {
+                        distance(&p.centre, &o.centre).total_cmp(&distance(&q.centre, &o.centre))
+                    })
+                    .cloned()
+            };
+            let [mouth, a, b] = &found;
+            [nearest(mouth)?, nearest(a)?, nearest(b)?]
+        } else {
+            found
+        };
+        let rims: Vec<u32> = openings
             .iter()
             .flat_map(|o| o.vertices.iter().copied())
             .collect();
         Some(ClosedFace {
             triangles: without_bag(triangles, &seen, &rims),
-            openings: [mouth.clone(), a.clone(), b.clone()],
+            openings,
         })
     })
 }

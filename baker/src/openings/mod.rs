@@ -6,6 +6,7 @@
 //! opening.
 
 pub mod closed_mouth;
+pub mod lid_margin;
 
 use crate::mesh::{centroid, distance, Topology};
 
