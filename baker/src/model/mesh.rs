@@ -60,7 +60,7 @@ pub struct FaceMesh {
     /// Triangles in original glTF vertex indices, in file order.
     pub triangles: Vec<[u32; 3]>,
     /// For each original vertex, the id of its welded vertex (vertices with bit-identical
-    /// positions on one piece share one id, [`weld_pieces`]; ids are numbered in order of first
+    /// positions on one piece share one id, `weld_pieces`; ids are numbered in order of first
     /// appearance).
     pub weld: Vec<u32>,
     /// Position of each welded vertex.

@@ -127,7 +127,7 @@ pub struct ClosedFace {
 
 /// The mouth and eyes of a skin with no opening at all (a head whose mouth is closed by a bag
 /// and whose eyes by sockets, as the ICT-FaceKit head's are), found where the skin stops being
-/// seen: for each of [`FRONTS`] in turn, the front and 16 views round it (at [`VIEW_TILT`] and
+/// seen: for each of `FRONTS` in turn, the front and 16 views round it (at [`VIEW_TILT`] and
 /// [`WIDE_TILT`]), each vertex skin where [`SEEN_BY`] of them see it, and the loops of the skin
 /// so seen. The eyes are the two loops in front of the bulk, alike in length, side by side and
 /// level, the longest such pair with a mouth: the longest loop about as far from either,

@@ -740,7 +740,7 @@ pub fn bake_stages(
 }
 
 /// How long after its first frame the neutral pose may run, seconds: the still frames that
-/// follow it ([`NEUTRAL_STILL_SIGMAS`]) are averaged into it ([`settled_neutral`]).
+/// follow it ([`NEUTRAL_STILL_SIGMAS`]) are averaged into it (`settled_neutral`).
 pub const NEUTRAL_WINDOW_S: f64 = 0.5;
 
 /// A frame after the neutral one is still while every marker it has, the frame moved rigidly
@@ -828,7 +828,7 @@ impl NeutralPose {
 /// that has at least half the markers and no ghost among them, each missing marker taken from
 /// the nearest frame that has it, moved rigidly from that frame to this one by the markers both
 /// share (the head turns between them; the face barely changes in a few frames); then the
-/// still frames that follow are averaged in ([`settled_neutral`]). Each failure is an error
+/// still frames that follow are averaged in (`settled_neutral`). Each failure is an error
 /// naming the file (and the marker and the frame).
 pub fn neutral_pose(
     capture: &Capture,
