@@ -55,9 +55,10 @@ impl Graph {
     }
 }
 
-/// A heap entry: smaller distances first.
+/// A heap entry, a distance and a vertex (or any state numbered as one): smaller distances
+/// first, then smaller numbers.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Entry(f64, u32);
+pub(crate) struct Entry(pub(crate) f64, pub(crate) u32);
 
 impl Eq for Entry {}
 

@@ -164,8 +164,9 @@ pub fn face_behind_skin(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Optio
         // The eyes' loops run on the lids' lining, behind their margin: end the skin there.
         let mut seen = seen;
         let mut grown = false;
+        let neighbours = Topology::new(positions, triangles).neighbours;
         for eye in &found[1..] {
-            grown |= lid_margin::grow_to_margin(positions, triangles, &mut seen, &eye.vertices);
+            grown |= lid_margin::grow_to_margin(positions, triangles, &neighbours, &mut seen, eye);
         }
         let openings = if grown {
             let loops = loops_of_seen(positions, triangles, &seen)?;

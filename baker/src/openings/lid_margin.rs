@@ -15,10 +15,11 @@
 //! along the lids, mirror-symmetric between the eyes (the seen loops were not), and the truth's
 //! blink brings its pairs to 0.6–2.4 mm.
 
-use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap, HashSet};
 
+use crate::geodesic::dijkstra::Entry;
 use crate::mesh::{cross, distance, dot, sub, unit};
+use crate::openings::Opening;
 
 /// How far from the loop where the skin stops being seen the margin is looked for, along the
 /// surface: × that loop's length (8.5–8.9 cm round ICT-FaceKit's eyes: about 1 cm).
@@ -30,30 +31,23 @@ const MAX_STARTS: usize = 64;
 
 /// Marks the skin of an eye closed by a socket as ending at its lids' margin: `seen` (per
 /// welded vertex, whether the views see it) on entry, the skin with everything behind the
-/// margin unseen on return. `rim` is the loop where the seen skin stops (welded ids, in order).
-/// Returns whether it changed anything; `false` (and `seen` untouched) when no margin is found
+/// margin unseen on return. `eye` is the loop where the seen skin stops, `neighbours` each
+/// vertex's through `triangles` ([`crate::mesh::Topology::neighbours`]). Returns whether it changed anything; `false` (and `seen` untouched) when no margin is found
 /// in the band, or the loop found does not close the socket off (a pouch shallower than the
 /// band, or a socket that is not a pouch).
 pub fn grow_to_margin(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
+    neighbours: &[Vec<u32>],
     seen: &mut [bool],
-    rim: &[u32],
+    eye: &Opening,
 ) -> bool {
-    let neighbours = neighbours(positions.len(), triangles);
-    let length: f64 = (0..rim.len())
-        .map(|i| {
-            distance(
-                &positions[rim[i] as usize],
-                &positions[rim[(i + 1) % rim.len()] as usize],
-            )
-        })
-        .sum();
+    let rim = &eye.vertices;
     // Along the surface from the rim: through the socket (unseen) as deep as it goes, over the
     // seen skin within the band.
-    let reach = BAND * length;
-    let from_rim = spread(positions, &neighbours, rim, |v, d| !seen[v] || d <= reach);
-    let Some(cycle) = margin(positions, &neighbours, rim, |v| {
+    let reach = BAND * eye.length;
+    let from_rim = spread(positions, neighbours, rim, |v, d| !seen[v] || d <= reach);
+    let Some(cycle) = margin(positions, neighbours, rim, |v| {
         from_rim[v].is_some_and(|d| d <= reach)
     }) else {
         return false;
@@ -152,6 +146,8 @@ pub fn margin(
         let stride = starts.len().div_ceil(MAX_STARTS);
         starts = starts.into_iter().step_by(stride).collect();
     }
+    // A state of the search: a vertex on sheet 0 or 1.
+    let state = |v: usize, sheet: u8| (2 * v + usize::from(sheet)) as u32;
     let mut best: Option<(f64, Vec<u32>)> = None;
     for s in starts {
         // Dijkstra over (vertex, sheet 0 or 1), from (s, 0) to (s, 1).
@@ -159,9 +155,10 @@ pub fn margin(
         let mut parent: HashMap<(usize, u8), (usize, u8)> = HashMap::new();
         let mut heap = BinaryHeap::new();
         dist.insert((s, 0), 0.0);
-        heap.push(Entry(0.0, s, 0));
+        heap.push(Entry(0.0, state(s, 0)));
         let bound = best.as_ref().map_or(f64::INFINITY, |b| b.0);
-        while let Some(Entry(d, v, sheet)) = heap.pop() {
+        while let Some(Entry(d, at)) = heap.pop() {
+            let (v, sheet) = (at as usize / 2, (at % 2) as u8);
             if d >= bound {
                 break;
             }
@@ -195,29 +192,12 @@ pub fn margin(
                 if dist.get(&(w, next)).is_none_or(|&x| nd < x) {
                     dist.insert((w, next), nd);
                     parent.insert((w, next), (v, sheet));
-                    heap.push(Entry(nd, w, next));
+                    heap.push(Entry(nd, state(w, next)));
                 }
             }
         }
     }
     best.map(|(_, path)| path).filter(|p| p.len() >= 3)
-}
-
-/// Each vertex's neighbours through `triangles`.
-fn neighbours(count: usize, triangles: &[[u32; 3]]) -> Vec<Vec<u32>> {
-    let mut out = vec![Vec::new(); count];
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            if !out[a as usize].contains(&b) {
-                out[a as usize].push(b);
-            }
-            if !out[b as usize].contains(&a) {
-                out[b as usize].push(a);
-            }
-        }
-    }
-    out
 }
 
 /// Distances along edges from `sources`, entering a vertex only while `enter(vertex,
@@ -232,9 +212,10 @@ fn spread(
     let mut heap = BinaryHeap::new();
     for &s in sources {
         dist[s as usize] = Some(0.0);
-        heap.push(Entry(0.0, s as usize, 0));
+        heap.push(Entry(0.0, s));
     }
-    while let Some(Entry(d, v, _)) = heap.pop() {
+    while let Some(Entry(d, v)) = heap.pop() {
+        let v = v as usize;
         if dist[v].is_some_and(|x| d > x) {
             continue;
         }
@@ -243,7 +224,7 @@ fn spread(
             let nd = d + distance(&positions[v], &positions[w]);
             if dist[w].is_none_or(|x| nd < x) && enter(w, nd) {
                 dist[w] = Some(nd);
-                heap.push(Entry(nd, w, 0));
+                heap.push(Entry(nd, w as u32));
             }
         }
     }
@@ -303,26 +284,6 @@ fn flood_inside(
     Some(out)
 }
 
-/// A heap entry, least distance first.
-struct Entry(f64, usize, u8);
-
-impl PartialEq for Entry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-impl Eq for Entry {}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other.0.total_cmp(&self.0)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -357,7 +318,7 @@ mod tests {
     fn the_margin_is_the_waist() {
         let waist = 4;
         let (positions, triangles) = tube(9, 24, |r| 1.0 + 0.5 * (r as f64 - waist as f64).powi(2));
-        let neighbours = neighbours(positions.len(), &triangles);
+        let neighbours = crate::mesh::Topology::new(&positions, &triangles).neighbours;
         let rim: Vec<u32> = (0..24).collect();
         let found = margin(&positions, &neighbours, &rim, |_| true).expect("a loop");
         let mut rings: Vec<usize> = found.iter().map(|&v| v as usize / 24).collect();
@@ -370,7 +331,7 @@ mod tests {
     #[test]
     fn no_loop_in_a_band_that_does_not_go_round() {
         let (positions, triangles) = tube(5, 16, |_| 1.0);
-        let neighbours = neighbours(positions.len(), &triangles);
+        let neighbours = crate::mesh::Topology::new(&positions, &triangles).neighbours;
         let rim: Vec<u32> = (0..16).collect();
         let half = |v: usize| positions[v][1] >= 0.0;
         assert!(margin(&positions, &neighbours, &rim, half).is_none());
