@@ -98,7 +98,8 @@ pub const WIDE_TILT: f64 = 50.0;
 /// fissure by a few views near the front only. On the ICT-FaceKit head (skin, mouth socket and
 /// eye sockets in one piece), seen by 3 of 17 views the eyes' loops ran deep on the sockets'
 /// walls (25 cm long, with the ears' hollows as long); by 6, along the lids' lining just
-/// behind their margin (which [`lid_margin`] then finds), 8.5 and 8.9 cm round, and the mouth's along the lips (10.8 cm); by 9, the ears' hollows came first.
+/// behind their margin (which [`lid_margin`] then finds), 8.5 and 8.9 cm round, and the
+/// mouth's along the lips (10.8 cm); by 9, the ears' hollows came first.
 pub const SEEN_BY: usize = 6;
 /// Depth-buffer cells across the skin's bounding-box diagonal when no eyes give a scale (about
 /// 1.5 mm on a head).

@@ -32,9 +32,10 @@ const MAX_STARTS: usize = 64;
 /// Marks the skin of an eye closed by a socket as ending at its lids' margin: `seen` (per
 /// welded vertex, whether the views see it) on entry, the skin with everything behind the
 /// margin unseen on return. `eye` is the loop where the seen skin stops, `neighbours` each
-/// vertex's through `triangles` ([`crate::mesh::Topology::neighbours`]). Returns whether it changed anything; `false` (and `seen` untouched) when no margin is found
-/// in the band, or the loop found does not close the socket off (a pouch shallower than the
-/// band, or a socket that is not a pouch).
+/// vertex's through `triangles` ([`crate::mesh::Topology::neighbours`]). Returns whether it
+/// changed anything; `false` (and `seen` untouched) when no margin is found in the band, or
+/// the loop found does not close the socket off (a pouch shallower than the band, or a socket
+/// that is not a pouch).
 pub fn grow_to_margin(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
@@ -146,39 +147,35 @@ pub fn margin(
         let stride = starts.len().div_ceil(MAX_STARTS);
         starts = starts.into_iter().step_by(stride).collect();
     }
-    // A state of the search: a vertex on sheet 0 or 1.
+    // A state of the search: a vertex on sheet 0 or 1, numbered `2 × vertex + sheet`.
     let state = |v: usize, sheet: u8| (2 * v + usize::from(sheet)) as u32;
     let mut best: Option<(f64, Vec<u32>)> = None;
     for s in starts {
-        // Dijkstra over (vertex, sheet 0 or 1), from (s, 0) to (s, 1).
-        let mut dist: HashMap<(usize, u8), f64> = HashMap::new();
-        let mut parent: HashMap<(usize, u8), (usize, u8)> = HashMap::new();
-        let mut heap = BinaryHeap::new();
-        dist.insert((s, 0), 0.0);
-        heap.push(Entry(0.0, state(s, 0)));
+        // Dijkstra over the states, from (s, 0) to (s, 1).
+        let (from, to) = (state(s, 0), state(s, 1));
+        let mut dist: HashMap<u32, f64> = HashMap::from([(from, 0.0)]);
+        let mut parent: HashMap<u32, u32> = HashMap::new();
+        let mut heap = BinaryHeap::from([Entry(0.0, from)]);
         let bound = best.as_ref().map_or(f64::INFINITY, |b| b.0);
         while let Some(Entry(d, at)) = heap.pop() {
-            let (v, sheet) = (at as usize / 2, (at % 2) as u8);
             if d >= bound {
                 break;
             }
-            if (v, sheet) == (s, 1) {
+            if at == to {
                 let mut path = vec![s as u32];
-                let mut at = (v, sheet);
-                while let Some(&p) = parent.get(&at) {
-                    if p == (s, 0) {
-                        break;
-                    }
-                    path.push(p.0 as u32);
-                    at = p;
+                let mut back = at;
+                while let Some(&p) = parent.get(&back).filter(|&&p| p != from) {
+                    path.push(p / 2);
+                    back = p;
                 }
                 path.reverse();
                 best = Some((d, path));
                 break;
             }
-            if dist.get(&(v, sheet)).is_some_and(|&x| d > x) {
+            if dist.get(&at).is_some_and(|&x| d > x) {
                 continue;
             }
+            let (v, sheet) = (at as usize / 2, (at % 2) as u8);
             for &w in &neighbours[v] {
                 let w = w as usize;
                 if !theta.contains_key(&w) {
@@ -188,11 +185,11 @@ pub fn margin(
                 let Ok(next @ 0..=1) = u8::try_from(next) else {
                     continue;
                 };
-                let nd = d + distance(&positions[v], &positions[w]);
-                if dist.get(&(w, next)).is_none_or(|&x| nd < x) {
-                    dist.insert((w, next), nd);
-                    parent.insert((w, next), (v, sheet));
-                    heap.push(Entry(nd, state(w, next)));
+                let (into, nd) = (state(w, next), d + distance(&positions[v], &positions[w]));
+                if dist.get(&into).is_none_or(|&x| nd < x) {
+                    dist.insert(into, nd);
+                    parent.insert(into, at);
+                    heap.push(Entry(nd, into));
                 }
             }
         }
