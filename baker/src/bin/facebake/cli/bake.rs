@@ -919,7 +919,7 @@ fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
     }
     if t.frames_over_limit > 0 {
         out.push(format!(
-            "on the capture, {} of {} frames stretch an edge past twice its rest length (worst {:.2}x, frame {}); a face's own jaw open can",
+            "on the capture, {} of {} frames stretch an edge past twice its rest length (worst {:.2}x, frame {}); a face's own jaw open stretches the skin at the mouth's corners as far, so look at that frame (facebake render) before calling it a tear",
             t.frames_over_limit, t.frames, t.max_stretch.0, t.max_stretch.1
         ));
     }
