@@ -206,11 +206,17 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
 /// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`), and
 /// folds the throat under the jaw open, so the bake relaxes the weights there
-/// (`facebake::bake::relax`). Measured 2026-12-04 with the eyes' skin ending at the lids'
-/// margin (`openings::lid_margin`): face mean 0.623 mm, p99 4.02 mm (over the skin without the
-/// lids' lining), lips 8.3 and eyelids 1.9 mm off at worst, 1.83×, no flip; the take tears every
-/// mouth share (0.35: 106 of 842 frames), so the linear profile is kept, and the relaxation
-/// unfolds the throat (6 triangles in a frame → none). Before that, the score now starting
+/// (`facebake::bake::relax`). Measured 2026-12-04 with the head markers the fit holds still
+/// sharing one of a vertex's K weights (`surface::anchoring::merge_held`): face mean 0.594 mm,
+/// p99 3.62 mm, lips 8.3 and eyelids 1.8 mm off at worst, 1.83×, no flip; the take tears every
+/// mouth share, so the linear profile is kept, and the relaxation unfolds the throat (11
+/// triangles in a frame → none). Before, with five of the eight weights on the still head where
+/// the skin hands over from the jaw to the neck (a crease down the neck's side, the throat
+/// dragged down, `docs/ict_rehearsal_still_head.png`): 0.623 mm, p99 4.02 mm, eyelids 1.9 mm.
+/// With the eyes' skin ending at the lids' margin (`openings::lid_margin`), before that: face
+/// mean 0.623 mm, p99 4.02 mm (over the skin without the lids' lining), lips 8.3 and eyelids
+/// 1.9 mm off at worst, 1.83×, no flip; the take tears every mouth share (0.35: 106 of 842
+/// frames), and the relaxation unfolds the throat (6 triangles in a frame → none). Before that, the score now starting
 /// with the first expression, the jaw open: face mean 0.600 mm, p99 3.75 mm, lips 6.7 and eyelids 3.7 mm off
 /// at worst, 1.85× (no edge over 2×), 1 flip (below the mouth's corner); without the
 /// relaxation (`--no-relax`) 0.601 / 3.77 mm and 3 flips (two in the throat). The same take at
@@ -250,7 +256,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         &Pinned {
             drift_mm: 0.0,
             lips_mm: 8.3,
-            eyelids_mm: 1.9,
+            eyelids_mm: 1.8,
             stretch: 1.83,
             over_2x: 0,
             flipped: 0,
@@ -272,7 +278,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         Some(0.0),
         "the take tears the mouth's corner profile on this head"
     );
-    assert!(score.mean_mm <= 0.623, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.595, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake

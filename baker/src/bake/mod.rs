@@ -382,8 +382,10 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             .iter()
             .filter_map(|h| names.iter().position(|n| n == h))
             .collect();
-        let followed = d.surface.as_ref().and_then(|s| s.anchoring.as_ref());
-        if followed.is_some_and(|a| !same_markers(&a.markers, &st.report.head_markers)) {
+        // The first bake took the head candidates as the markers held still (the anchoring
+        // follows them and their weights are merged, `surface::anchoring::merge_held`).
+        let candidates = d.surface_markers.as_ref().map(|(_, c)| c);
+        if candidates.is_some_and(|c| !same_markers(c, &st.report.head_markers)) {
             d = bake_deformer(scene, options, &rest, &space, Some(&markers), None)?;
             held = Some(markers);
         }

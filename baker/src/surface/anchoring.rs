@@ -270,6 +270,27 @@ pub const THROAT_REACH: f64 = 2.0;
 /// throat's (see [`THROAT_REACH`]).
 pub const THROAT_BAND: f64 = 5.0;
 
+/// With the rig's own head fit, the markers it holds still (`held`, the capture stages' head
+/// markers) have zero displacement in every frame it plays, so a vertex's weights on them
+/// move nothing wherever they sit: each row's weights on them are summed onto the first. The
+/// row plays the same, and of the K weights a vertex keeps (`sparsify`) one goes to the still
+/// head instead of one per held marker, leaving the rest to the markers that move. Where the
+/// anchored skin hands over to the jaw, five held markers took five of the eight, and the
+/// jaw's markers, each weak there but together up to half the row, were cut off in a line.
+pub fn merge_held(dense: &mut [Vec<f64>], held: &[usize]) {
+    let Some((&first, rest)) = held.split_first() else {
+        return;
+    };
+    for row in dense.iter_mut() {
+        for &h in rest {
+            if let (Some(&w), true) = (row.get(h), first < row.len()) {
+                row[first] += w;
+                row[h] = 0.0;
+            }
+        }
+    }
+}
+
 /// How far the floor rises near the jaw's markers (within [`JAW_REACH`]), in anchoring
 /// margins. On FaceCap's truth with the JawMoCap layout (`--test structure`, `--test pose`):
 /// face mean / max 0.556 / 9.07 → 0.550 / 8.85 mm upright, max 10.94 → 9.02 mm pitched 8.6°
@@ -437,6 +458,48 @@ fn outside_distance(hull: &[[f64; 2]], p: [f64; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Five held markers (still in every frame the rig plays) with a tenth each and seven moving
+    /// ones with the other half: the row plays the same merged, and of the eight largest
+    /// weights seven are the moving markers' instead of three.
+    #[test]
+    fn the_held_markers_share_one_weight_and_leave_the_rest_to_the_moving_ones() {
+        let held = [2, 5, 7, 9, 11];
+        let moving = [0, 1, 3, 4, 6, 8, 10];
+        let mut row = vec![0.0; 12];
+        for &h in &held {
+            row[h] = 0.1;
+        }
+        for (&m, w) in moving
+            .iter()
+            .zip([0.08, 0.08, 0.07, 0.07, 0.07, 0.07, 0.06])
+        {
+            row[m] = w;
+        }
+        let displacement: Vec<f64> = (0..12)
+            .map(|i| {
+                if held.contains(&i) {
+                    0.0
+                } else {
+                    1.0 + i as f64
+                }
+            })
+            .collect();
+        let play = |r: &[f64]| r.iter().zip(&displacement).map(|(w, d)| w * d).sum::<f64>();
+        let mut merged = vec![row.clone()];
+        merge_held(&mut merged, &held);
+        let merged = &merged[0];
+        assert!((play(merged) - play(&row)).abs() < 1e-15);
+        assert!((merged.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        assert_eq!(merged[2], 0.5);
+        let kept_moving = |r: &[f64]| {
+            crate::sparsify::top_k(r, 8)
+                .iter()
+                .filter(|i| moving.contains(i))
+                .count()
+        };
+        assert_eq!((kept_moving(&row), kept_moving(merged)), (3, 7));
+    }
 
     #[test]
     fn hull_of_a_square_with_an_inner_point() {

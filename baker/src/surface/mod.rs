@@ -605,6 +605,11 @@ pub(crate) fn dense_weights(
         }
         _ => None,
     };
+    // The markers the head fit holds still move nothing: one of the K weights a vertex keeps
+    // is enough for them all.
+    if head_fit && config.deformer == crate::DeformerKind::Linear {
+        anchoring::merge_held(&mut dense, &anchors);
+    }
     let marker_distances = (0..n)
         .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
         .collect();
