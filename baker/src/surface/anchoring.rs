@@ -278,15 +278,14 @@ pub const THROAT_BAND: f64 = 5.0;
 /// anchored skin hands over to the jaw, five held markers took five of the eight, and the
 /// jaw's markers, each weak there but together up to half the row, were cut off in a line.
 pub fn merge_held(dense: &mut [Vec<f64>], held: &[usize]) {
-    let Some((&first, rest)) = held.split_first() else {
+    let Some(&first) = held.first() else {
         return;
     };
-    for row in dense.iter_mut() {
-        for &h in rest {
-            if let (Some(&w), true) = (row.get(h), first < row.len()) {
-                row[first] += w;
-                row[h] = 0.0;
-            }
+    for row in dense.iter_mut().filter(|r| first < r.len()) {
+        let len = row.len();
+        for &h in held.iter().filter(|&&h| h != first && h < len) {
+            row[first] += row[h];
+            row[h] = 0.0;
         }
     }
 }
