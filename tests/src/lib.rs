@@ -555,7 +555,7 @@ pub struct Pinned {
 /// `blend 1` (frame 9), masked or not. Lips 6.8 mm and 1.92× until the mouth's corrections faded
 /// in linearly (`surface::corners::FADE_IN`, 2026-12-03).
 pub const DEFAULT_ON_TRUTH: Pinned = Pinned {
-    drift_mm: 0.34,
+    drift_mm: 0.29,
     lips_mm: 7.1,
     eyelids_mm: 0.9,
     stretch: 1.89,

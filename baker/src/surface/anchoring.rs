@@ -23,11 +23,13 @@
 //!   stretches a long way down: there the hand-over starts nearer ([`THROAT_REACH`]) and runs
 //!   longer ([`THROAT_BAND`]), or the skin folds along the jaw's underside.
 //!
-//! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the head markers'
-//! mean: the weights still sum to one (uniform translation stays exact) and with the head
-//! markers still (a head-stabilised take, or a capture whose head fit removed the motion: a
-//! least-squares fit leaves the head markers' mean residual at zero) the anchored skin stays
-//! still.
+//! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the mean of the head
+//! markers it follows: the weights still sum to one (uniform translation stays exact) and with
+//! the head markers still (a head-stabilised take, or a capture whose head fit removed the
+//! motion: a least-squares fit leaves the head markers' mean residual at zero) the anchored
+//! skin stays still. A vertex keeps K weights, so the share `s·h` is spread over as few
+//! markers as will do: with a capture, the held head markers' weights are summed onto one
+//! ([`merge_held`]); without, the skin follows three markers ([`followed_without_fit`]).
 
 use crate::mesh::distance;
 
@@ -106,6 +108,44 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
     let mut chosen: Vec<usize> = above.iter().take(clear.max(3)).map(|p| p.0).collect();
     chosen.sort_unstable();
     chosen
+}
+
+/// Without a head fit (a bake with no capture, whose markers come with the expressions' motion
+/// on every marker), the markers the linear deformer's anchored skin follows: of the `anchors`
+/// ([`anchor_markers`]), each eye's inner corner (the medial canthi, tied to the bone by their
+/// tendons) and the one `skull` marker nearest the face's middle (the forehead's centre).
+/// The anchored share `s·h` is spread over the markers it follows, and a vertex keeps only K
+/// weights: with all five of FaceCap's and ICT-FaceKit's, the share took five of the eight
+/// where the skin hands over from the jaw to the neck, and cut the jaw's markers off in a line
+/// (ICT's jaw open: 6 triangles turned over on the jaw's side). Three leave five for the
+/// markers that move. `anchors` as they are when they hold no inner corner.
+pub fn followed_without_fit(
+    markers: &[[f64; 3]],
+    anchors: &[usize],
+    skull: &[usize],
+) -> Vec<usize> {
+    let corners: Vec<usize> = anchors
+        .iter()
+        .copied()
+        .filter(|i| !skull.contains(i))
+        .collect();
+    if corners.is_empty() {
+        return anchors.to_vec();
+    }
+    let middle = middle_x(markers);
+    let centre = anchors
+        .iter()
+        .copied()
+        .filter(|i| skull.contains(i))
+        .min_by(|&a, &b| {
+            (markers[a][0] - middle)
+                .abs()
+                .total_cmp(&(markers[b][0] - middle).abs())
+                .then(a.cmp(&b))
+        });
+    let mut followed: Vec<usize> = corners.into_iter().chain(centre).collect();
+    followed.sort_unstable();
+    followed
 }
 
 /// The face's middle across it: the markers' median x (0 without markers).

@@ -580,10 +580,17 @@ pub(crate) fn dense_weights(
     let mut rbf_anchoring = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
+            // Without a head fit the linear deformer's anchored skin follows fewer of them, so
+            // that its share takes fewer of a vertex's K weights.
+            let followed = if head_fit || config.deformer != crate::DeformerKind::Linear {
+                anchors.clone()
+            } else {
+                anchoring::followed_without_fit(&rest, &anchors, &skull)
+            };
             let a = anchoring::static_anchoring(
                 &mesh.positions,
                 &anchoring::hull_markers(&rest, &anchors),
-                &anchors,
+                &followed,
                 floor,
                 factor * spacing,
             );
@@ -595,7 +602,7 @@ pub(crate) fn dense_weights(
                 fade: a.strength.clone(),
             });
             Some(AnchoringFigures {
-                markers: anchors
+                markers: followed
                     .iter()
                     .map(|&h| input.markers[h].name.clone())
                     .collect(),
