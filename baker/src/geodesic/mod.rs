@@ -508,4 +508,4 @@ impl Geodesics {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

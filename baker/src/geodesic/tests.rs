@@ -33,23 +33,38 @@ fn uv_sphere(rings: usize, segments: usize) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
 
 /// An open cylinder of radius 1 around z from 0 to `height`: `rows` rings of `segments`.
 fn cylinder(rows: usize, segments: usize, height: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut pos = Vec::new();
-    for r in 0..rows {
-        let z = height * r as f64 / (rows - 1) as f64;
-        for s in 0..segments {
-            let phi = std::f64::consts::TAU * s as f64 / segments as f64;
-            pos.push([phi.cos(), phi.sin(), z]);
+    tube(
+        rows,
+        segments,
+        |_| 1.0,
+        |r| height * r as f64 / (rows - 1) as f64,
+    )
+}
+
+/// A tube around z: `rings` rings of `around` vertices, ring `r` of radius `radius(r)` at
+/// height `z(r)`, each quad between rings split along the same diagonal.
+pub(crate) fn tube(
+    rings: usize,
+    around: usize,
+    radius: impl Fn(usize) -> f64,
+    z: impl Fn(usize) -> f64,
+) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut positions = Vec::new();
+    for r in 0..rings {
+        for k in 0..around {
+            let phi = std::f64::consts::TAU * k as f64 / around as f64;
+            positions.push([radius(r) * phi.cos(), radius(r) * phi.sin(), z(r)]);
         }
     }
-    let id = |r: usize, s: usize| (r * segments + s % segments) as u32;
-    let mut tris = Vec::new();
-    for r in 0..rows - 1 {
-        for s in 0..segments {
-            tris.push([id(r, s), id(r, s + 1), id(r + 1, s + 1)]);
-            tris.push([id(r, s), id(r + 1, s + 1), id(r + 1, s)]);
+    let id = |r: usize, k: usize| (r * around + k % around) as u32;
+    let mut triangles = Vec::new();
+    for r in 0..rings - 1 {
+        for k in 0..around {
+            triangles.push([id(r, k), id(r, k + 1), id(r + 1, k + 1)]);
+            triangles.push([id(r, k), id(r + 1, k + 1), id(r + 1, k)]);
         }
     }
-    (pos, tris)
+    (positions, triangles)
 }
 
 fn great_circle(a: &[f64; 3], b: &[f64; 3]) -> f64 {

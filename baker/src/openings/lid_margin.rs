@@ -291,22 +291,7 @@ mod tests {
         around: usize,
         radius: impl Fn(usize) -> f64,
     ) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-        let mut positions = Vec::new();
-        for r in 0..rings {
-            for k in 0..around {
-                let a = std::f64::consts::TAU * k as f64 / around as f64;
-                positions.push([radius(r) * a.cos(), radius(r) * a.sin(), r as f64]);
-            }
-        }
-        let id = |r: usize, k: usize| (r * around + k % around) as u32;
-        let mut triangles = Vec::new();
-        for r in 0..rings - 1 {
-            for k in 0..around {
-                triangles.push([id(r, k), id(r, k + 1), id(r + 1, k + 1)]);
-                triangles.push([id(r, k), id(r + 1, k + 1), id(r + 1, k)]);
-            }
-        }
-        (positions, triangles)
+        crate::geodesic::tests::tube(rings, around, radius, |r| r as f64)
     }
 
     /// On a tube with a waist, the shortest loop round it from its first ring is the waist,
