@@ -498,6 +498,30 @@ fn outside_distance(hull: &[[f64; 2]], p: [f64; 2]) -> f64 {
 mod tests {
     use super::*;
 
+    /// Three forehead markers (skull) and two inner eye corners: without a head fit the skin
+    /// follows the corners and the forehead marker nearest the face's middle; with no corner
+    /// among the anchors, all of them.
+    #[test]
+    fn without_a_head_fit_the_skin_follows_the_inner_corners_and_the_forehead_centre() {
+        let markers = [
+            [0.04, 0.10, 0.08],
+            [0.001, 0.10, 0.09],
+            [-0.04, 0.10, 0.08],
+            [0.015, 0.03, 0.09],
+            [-0.015, 0.03, 0.09],
+            [0.0, -0.03, 0.10],
+        ];
+        let skull = [0, 1, 2];
+        assert_eq!(
+            followed_without_fit(&markers, &[0, 1, 2, 3, 4], &skull),
+            vec![1, 3, 4]
+        );
+        assert_eq!(
+            followed_without_fit(&markers, &[0, 1, 2], &skull),
+            vec![0, 1, 2]
+        );
+    }
+
     /// Five held markers (still in every frame the rig plays) with a tenth each and seven moving
     /// ones with the other half: the row plays the same merged, and of the eight largest
     /// weights seven are the moving markers' instead of three.
