@@ -101,8 +101,9 @@ pub enum LoadError {
         found: usize,
     },
     /// A linear rig's derived marker names a marker that does not exist (or one past the
-    /// markers), has a non-zero reserved byte, a zero direction or one with `Σ|a_c|` above
-    /// 2¹⁴, or the rig has more markers and derived markers together than `MAX_MARKERS`.
+    /// markers); is a projection with a zero direction or one with `Σ|a_c|` above 2¹⁴, or a
+    /// mean of fewer than 2 or more than 7 markers or with non-zero bytes past its sources; or
+    /// the rig has more markers and derived markers together than `MAX_MARKERS`.
     BadDerivedMarker {
         /// The derived marker (0 for the first; its index among the markers is the marker
         /// count plus this).
@@ -294,7 +295,7 @@ impl core::fmt::Display for LoadError {
             ),
             Self::BadDerivedMarker { derived } => write!(
                 f,
-                "derived marker {derived} names no marker, has a non-zero reserved byte, a zero direction or one longer than 1 (the sum of its components' magnitudes in Q1.14), or is one past the {MAX_MARKERS} markers a rig may have"
+                "derived marker {derived} names no marker, is a projection on a zero direction or one longer than 1 (the sum of its components' magnitudes in Q1.14), is a mean of fewer than 2 or more than 7 markers or has non-zero bytes past its sources, or is one past the {MAX_MARKERS} markers a rig may have"
             ),
             Self::PairMarkerOutOfRange { pair, marker } => {
                 write!(f, "marker pair {pair} names marker {marker}, which does not exist")

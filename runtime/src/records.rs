@@ -41,9 +41,11 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate writes (and the newest it reads).
-pub const VERSION: u16 = 10;
+pub const VERSION: u16 = 11;
 /// The oldest format version this crate reads: version 10 gave the linear deformer's derived
 /// markers a direction (they kept file axes before), so older blobs must be baked again.
+/// Version 11 added the derived mean, in a byte version 10 held at zero: a version 10 blob
+/// reads the same.
 pub const OLDEST_VERSION: u16 = 10;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
@@ -75,8 +77,9 @@ pub const INFLUENCE_BYTES: usize = 4;
 pub const INFLUENCE_PAIR_BYTES: usize = 6;
 /// Bytes of one marker pair of the linear deformer: 2 × `u8` marker indices.
 pub const MARKER_PAIR_BYTES: usize = 2;
-/// Bytes of a linear rig's derived marker: its source marker (`u8`), a zero byte and its
-/// direction (3 × `i16` LE, Q1.14).
+/// Bytes of a linear rig's derived marker: a projection's source marker (`u8`), a zero byte and
+/// its direction (3 × `i16` LE, Q1.14), or a mean's first source, its count and its other
+/// sources (`crate::deformer::linear`).
 pub const DERIVED_MARKER_BYTES: usize = 8;
 /// Most marker pairs a linear rig may have: bounds its per-frame pair table (16 bytes a pair,
 /// see [`crate::Cost::scratch_bytes`]).

@@ -10,6 +10,7 @@ use facebake::io::gltf_mesh::load_mesh;
 use facebake::surface::evaluate::Benchmark;
 use facebake::surface::SurfaceMarker;
 use facebake::{bake, BakeOptions, Baked, DeformerKind, Scene};
+use facebake_runtime::deformer::linear::DerivedMarker;
 
 /// Path of a file in `fixtures/`.
 pub fn fixture(name: &str) -> PathBuf {
@@ -515,13 +516,20 @@ pub fn median_ratio(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The marker a linear rig's influence index names for a float skinning loop: a derived marker
-/// (one axis of a marker: the mouth's corners) counts as its source, since such a loop has no
-/// per-axis weights (the work per influence is the same).
+/// (one direction of a marker: the mouth's corners; or the mean of the head markers the
+/// anchored skin follows) counts as its (first) source, since such a loop has neither per-axis
+/// weights nor means (the work per influence is the same).
 pub fn skinning_joint(
     lin: &facebake_runtime::deformer::linear::LinearDeformer<'_>,
     markers: usize,
 ) -> impl Fn(u8) -> u8 {
-    let sources: Vec<u8> = lin.derived().map(|(s, _)| s).collect();
+    let sources: Vec<u8> = lin
+        .derived()
+        .map(|d| match d {
+            DerivedMarker::Projection { source, .. } => source,
+            DerivedMarker::Mean { sources, .. } => sources[0],
+        })
+        .collect();
     move |m| {
         let m = usize::from(m);
         if m < markers {

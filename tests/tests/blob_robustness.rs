@@ -275,7 +275,12 @@ fn every_payload_error_is_distinct() {
     let mut past_derived = lin.marker_pairs.0.to_vec();
     past_derived[1] = 41; // one derived marker (40): 41 is past it
     let past = derived(40, up);
-    let cases: [(LinearDeformer<'_>, Option<LoadError>); 23] = [
+    // Derived means: one naming marker 40 (past the rig's 40), one of eight markers, one with
+    // a stray byte past its two sources.
+    let mean_past = [3, 2, 40, 0, 0, 0, 0, 0];
+    let mean_of_eight = [0, 8, 1, 2, 3, 4, 5, 6];
+    let mean_stray = [0, 2, 1, 0, 0, 0, 0, 9];
+    let cases: [(LinearDeformer<'_>, Option<LoadError>); 26] = [
         (
             LinearDeformer {
                 derived_markers: Bytes(&past),
@@ -300,6 +305,27 @@ fn every_payload_error_is_distinct() {
         (
             LinearDeformer {
                 derived_markers: Bytes(&reserved),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&mean_past),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&mean_of_eight),
+                ..lin
+            },
+            Some(LoadError::BadDerivedMarker { derived: 0 }),
+        ),
+        (
+            LinearDeformer {
+                derived_markers: Bytes(&mean_stray),
                 ..lin
             },
             Some(LoadError::BadDerivedMarker { derived: 0 }),
@@ -480,6 +506,17 @@ fn every_payload_error_is_distinct() {
     let d = RigData {
         deformer: Deformer::Linear(LinearDeformer {
             derived_markers: Bytes(&on_y),
+            marker_pairs: Bytes(&on_derived),
+            ..lin
+        }),
+        ..good
+    };
+    assert!(Rig::from_bytes(&seal(&d)).is_ok());
+    // And on a derived mean of seven markers.
+    let mean = [0, 7, 1, 2, 3, 4, 5, 39];
+    let d = RigData {
+        deformer: Deformer::Linear(LinearDeformer {
+            derived_markers: Bytes(&mean),
             marker_pairs: Bytes(&on_derived),
             ..lin
         }),

@@ -3,11 +3,13 @@
 
 use std::collections::HashMap;
 
-use facebake_runtime::deformer::linear::{LinearDeformer, DIRECTION_ONE};
+use facebake_runtime::deformer::linear::{
+    DerivedMarker, LinearDeformer, DIRECTION_ONE, MEAN_MAX_SOURCES, MEAN_ONE,
+};
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::fixed::unpack_influence;
 use facebake_runtime::format::records::{
-    Bytes, DERIVED_MARKER_BYTES, INFLUENCE_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS,
+    Bytes, INFLUENCE_PAIR_BYTES, MAX_MARKERS, MAX_MARKER_PAIRS,
 };
 
 use super::{influence_counts, DeformerBytes, DeformerOutput, Section, SectionError};
@@ -26,28 +28,18 @@ pub struct LinearBytes {
 
 impl LinearBytes {
     /// Per vertex, its packed influences (at most 64), stored in pairs ([`pair_up`]), over the
-    /// markers and then the `derived` markers (source, Q1.14 direction).
+    /// markers and then the `derived` markers.
     fn new(
         weight_frac_bits: u8,
         rows: &[Vec<u32>],
-        derived: &[(u8, [i16; 3])],
+        derived: &[DerivedMarker],
     ) -> Result<Self, SectionError> {
         let lens = influence_counts(rows.iter().map(Vec::len))?;
         let paired = pair_up(rows)?;
         Ok(Self {
             weight_frac_bits,
             max_influences: lens.iter().copied().max().unwrap_or(0).max(1),
-            derived: derived
-                .iter()
-                .flat_map(|&(s, a)| {
-                    let mut record = [0u8; DERIVED_MARKER_BYTES];
-                    record[0] = s;
-                    for (c, a) in a.iter().enumerate() {
-                        record[2 + 2 * c..4 + 2 * c].copy_from_slice(&a.to_le_bytes());
-                    }
-                    record
-                })
-                .collect(),
+            derived: derived.iter().flat_map(DerivedMarker::record).collect(),
             marker_pairs: paired.marker_pairs.concat(),
             counts: paired.counts,
             pairs: paired.bytes,
@@ -296,7 +288,13 @@ pub(crate) fn bake(
         })
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
-    let derived: Vec<(u8, [i16; 3])> = sources.iter().map(|&m| (m as u8, direction)).collect();
+    let derived: Vec<DerivedMarker> = sources
+        .iter()
+        .map(|&m| DerivedMarker::Projection {
+            source: m as u8,
+            direction,
+        })
+        .collect();
     Ok(DeformerOutput {
         bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words, &derived)?),
         frac_bits: q.frac_bits,
@@ -307,10 +305,10 @@ pub(crate) fn bake(
 }
 
 /// A loaded linear rig's section in f64: per vertex, its (marker, weight) pairs, and the
-/// derived markers (source, direction) the indices past the markers name.
+/// derived markers the indices past the markers name.
 pub(crate) struct LinearF64 {
     rows: Vec<Vec<(usize, f64)>>,
-    derived: Vec<(usize, [f64; 3])>,
+    derived: Vec<DerivedMarker>,
 }
 
 impl LinearF64 {
@@ -324,30 +322,38 @@ impl LinearF64 {
                         .collect()
                 })
                 .collect(),
-            derived: l
-                .derived()
-                .map(|(s, a)| {
-                    let a = a.map(|c| f64::from(c) / f64::from(DIRECTION_ONE));
-                    (usize::from(s), a)
-                })
-                .collect(),
+            derived: l.derived().collect(),
         }
     }
 
     /// Each vertex's displacement for marker displacements `d` (rig units): Σ w · d, a derived
-    /// marker's `d` its source's projected on its direction `a`: `(d·a)a`.
+    /// marker's `d` its source's projected on its direction `a`, `(d·a)a`, or its sources' sum
+    /// times the mean's factor.
     pub(crate) fn displacements(&self, d: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let mut d = d.to_vec();
-        let sources: Vec<[f64; 3]> = self
+        let at = |d: &[[f64; 3]], s: u8| d.get(usize::from(s)).copied().unwrap_or([0.0; 3]);
+        let extra: Vec<[f64; 3]> = self
             .derived
             .iter()
-            .map(|&(s, a)| {
-                let p = d.get(s).copied().unwrap_or([0.0; 3]);
-                let along: f64 = (0..3).map(|c| p[c] * a[c]).sum();
-                a.map(|a| along * a)
+            .map(|derived| match *derived {
+                DerivedMarker::Projection { source, direction } => {
+                    let p = at(&d, source);
+                    let a = direction.map(|c| f64::from(c) / f64::from(DIRECTION_ONE));
+                    let along: f64 = (0..3).map(|c| p[c] * a[c]).sum();
+                    a.map(|a| along * a)
+                }
+                DerivedMarker::Mean { sources, count } => {
+                    let r = f64::from(DerivedMarker::mean_factor(count)) / f64::from(MEAN_ONE);
+                    let n = usize::from(count).min(MEAN_MAX_SOURCES);
+                    let sum = sources[..n].iter().fold([0.0; 3], |sum, &s| {
+                        let p = at(&d, s);
+                        [0, 1, 2].map(|c| sum[c] + p[c])
+                    });
+                    sum.map(|s| s * r)
+                }
             })
             .collect();
-        d.extend(sources);
+        d.extend(extra);
         self.rows
             .iter()
             .map(|row| {

@@ -52,26 +52,45 @@
 //!   entry by the broadcast weight word and one `paddd`.
 //!
 //! Cost per frame: per marker a subtraction, a clamp, a shift and a rounding; per derived
-//! marker six multiply-adds and four roundings; per marker pair three packings; per influence pair three dual
+//! marker six multiply-adds and four roundings (a projection) or n − 1 additions, three
+//! multiplies and three roundings (a mean of n); per marker pair three packings; per influence pair three dual
 //! multiply-adds; per vertex one shift and one addition per axis. There is no branch on marker
 //! data and no check that can fail: the loader has validated every index, count and bound.
 //!
 //! # Derived markers
 //!
-//! A rig may list derived markers after its M markers: marker `M + j` is a source marker's `q`
-//! projected on a direction `a` (three `i16` in Q1.14, `Σ|a_c| ≤ 2¹⁴`), so a vertex can weigh
-//! one direction of a marker's motion apart from the others (the baker uses it for the
-//! opening of the mouth near its corners, along the face's own vertical):
+//! A rig may list derived markers after its M markers, marker `M + j` computed each frame from
+//! the rig's markers. A record's second byte says which kind it is:
 //!
-//! ```text
-//! p       = (Σ_c q[s,c] · a[c] + 2^13) >> 14        |p| ≤ max_c |q[s,c]| ≤ 2^15 − 1
-//! q[M+j,c] = (p · a[c] + 2^13) >> 14                 |q[M+j,c]| ≤ |p|
-//! ```
+//! * `0`, a **projection**: a source marker's `q` projected on a direction `a` (three `i16` in
+//!   Q1.14, `Σ|a_c| ≤ 2¹⁴`), so a vertex can weigh one direction of a marker's motion apart
+//!   from the others (the baker uses it for the opening of the mouth near its corners, along
+//!   the face's own vertical):
 //!
-//! Since `Σ|a_c| ≤ 2¹⁴`, both sums stay within `(2¹⁵ − 1) · 2¹⁴` in magnitude and the results
-//! within ±(2¹⁵ − 1): no clamp, and the bound above holds as it is. The projection on a unit
-//! vector `u` is `(q·a)a / |a|²` for `a` along `u`; the baker folds the `1 / |a|²` into the
-//! weights. A direction along an axis (`a = 2¹⁴ e_y`) gives that axis of `q` exactly.
+//!   ```text
+//!   p        = (Σ_c q[s,c] · a[c] + 2^13) >> 14        |p| ≤ max_c |q[s,c]| ≤ 2^15 − 1
+//!   q[M+j,c] = (p · a[c] + 2^13) >> 14                 |q[M+j,c]| ≤ |p|
+//!   ```
+//!
+//!   Since `Σ|a_c| ≤ 2¹⁴`, both sums stay within `(2¹⁵ − 1) · 2¹⁴` in magnitude and the
+//!   results within ±(2¹⁵ − 1): no clamp, and the bound above holds as it is. The projection
+//!   on a unit vector `u` is `(q·a)a / |a|²` for `a` along `u`; the baker folds the `1 / |a|²`
+//!   into the weights. A direction along an axis (`a = 2¹⁴ e_y`) gives that axis of `q`
+//!   exactly.
+//! * `n` in [2, [`MEAN_MAX_SOURCES`]], a **mean**: of the n markers named by the record's first
+//!   byte and its bytes 2 to n (the bytes after them zero), so that a share spread evenly over
+//!   n markers takes one of a vertex's K influences (the baker's anchored skin follows the mean
+//!   of the head markers, `surface::anchoring`):
+//!
+//!   ```text
+//!   r        = ⌊2^16 / n⌋
+//!   q[M+j,c] = ((Σ_i q[s_i,c]) · r + 2^15) >> 16       |Σ_i q| · r ≤ (2^15 − 1) · 2^16
+//!   ```
+//!
+//!   `n · r ≤ 2¹⁶`, so the sum and its rounding stay within an `i32` and the result within
+//!   ±(2¹⁵ − 1), with no clamp. It is the mean scaled by `n r / 2¹⁶`: exactly 1 for n = 2
+//!   or 4, otherwise within 2⁻¹⁵ of 1 (`1 − 2⁻¹⁶` for n = 3), a relative error below the
+//!   16-bit `q`'s own rounding; the weights sum to `2^F` as they do without it.
 
 use serde::{Deserialize, Serialize};
 
@@ -97,11 +116,13 @@ pub struct LinearDeformer<'a> {
     /// Most influences any vertex has (K), in [1, 64]: a vertex has at most K pairs (bakes
     /// write ⌈K/2⌉ unless the rig ran out of marker pairs).
     pub max_influences: u8,
-    /// Derived markers ([`DERIVED_MARKER_BYTES`] each: a source marker, a zero byte and a
-    /// direction, 3 × `i16` LE in Q1.14 with `Σ|a_c| ≤ 2¹⁴`), the markers `M, M + 1, …` after
-    /// the rig's M: each frame, a derived marker's displacement is its source's projected on
-    /// its direction (module docs), so that a vertex can weigh one direction of a marker's
-    /// motion differently from the others.
+    /// Derived markers ([`DERIVED_MARKER_BYTES`] each), the markers `M, M + 1, …` after the
+    /// rig's M, each frame computed from the rig's markers (module docs): a projection (a
+    /// source marker, a zero byte and a direction, 3 × `i16` LE in Q1.14 with `Σ|a_c| ≤
+    /// 2¹⁴`), so that a vertex can weigh one direction of a marker's motion differently from
+    /// the others; or a mean (its first source, its count n in [2, [`MEAN_MAX_SOURCES`]],
+    /// its other n − 1 sources, zero bytes), so that a share spread evenly over n markers
+    /// takes one influence.
     #[serde(borrow)]
     pub derived_markers: Bytes<'a>,
     /// The marker pairs the influence pairs name: [`MARKER_PAIR_BYTES`] each (two `u8` marker
@@ -164,14 +185,97 @@ impl<'a> LinearDeformer<'a> {
         })
     }
 
-    /// The derived markers in order, as `(source marker, direction in Q1.14)`: derived marker
-    /// `j` is marker `M + j` of the influences ([`Self::vertex_influences`]).
+    /// The derived markers in order: derived marker `j` is marker `M + j` of the influences
+    /// ([`Self::vertex_influences`]).
     #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
-    pub fn derived(&self) -> impl Iterator<Item = (u8, [i16; 3])> + 'a {
+    pub fn derived(&self) -> impl Iterator<Item = DerivedMarker> + 'a {
         self.derived_markers
             .0
             .chunks_exact(DERIVED_MARKER_BYTES)
-            .map(|d| (d[0], read_direction(d)))
+            .map(DerivedMarker::read)
+    }
+}
+
+/// Most markers a derived mean may have: its record holds them in its first byte and its last
+/// six.
+pub const MEAN_MAX_SOURCES: usize = DERIVED_MARKER_BYTES - 1;
+
+/// A derived marker (module docs), as its record encodes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DerivedMarker {
+    /// Its source's displacement projected on `direction` (Q1.14): `(q·a)a`.
+    Projection {
+        /// The source marker.
+        source: u8,
+        /// The direction `a`, Q1.14, `1 ≤ Σ|a_c| ≤ 2¹⁴` in a validated rig.
+        direction: [i16; 3],
+    },
+    /// The mean of `sources[..count]`, scaled by `count · ⌊2¹⁶/count⌋ / 2¹⁶`.
+    Mean {
+        /// The source markers (those past `count` are zero).
+        sources: [u8; MEAN_MAX_SOURCES],
+        /// How many sources, in [2, [`MEAN_MAX_SOURCES`]] in a validated rig.
+        count: u8,
+    },
+}
+
+impl DerivedMarker {
+    /// The marker a record (at least [`DERIVED_MARKER_BYTES`] long, else its missing bytes read
+    /// as zero) encodes.
+    fn read(d: &[u8]) -> Self {
+        let byte = |at: usize| d.get(at).copied().unwrap_or(0);
+        match byte(1) {
+            0 => Self::Projection {
+                source: byte(0),
+                direction: read_direction(d),
+            },
+            count => Self::Mean {
+                sources: core::array::from_fn(|i| if i == 0 { byte(0) } else { byte(i + 1) }),
+                count,
+            },
+        }
+    }
+
+    /// Its record.
+    pub fn record(&self) -> [u8; DERIVED_MARKER_BYTES] {
+        let mut r = [0u8; DERIVED_MARKER_BYTES];
+        match *self {
+            Self::Projection { source, direction } => {
+                r[0] = source;
+                for (c, a) in direction.iter().enumerate() {
+                    r[2 + 2 * c..4 + 2 * c].copy_from_slice(&a.to_le_bytes());
+                }
+            }
+            Self::Mean { sources, count } => {
+                r[0] = sources[0];
+                r[1] = count;
+                r[2..].copy_from_slice(&sources[1..]);
+            }
+        }
+        r
+    }
+
+    /// What a mean of `count` markers multiplies their sum by, in Q0.16: `⌊2¹⁶/count⌋`.
+    pub fn mean_factor(count: u8) -> i32 {
+        MEAN_ONE / i32::from(count.max(2))
+    }
+
+    /// Whether a rig with `markers` markers may hold it: its sources below `markers`, a
+    /// projection's direction with `1 ≤ Σ|a_c| ≤ 2¹⁴`, a mean's count in [2,
+    /// [`MEAN_MAX_SOURCES`]] with zeros past its sources.
+    fn valid(&self, markers: usize) -> bool {
+        match *self {
+            Self::Projection { source, direction } => {
+                let norm: i32 = direction.iter().map(|&a| i32::from(a).abs()).sum();
+                usize::from(source) < markers && (1..=DIRECTION_ONE).contains(&norm)
+            }
+            Self::Mean { sources, count } => {
+                let n = usize::from(count);
+                (2..=MEAN_MAX_SOURCES).contains(&n)
+                    && sources[..n].iter().all(|&s| usize::from(s) < markers)
+                    && sources[n..].iter().all(|&s| s == 0)
+            }
+        }
     }
 }
 
@@ -204,6 +308,9 @@ fn read_direction(d: &[u8]) -> [i16; 3] {
 /// `1.0` in a derived marker's Q1.14 direction, and the most `Σ|a_c|` may be.
 pub const DIRECTION_ONE: i32 = 1 << 14;
 
+/// `1.0` in a derived mean's Q0.16 factor ([`DerivedMarker::mean_factor`]).
+pub const MEAN_ONE: i32 = 1 << 16;
+
 /// A `u16` LE from a two-byte chunk.
 #[inline(always)]
 fn read_u16(b: &[u8]) -> u16 {
@@ -229,12 +336,7 @@ impl DeformerSection for LinearDeformer<'_> {
             });
         }
         for (index, d) in derived.chunks_exact(DERIVED_MARKER_BYTES).enumerate() {
-            let norm: i32 = read_direction(d).iter().map(|&a| i32::from(a).abs()).sum();
-            if usize::from(d[0]) >= rig.markers
-                || d[1] != 0
-                || !(1..=DIRECTION_ONE).contains(&norm)
-                || rig.markers + index >= MAX_MARKERS
-            {
+            if !DerivedMarker::read(d).valid(rig.markers) || rig.markers + index >= MAX_MARKERS {
                 return Err(LoadError::BadDerivedMarker { derived: index });
             }
         }
@@ -428,21 +530,37 @@ pub(crate) fn quantised(
 }
 
 impl Quantised {
-    /// Append the `derived` markers (validated: sources below `markers`, directions with
-    /// `1 ≤ Σ|a_c| ≤ 2¹⁴`, `markers` + their count ≤ [`MAX_MARKERS`]) after the rig's
-    /// `markers`: each its source's `q` projected on its direction (module docs). Six
-    /// multiply-adds and four roundings a derived marker, no branch.
+    /// Append the `derived` markers (validated: [`DerivedMarker`]'s rules, `markers` + their
+    /// count ≤ [`MAX_MARKERS`]) after the rig's `markers` (module docs): a projection in six
+    /// multiply-adds and four roundings, a mean of n in n − 1 additions, three multiplies and
+    /// three roundings; no branch on the markers' data.
     fn derive(&mut self, markers: usize, derived: &[u8]) {
         let (sources, targets) = self.q.split_at_mut(markers.min(MAX_MARKERS));
+        let q = |s: u8| sources.get(usize::from(s)).copied().unwrap_or([0; 3]).map(i32::from);
         let half = DIRECTION_ONE >> 1;
         for (target, d) in targets.iter_mut().zip(derived.chunks_exact(DERIVED_MARKER_BYTES)) {
-            let q = sources.get(usize::from(d[0])).copied().unwrap_or([0; 3]);
-            let a = read_direction(d).map(i32::from);
-            // |q_c| ≤ 2^15 − 1 and Σ|a_c| ≤ 2^14: |Σ q_c a_c| + 2^13 < 2^29 + 2^13, an i32.
-            let along = (0..3).map(|c| i32::from(q[c]) * a[c]).sum::<i32>() + half;
-            let p = along >> 14;
-            // |p| ≤ 2^15 − 1 and |a_c| ≤ 2^14: each result is within ±(2^15 − 1).
-            *target = a.map(|a| ((p * a + half) >> 14) as i16);
+            *target = match DerivedMarker::read(d) {
+                DerivedMarker::Projection { source, direction } => {
+                    let (q, a) = (q(source), direction.map(i32::from));
+                    // |q_c| ≤ 2^15 − 1 and Σ|a_c| ≤ 2^14: |Σ q_c a_c| + 2^13 < 2^29 + 2^13.
+                    let along = (0..3).map(|c| q[c] * a[c]).sum::<i32>() + half;
+                    let p = along >> 14;
+                    // |p| ≤ 2^15 − 1 and |a_c| ≤ 2^14: each result is within ±(2^15 − 1).
+                    a.map(|a| ((p * a + half) >> 14) as i16)
+                }
+                DerivedMarker::Mean { sources, count } => {
+                    let sum = sources[..usize::from(count).min(MEAN_MAX_SOURCES)]
+                        .iter()
+                        .fold([0i32; 3], |sum, &s| {
+                            let q = q(s);
+                            [0, 1, 2].map(|c| sum[c] + q[c])
+                        });
+                    let r = DerivedMarker::mean_factor(count);
+                    // |Σ q| ≤ n (2^15 − 1) and n r ≤ 2^16: |Σ q · r| + 2^15 < 2^31, and the
+                    // rounded result within ±(2^15 − 1).
+                    sum.map(|s| ((s * r + (MEAN_ONE >> 1)) >> 16) as i16)
+                }
+            };
         }
     }
 }
@@ -1308,6 +1426,78 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A derived mean is its sources' sum times `⌊2¹⁶/n⌋ / 2¹⁶`, rounded, for every count;
+    /// at the largest displacements of either sign it stays within ±(2¹⁵ − 1); and its record
+    /// reads back as written.
+    #[test]
+    fn derived_means_sum_their_sources_and_cannot_overflow() {
+        let big = Q_MAX as i16;
+        for count in 2..=MEAN_MAX_SOURCES as u8 {
+            for fill in [big, -big, 12_345, -7] {
+                let mut q = Quantised {
+                    q: [[0; 3]; MAX_MARKERS],
+                    exponent: 0,
+                };
+                for (m, v) in q.q[..8].iter_mut().enumerate() {
+                    *v = [fill, -fill, if m % 2 == 0 { fill } else { 3 }];
+                }
+                let sources = core::array::from_fn(|i| {
+                    if i < usize::from(count) {
+                        7 - i as u8
+                    } else {
+                        0
+                    }
+                });
+                let mean = DerivedMarker::Mean { sources, count };
+                let record = mean.record();
+                assert_eq!(DerivedMarker::read(&record), mean);
+                assert!(mean.valid(8) && !mean.valid(7 - usize::from(count) + 1));
+                q.derive(8, &record);
+                let r = i64::from(DerivedMarker::mean_factor(count));
+                for c in 0..3 {
+                    let sum: i64 = sources[..usize::from(count)]
+                        .iter()
+                        .map(|&s| i64::from(q.q[usize::from(s)][c]))
+                        .sum();
+                    let want = (sum * r + 32_768) >> 16;
+                    assert_eq!(i64::from(q.q[8][c]), want, "{count} {fill}");
+                    assert!(want.abs() <= i64::from(Q_MAX));
+                }
+            }
+        }
+        // Golden vectors, the same on every target (`.ci/cross.sh` runs these tests there).
+        let mut q = Quantised {
+            q: [[0; 3]; MAX_MARKERS],
+            exponent: 0,
+        };
+        q.q[..3].copy_from_slice(&[[big, -big, 1], [big, -big, 2], [-5, 7, big]]);
+        let three = DerivedMarker::Mean {
+            sources: [0, 1, 2, 0, 0, 0, 0],
+            count: 3,
+        };
+        q.derive(3, &three.record());
+        assert_eq!(q.q[3], [21_843, -21_842, 10_923]);
+        q.q[..7].fill([big, -big, 0]);
+        q.q[6][2] = 1;
+        let seven = DerivedMarker::Mean {
+            sources: [0, 1, 2, 3, 4, 5, 6],
+            count: 7,
+        };
+        q.derive(7, &seven.record());
+        assert_eq!(q.q[7], [32_766, -32_766, 0]);
+        // Neither one source nor a stray byte past the count passes the loader's check.
+        let mut one = [0u8; DERIVED_MARKER_BYTES];
+        one[1] = 1;
+        assert!(!DerivedMarker::read(&one).valid(8));
+        let mut stray = DerivedMarker::Mean {
+            sources: [1, 2, 0, 0, 0, 0, 0],
+            count: 2,
+        }
+        .record();
+        stray[7] = 3;
+        assert!(!DerivedMarker::read(&stray).valid(8));
     }
 
     #[test]

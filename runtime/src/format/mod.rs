@@ -71,7 +71,7 @@ use crate::stages::Stages;
 /// |---|---|---|
 /// | `weight_frac_bits` | — | `u8` F in [8, 14] |
 /// | `max_influences` | — | `u8` K in [1, 64] |
-/// | `derived_markers` | derived marker | `u8` source marker (below the marker count M), a zero byte, a direction `a` (3 × `i16` LE, Q1.14, `1 ≤ Σ|a_c| ≤ 2¹⁴`): marker M + j is the source's displacement projected on it (`crate::deformer::linear`); M plus their count at most [`MAX_MARKERS`] |
+/// | `derived_markers` | derived marker | 8 bytes, marker M + j (`crate::deformer::linear`). A projection: `u8` source marker (below the marker count M), a zero byte, a direction `a` (3 × `i16` LE, Q1.14, `1 ≤ Σ|a_c| ≤ 2¹⁴`), the source's displacement projected on it. A mean: `u8` first source, `u8` count n in [2, 7], n − 1 more `u8` sources, zero bytes; all sources below M. M plus their count at most [`MAX_MARKERS`] |
 /// | `marker_pairs` | marker pair | 2 × `u8` marker indices (a, b) below M plus the derived markers; at most [`records::MAX_MARKER_PAIRS`] |
 /// | `pair_counts` | vertex | `u8` n, at most K (bakes write ⌈K/2⌉, more only where the marker pairs ran out) |
 /// | `pairs_align` | — | fewer than [`records::SECTION_ALIGN`] zero bytes: `pairs` starts at a multiple of it from the blob's first byte |
