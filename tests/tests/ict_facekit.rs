@@ -144,9 +144,11 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 /// truth's 32 frames (FaceCap's sequence; this head splits `browInnerUp` into its sides, which
 /// the `surprise` takes together). Its static drift is the crown in the surprise: beyond the
 /// markers the skin follows the mean of the markers it is anchored to, which this head's brow
-/// raise moves. Measured 2026-12-04 with those the inner eye corners and the forehead's centre
-/// (`surface::anchoring::followed_without_fit`): face mean / p99 / max 0.735 / 4.76 / 16.78
-/// mm, drift 0.99 mm, no flip, the rest as below; following the five skull markers and inner
+/// raise moves. Measured 2026-12-04 with their share carried by one derived marker, their mean
+/// (`deformer::linear::FollowedMean`): face mean / p99 / max 0.695 / 4.25 / 11.43 mm, drift
+/// 0.98 mm, eyelids 1.6 mm, no flip; with it spread over the three, 0.735 / 4.76 / 16.78 mm,
+/// 0.99 mm, eyelids 1.5 mm. With those the inner eye corners and the forehead's centre
+/// (`surface::anchoring::followed_without_fit`) the rest as below; following the five skull markers and inner
 /// corners, which took five of a vertex's eight weights where the skin hands over from the jaw
 /// to the neck and cut the jaw's markers off there: 0.767 / 4.96 / 18.83 mm, 1.59 mm, 6 flips
 /// on the jaw's right side. Measured 2026-12-04, the eyes' skin ending at the lids' margin (`openings::lid_margin`; the
@@ -190,15 +192,15 @@ fn place_and_the_default_bake_play_its_expressions() {
         "ICT-FaceKit, JawMoCap placed, the default",
         &take,
         &Pinned {
-            drift_mm: 0.99,
+            drift_mm: 0.98,
             lips_mm: 5.9,
-            eyelids_mm: 1.5,
+            eyelids_mm: 1.6,
             stretch: 2.33,
             over_2x: 2,
             flipped: 0,
         },
     );
-    assert!(face.mean_mm <= 0.736 && face.max_mm <= 16.8, "{face:?}");
+    assert!(face.mean_mm <= 0.696 && face.max_mm <= 11.5, "{face:?}");
 }
 
 /// What the held-out set brings, rehearsed on this head ([`facebake_tests::rehearsal`]): its

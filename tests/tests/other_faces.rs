@@ -505,7 +505,7 @@ fn placement_finds_the_markers_on_other_faces() {
             Pinned {
                 drift_mm: 0.35,
                 lips_mm: 6.8,
-                eyelids_mm: 0.8,
+                eyelids_mm: 0.9,
                 stretch: 1.85,
                 over_2x: 0,
                 flipped: 1,

@@ -230,6 +230,57 @@ pub fn derived_direction(up: [f64; 3]) -> ([i16; 3], [f64; 3]) {
     (a, a.map(|c| f64::from(c) / length))
 }
 
+/// The head markers whose mean the anchored skin follows (`surface::anchoring`).
+pub(crate) struct FollowedMean<'a> {
+    /// The followed markers, at most [`MEAN_MAX_SOURCES`].
+    pub(crate) markers: &'a [usize],
+}
+
+impl FollowedMean<'_> {
+    /// `dense` with the part its followed markers share moved onto their mean, a column after
+    /// the markers: `amount` × the median `c` of the row's weights on them comes off each and
+    /// `n c` goes to the mean, which moves the skin the same (`Σ c d_f = n c · mean d`). Where
+    /// the skin is anchored, one of its K influences then carries the share that took one per
+    /// followed marker, and at least one followed marker's own weight is zero.
+    ///
+    /// Every row is split, not only the anchored ones, so the sparse rows stay continuous over
+    /// the skin: splitting only where the anchoring strength is above zero turned 35 of
+    /// ICT-FaceKit's triangles over in its jaw open. The caller passes `amount` 0 where the
+    /// mouth's corrections take two of the K (`give_way`, fading from there): the kept set there
+    /// is shaped to meet theirs, and the split's column, entering it, moved FaceCap's middle
+    /// lips 1 mm off the truth in the jaw open (docs/measurements.md).
+    fn split(&self, dense: &[f64], amount: f64) -> Vec<f64> {
+        let mut on: Vec<f64> = self.markers.iter().map(|&m| dense[m]).collect();
+        on.sort_by(f64::total_cmp);
+        let c = on[on.len() / 2] * amount;
+        let mut row = dense.to_vec();
+        for &m in self.markers {
+            row[m] -= c;
+        }
+        row.push(c * self.markers.len() as f64);
+        row
+    }
+
+    /// `covariance` with the mean's row and column after the markers'.
+    fn covariance(&self, covariance: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {
+        let n = covariance.nrows();
+        let share = 1.0 / self.markers.len() as f64;
+        let mut c = covariance.clone().resize(n + 1, n + 1, 0.0);
+        for i in 0..n {
+            let with: f64 = self
+                .markers
+                .iter()
+                .map(|&f| covariance[(i, f)])
+                .sum::<f64>()
+                * share;
+            c[(i, n)] = with;
+            c[(n, i)] = with;
+        }
+        c[(n, n)] = self.markers.iter().map(|&f| c[(n, f)]).sum::<f64>() * share;
+        c
+    }
+}
+
 /// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise. A vertex
 /// with `vertical` weights (on markers' displacements along the face's `up` alone, a unit
 /// vector in file coordinates, summing to zero; empty for most) keeps K less their count on
@@ -239,12 +290,16 @@ pub fn derived_direction(up: [f64; 3]) -> ([i16; 3], [f64; 3]) {
 /// derived ones costs 60 % more instructions on the M4, docs/measurements.md). So that the kept
 /// set does not jump where the corrections begin, a vertex without them gives way by
 /// `give_way` (1 beside them, fading out over a ring): its two weakest kept markers shrink
-/// towards zero ([`sparsify::sparsify_row_giving_way`]).
+/// towards zero ([`sparsify::sparsify_row_giving_way`]). With `followed` (two or more
+/// markers), the anchored skin's share of them is carried by one derived mean after those
+/// ([`FollowedMean::split`]).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
     vertical: &[Vec<(usize, f64)>],
     up: [f64; 3],
     give_way: &[f64],
+    followed: Option<FollowedMean<'_>>,
     k: usize,
     refit: Refit,
     covariance: &nalgebra::DMatrix<f64>,
@@ -253,48 +308,76 @@ pub(crate) fn bake(
     let mut sources: Vec<usize> = vertical.iter().flatten().map(|&(m, _)| m).collect();
     sources.sort_unstable();
     sources.dedup();
-    if markers + sources.len() > MAX_MARKERS {
+    let followed = followed.filter(|f| (2..=MEAN_MAX_SOURCES).contains(&f.markers.len()));
+    let derived_count = sources.len() + usize::from(followed.is_some());
+    if markers + derived_count > MAX_MARKERS {
         return Err(SectionError(format!(
-            "{markers} markers and {} derived ones: at most {MAX_MARKERS} in all",
-            sources.len()
+            "{markers} markers and {derived_count} derived ones: at most {MAX_MARKERS} in all",
         ))
         .into());
     }
     let derived_index = |m: usize| markers + sources.binary_search(&m).unwrap_or(0);
+    // The mean's column follows the markers' in the rows and the covariance; its derived
+    // marker follows the vertical ones.
+    let mean_index = markers + sources.len();
+    let covariance = match &followed {
+        Some(f) => std::borrow::Cow::Owned(f.covariance(covariance)),
+        None => std::borrow::Cow::Borrowed(covariance),
+    };
     let (direction, _) = derived_direction(up);
     let length2 = direction
         .iter()
         .map(|&c| (f64::from(c) / f64::from(DIRECTION_ONE)).powi(2))
         .sum::<f64>();
+    let mean_scale = followed.as_ref().map_or(1.0, |f| {
+        let n = f.markers.len() as u8;
+        f64::from(n) * f64::from(DerivedMarker::mean_factor(n)) / f64::from(MEAN_ONE)
+    });
     // How many of the K the corrections take where they are: what the skin beside them gives way.
     let ranks = vertical.iter().map(Vec::len).max().unwrap_or(0);
     let mut dropped = Vec::new();
     let rows: Vec<_> = dense_rows
         .enumerate()
         .map(|(v, dense)| {
+            let dense = match &followed {
+                Some(f) => f.split(&dense, 1.0 - give_way.get(v).map_or(0.0, |g| g.min(1.0))),
+                None => dense,
+            };
             let extra = vertical.get(v).map_or(&[][..], Vec::as_slice);
             let mut row = if extra.is_empty() {
                 let a = give_way.get(v).copied().unwrap_or(0.0);
-                sparsify::sparsify_row_giving_way(&dense, k, ranks, a, refit, Some(covariance))
+                sparsify::sparsify_row_giving_way(&dense, k, ranks, a, refit, Some(&covariance))
             } else {
                 let keep = k.saturating_sub(extra.len()).max(1);
-                sparsify::sparsify_row(&dense, keep, refit, Some(covariance))
+                sparsify::sparsify_row(&dense, keep, refit, Some(&covariance))
             };
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
             dropped.push((dense.iter().sum::<f64>() - kept).abs());
+            // The rig's mean is `mean_scale` × the mean.
+            for (i, w) in row.iter_mut() {
+                if *i == markers {
+                    (*i, *w) = (mean_index, *w / mean_scale);
+                }
+            }
             // The stored direction `a` projects as (q·a)a = |a|² (q·u)u.
             row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w / length2)));
             row
         })
         .collect();
     let q = sparsify::quantise(&rows, sparsify::QuantiseFor::LinearWeights)?;
-    let derived: Vec<DerivedMarker> = sources
+    let mut derived: Vec<DerivedMarker> = sources
         .iter()
         .map(|&m| DerivedMarker::Projection {
             source: m as u8,
             direction,
         })
         .collect();
+    if let Some(f) = &followed {
+        derived.push(DerivedMarker::Mean {
+            sources: std::array::from_fn(|i| f.markers.get(i).map_or(0, |&m| m as u8)),
+            count: f.markers.len() as u8,
+        });
+    }
     Ok(DeformerOutput {
         bytes: DeformerBytes::Linear(LinearBytes::new(q.frac_bits, &q.words, &derived)?),
         frac_bits: q.frac_bits,
@@ -407,6 +490,56 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(off < 3e-4, "{v:?}: {unit:?}");
         }
+    }
+
+    /// The split row moves the skin as the dense row does (its mean column on the followed
+    /// markers' mean), sums to the same, leaves the median followed marker at zero; with
+    /// `amount` 0 it is the dense row and a zero column.
+    #[test]
+    fn the_split_moves_the_followed_share_onto_their_mean() {
+        let followed = FollowedMean {
+            markers: &[1, 3, 4],
+        };
+        let dense = [0.4, 0.1, -0.05, 0.3, 0.2, 0.05];
+        let d = [
+            [0.5, -1.0, 2.0],
+            [1.5, 0.25, -0.75],
+            [-2.0, 1.0, 0.0],
+            [0.3, 0.7, -0.2],
+            [1.0, 1.0, 1.0],
+            [0.0, -0.5, 0.4],
+        ];
+        let moved = |row: &[f64]| {
+            let mean = [0, 1, 2].map(|c| [1, 3, 4].iter().map(|&m| d[m][c]).sum::<f64>() / 3.0);
+            [0, 1, 2].map(|c| {
+                row[..6].iter().zip(&d).map(|(w, p)| w * p[c]).sum::<f64>() + row[6] * mean[c]
+            })
+        };
+        let split = followed.split(&dense, 1.0);
+        assert_eq!(split.len(), 7);
+        assert_eq!(
+            split[4], 0.0,
+            "the median, 0.2, is off each followed weight"
+        );
+        assert!((split[6] - 0.6).abs() < 1e-15);
+        assert!((split.iter().sum::<f64>() - dense.iter().sum::<f64>()).abs() < 1e-15);
+        let (a, b) = (moved(&split), moved(&[dense.as_slice(), &[0.0]].concat()));
+        assert!((0..3).all(|c| (a[c] - b[c]).abs() < 1e-12), "{a:?} {b:?}");
+        assert_eq!(
+            followed.split(&dense, 0.0),
+            [dense.as_slice(), &[0.0]].concat()
+        );
+        // The mean's covariance is the followed markers' mean covariance.
+        let cov = nalgebra::DMatrix::from_fn(6, 6, |i, j| (-((i as f64 - j as f64).powi(2))).exp());
+        let ext = followed.covariance(&cov);
+        assert_eq!(ext.nrows(), 7);
+        assert!((ext[(0, 6)] - (cov[(0, 1)] + cov[(0, 3)] + cov[(0, 4)]) / 3.0).abs() < 1e-15);
+        let var: f64 = [1, 3, 4]
+            .iter()
+            .flat_map(|&i| [1, 3, 4].map(|j| cov[(i, j)]))
+            .sum::<f64>()
+            / 9.0;
+        assert!((ext[(6, 6)] - var).abs() < 1e-15);
     }
 
     /// Rows of K = 8 influences over `markers` markers, each vertex's set drawn at random (no

@@ -192,6 +192,11 @@ pub(crate) struct SurfaceBake {
     pub(crate) head_candidates: Vec<usize>,
     /// The RBF deformer's static anchoring (`None`: unanchored, the system's own map).
     pub(crate) rbf_anchoring: Option<RbfAnchoring>,
+    /// The linear deformer's anchoring without a head fit: the markers whose mean the anchored
+    /// skin follows, carried by one derived mean ([`deformer::linear::FollowedMean`]). `None`
+    /// with a head fit, whose held markers share one weight already
+    /// ([`anchoring::merge_held`]).
+    pub(crate) followed_mean: Option<Vec<usize>>,
 }
 
 /// How the RBF deformer anchors the skin beyond the markers.
@@ -578,6 +583,7 @@ pub(crate) fn dense_weights(
     let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref());
     interior::stretch_bags(&mut dense, mesh, &hung);
     let mut rbf_anchoring = None;
+    let mut followed_mean = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             // Without a head fit the linear deformer's anchored skin follows fewer of them, so
@@ -601,6 +607,9 @@ pub(crate) fn dense_weights(
                 map,
                 fade: a.strength.clone(),
             });
+            if !head_fit && config.deformer == crate::DeformerKind::Linear {
+                followed_mean = Some(a.head.clone());
+            }
             Some(AnchoringFigures {
                 markers: followed
                     .iter()
@@ -653,6 +662,7 @@ pub(crate) fn dense_weights(
         marker_distances,
         head_candidates: head_candidates(&rest, &skull, &eyes),
         rbf_anchoring,
+        followed_mean,
     })
 }
 
@@ -795,6 +805,9 @@ impl SurfaceBake {
             &self.vertical,
             self.up,
             &self.give_way,
+            self.followed_mean
+                .as_ref()
+                .map(|head| deformer::linear::FollowedMean { markers: head }),
             options.k,
             options.refit,
             &cov,
