@@ -357,7 +357,7 @@ typedef struct FbCost {
    */
   uint64_t coefficient_rows;
   /**
-   * Widening multiply-adds.
+   * Multiply-adds (`facebake_runtime::Cost::multiply_adds`).
    */
   uint64_t multiply_adds;
   /**

@@ -62,7 +62,7 @@ pub struct FbCost {
     pub max_influences: u64,
     /// Coefficient rows computed per frame (RBF rigs).
     pub coefficient_rows: u64,
-    /// Widening multiply-adds.
+    /// Multiply-adds (`facebake_runtime::Cost::multiply_adds`).
     pub multiply_adds: u64,
     /// Saturating subtractions forming marker displacements.
     pub subtractions: u64,

@@ -14,8 +14,9 @@ pub struct Cost {
     pub max_influences: usize,
     /// Coefficient rows computed per frame (RBF rigs; 0 for linear rigs).
     pub coefficient_rows: usize,
-    /// Widening multiply-adds into `i64` accumulators: 3 per influence, plus for RBF
-    /// rigs 3 per coefficient row and marker (stage 1) and 9 per vertex for the affine part.
+    /// Multiply-adds: 3 per influence, plus for linear rigs 6 per derived projection and 3 per
+    /// derived mean (`i32` accumulators), for RBF rigs (widening into `i64`) 3 per coefficient
+    /// row and marker (stage 1) and 9 per vertex for the affine part.
     /// Planar rigs: 12 per influence (the region transform and the weighted sum), 3 more per
     /// apex influence, and 36 per control-triangle frame (cross products and the degeneracy
     /// test), besides the normalisations counted in [`Self::normalisations`].

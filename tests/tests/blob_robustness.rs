@@ -511,7 +511,13 @@ fn every_payload_error_is_distinct() {
         }),
         ..good
     };
-    assert!(Rig::from_bytes(&seal(&d)).is_ok());
+    let base = Rig::from_bytes(&seal(&good)).unwrap().cost().multiply_adds;
+    let projected = Rig::from_bytes(&seal(&d)).unwrap().cost().multiply_adds;
+    assert_eq!(
+        projected,
+        base + 6,
+        "a projection's six multiplies are in the cost"
+    );
     // And on a derived mean of seven markers.
     let mean = [0, 7, 1, 2, 3, 4, 5, 39];
     let d = RigData {
@@ -522,7 +528,12 @@ fn every_payload_error_is_distinct() {
         }),
         ..good
     };
-    assert!(Rig::from_bytes(&seal(&d)).is_ok());
+    let averaged = Rig::from_bytes(&seal(&d)).unwrap().cost().multiply_adds;
+    assert_eq!(
+        averaged,
+        base + 3,
+        "a mean's three multiplies are in the cost"
+    );
 }
 
 /// A derived marker's record: its source, a zero byte and its Q1.14 direction.

@@ -187,7 +187,6 @@ impl<'a> LinearDeformer<'a> {
 
     /// The derived markers in order: derived marker `j` is marker `M + j` of the influences
     /// ([`Self::vertex_influences`]).
-    #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
     pub fn derived(&self) -> impl Iterator<Item = DerivedMarker> + 'a {
         self.derived_markers
             .0
@@ -409,7 +408,14 @@ impl DeformerSection for LinearDeformer<'_> {
             influences: 2 * pairs,
             max_influences: usize::from(self.max_influences),
             coefficient_rows: 0,
-            multiply_adds: 3 * 2 * pairs,
+            multiply_adds: 3 * 2 * pairs
+                + self
+                    .derived()
+                    .map(|d| match d {
+                        DerivedMarker::Projection { .. } => 6,
+                        DerivedMarker::Mean { .. } => 3,
+                    })
+                    .sum::<usize>(),
             subtractions: 3 * m,
             narrowings: 3 * v,
             scratch_bytes: SCRATCH_BYTES,
