@@ -281,6 +281,25 @@ fn bake_inspect_verify_round_trip() {
     assert_eq!(info["position_format"], "Q8.24");
     // The linear form stores influences in pairs of two weights and one index: 6 bytes a pair.
     assert_eq!(info["bytes_per_influence"], 3.0);
+    // The default rig's derived markers: the mouth's openings along the face's vertical, and
+    // the mean of the three head markers the anchored skin follows.
+    let derived: Vec<&str> = info["derived"]
+        .as_array()
+        .expect("derived markers")
+        .iter()
+        .filter_map(|d| d.as_str())
+        .collect();
+    assert!(
+        derived
+            .iter()
+            .any(|d| d.starts_with("Mouth_") && d.contains(" along [")),
+        "{derived:?}"
+    );
+    assert_eq!(
+        derived.last(),
+        Some(&"mean of ForeHead_M, Leye_Inside, Reye_Inside"),
+        "{derived:?}"
+    );
     assert_eq!(info["blob_bytes"], baked["report"]["sizes"]["total"]);
     let text = facebake(&["inspect", s(&rig)]);
     assert_eq!(text.status.code(), Some(0));

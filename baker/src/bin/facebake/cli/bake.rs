@@ -656,7 +656,7 @@ fn print_text(s: &BakeSummary) {
         if let Some(a) = &f.anchoring {
             outln!(
                 out,
-                "  anchoring     {} vertices follow the markers {} ({} of them alone)",
+                "  anchoring     {} vertices follow the mean of {} ({} of them alone)",
                 a.anchored_vertices,
                 a.markers.join(", "),
                 a.still_vertices

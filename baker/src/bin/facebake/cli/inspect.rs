@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
+use facebake_runtime::deformer::linear::{DerivedMarker, DIRECTION_ONE};
 use facebake_runtime::deformer::Deformer;
 use facebake_runtime::format::records::HEADER_LEN;
 use facebake_runtime::{Cost, Rig};
@@ -148,6 +149,9 @@ pub struct InspectSummary {
     pub bytes_per_influence: f64,
     /// Bytes per vertex of everything but the influences.
     pub other_bytes_per_vertex: f64,
+    /// A linear rig's derived markers in order (marker M + j), each described: `"Mouth_Lend
+    /// along [0, 1, 0]"` (its displacement projected on a direction) or `"mean of A, B, C"`.
+    pub derived: Vec<String>,
     /// Per-frame cost.
     pub cost: CostSummary,
     /// The capture stages, if the rig has them.
@@ -249,6 +253,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         vertices,
         markers: rig.marker_count(),
         marker_names: marker_names(rig),
+        derived: derived_markers(rig),
         k: cost.max_influences,
         influences: cost.influences,
         mean_influences_per_vertex: cost.influences as f64 / vertices.max(1) as f64,
@@ -303,6 +308,47 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
             }
         }),
     }
+}
+
+/// A linear rig's derived markers, described (none for other rigs).
+fn derived_markers(rig: &Rig<'_>) -> Vec<String> {
+    let Deformer::Linear(l) = rig.deformer() else {
+        return Vec::new();
+    };
+    let names = marker_names(rig);
+    let name = |m: u8| {
+        let m = usize::from(m);
+        names
+            .get(m)
+            .cloned()
+            .unwrap_or_else(|| format!("marker {m}"))
+    };
+    l.derived()
+        .map(|d| match d {
+            DerivedMarker::Projection { source, direction } => {
+                let one = f64::from(DIRECTION_ONE);
+                let a = direction.map(|c| f64::from(c) / one);
+                let length = a
+                    .iter()
+                    .map(|c| c * c)
+                    .sum::<f64>()
+                    .sqrt()
+                    .max(f64::MIN_POSITIVE);
+                format!(
+                    "{} along [{:.2}, {:.2}, {:.2}]",
+                    name(source),
+                    a[0] / length,
+                    a[1] / length,
+                    a[2] / length
+                )
+            }
+            DerivedMarker::Mean { sources, count } => {
+                let n = usize::from(count).min(sources.len());
+                let of: Vec<String> = sources[..n].iter().map(|&m| name(m)).collect();
+                format!("mean of {}", of.join(", "))
+            }
+        })
+        .collect()
 }
 
 /// Run `facebake inspect`.
@@ -396,6 +442,15 @@ fn print_text(s: &InspectSummary) {
         sec.influences,
         sec.other
     );
+    if !s.derived.is_empty() {
+        outln!(
+            out,
+            "  derived       {} markers after the {}: {}",
+            s.derived.len(),
+            s.markers,
+            facebake::io::escape_control(&s.derived.join("; "))
+        );
+    }
     outln!(out, "  per frame     {}", s.cost.text);
     outln!(
         out,
