@@ -235,7 +235,8 @@ impl DerivedMarker {
         }
     }
 
-    /// Its record.
+    /// Its record (what the baker writes).
+    #[cfg_attr(not(any(feature = "format", test)), allow(dead_code))]
     pub fn record(&self) -> [u8; DERIVED_MARKER_BYTES] {
         let mut r = [0u8; DERIVED_MARKER_BYTES];
         match *self {
