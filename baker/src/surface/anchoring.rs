@@ -27,9 +27,10 @@
 //! markers it follows: the weights still sum to one (uniform translation stays exact) and with
 //! the head markers still (a head-stabilised take, or a capture whose head fit removed the
 //! motion: a least-squares fit leaves the head markers' mean residual at zero) the anchored
-//! skin stays still. A vertex keeps K weights, so the share `s·h` is spread over as few
-//! markers as will do: with a capture, the held head markers' weights are summed onto one
-//! ([`merge_held`]); without, the skin follows three markers ([`followed_without_fit`]).
+//! skin stays still. A vertex keeps K weights, so the share `s·h` takes as few of them as will
+//! do: with a capture, the held head markers' weights are summed onto one ([`merge_held`]);
+//! without, the skin follows three markers ([`followed_without_fit`]) whose mean one derived
+//! marker carries (`deformer::linear::FollowedMean`).
 
 use crate::mesh::distance;
 
