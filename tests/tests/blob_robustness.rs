@@ -2,7 +2,7 @@
 //! distinct error, on a real baked blob (the FaceCap head).
 
 use facebake::ground_truth::SplitMix64;
-use facebake_runtime::deformer::linear::LinearDeformer;
+use facebake_runtime::deformer::linear::{DerivedMarker, LinearDeformer};
 use facebake_runtime::deformer::planar::PlanarDeformer;
 use facebake_runtime::deformer::rbf::RbfDeformer;
 use facebake_runtime::deformer::Deformer;
@@ -538,11 +538,9 @@ fn every_payload_error_is_distinct() {
 
 /// A derived marker's record: its source, a zero byte and its Q1.14 direction.
 fn derived(source: u8, direction: [i16; 3]) -> Vec<u8> {
-    let mut record = vec![source, 0];
-    for a in direction {
-        record.extend_from_slice(&a.to_le_bytes());
-    }
-    record
+    DerivedMarker::Projection { source, direction }
+        .record()
+        .to_vec()
 }
 
 #[test]

@@ -1365,13 +1365,9 @@ mod tests {
         assert_eq!((q.exponent, q.q[0][0]), (2, -Q_MAX as i16));
     }
 
-    /// A derived marker's record: source, zero byte, direction.
-    fn record(source: u8, a: [i16; 3]) -> Vec<u8> {
-        let mut r = vec![source, 0];
-        for c in a {
-            r.extend_from_slice(&c.to_le_bytes());
-        }
-        r
+    /// A derived projection's record: source, zero byte, direction.
+    fn record(source: u8, direction: [i16; 3]) -> [u8; DERIVED_MARKER_BYTES] {
+        DerivedMarker::Projection { source, direction }.record()
     }
 
     /// A derived marker along an axis is its source's `q` on that axis exactly, 0 on the
