@@ -46,7 +46,7 @@ CROSS_TARGETS=(aarch64-unknown-linux-gnu powerpc-unknown-linux-gnu i686-unknown-
     thumbv7neon-unknown-linux-gnueabihf)
 M4_TARGET=thumbv7em-none-eabihf
 NOFPU_TARGET=thumbv6m-none-eabi
-RIGS=(coefficients weights coefficients_k4)
+RIGS=(coefficients weights coefficients_k4 product)
 declare -A M4_INSNS HOST_IR
 
 # ---------------------------------------------------------------------------------------------
@@ -138,6 +138,7 @@ runtime_tests() {
     [ "$target" = "$HOST" ] || args+=(--target "$target")
     if cargo test "${args[@]}" >"$log" 2>&1 &&
         grep -q "k4_coefficients_rig_is_bit_identical_to_the_golden_hashes ... ok" "$log" &&
+        grep -q "product_rig_is_bit_identical_to_the_golden_hashes ... ok" "$log" &&
         grep -q "every_implementation_matches_the_exact_formula ... ok" "$log" &&
         grep -q "round_shift_golden ... ok" "$log"; then
         pass "$target: every golden frame hash and fixed-point golden vector matches"
@@ -270,7 +271,7 @@ if fw_cargo build --locked --release --bin facebake-firmware >"$WORK/fw-build.lo
     read -r CODE RODATA < <("$LLVM_BIN/llvm-size" -A "$ELF" |
         awk '$1 == ".text" {t = $2} $1 == ".rodata" {r = $2} END {print t, r}')
     figure "firmware flash $(( TEXT + DATA )) bytes: code $CODE, read-only data $RODATA (the blobs and markers), data $DATA; static RAM $(( DATA + BSS )) bytes; budget 1 MiB flash, 128 KiB RAM (memory.x)"
-    for f in fixtures/golden/*.fbk fixtures/golden/*.fbt fixtures/golden/facecap_markers.bin; do
+    for f in fixtures/golden/*.fbk fixtures/golden/*.fbt fixtures/golden/facecap_*markers.bin; do
         figure "$(basename "$f") $(stat -c %s "$f") bytes"
     done
     # Stack: the frames of the path main → Rig::deform (the output buffer is on main's stack).
@@ -405,6 +406,14 @@ if [ -n "${M4_INSNS[coefficients]:-}" ] && [ -n "${M4_INSNS[coefficients_k4]:-}"
     awk -v i8="${M4_INSNS[coefficients]}" -v i4="${M4_INSNS[coefficients_k4]}" -v v=2694 'BEGIN {
         b = (i8 - i4) / (4 * v); a = i4 / v - 4 * b
         printf "FIGURE: M4 coefficients form: %.1f instructions per vertex + %.1f per influence (from K = 8: %d, K = 4: %d per frame, 2694 vertices)\n", a, b, i8, i4
+    }'
+fi
+
+if [ -n "${M4_INSNS[product]:-}" ] && [ -n "${M4_INSNS[weights]:-}" ]; then
+    # What `facebake bake` makes with no options: the linear deformer at K = 8 with derived
+    # markers (the mouth's projections, the followed markers' mean) on 41 markers.
+    awk -v p="${M4_INSNS[product]}" -v w="${M4_INSNS[weights]}" 'BEGIN {
+        printf "FIGURE: M4 product default rig (41 markers, derived markers, K = 8, 2694 vertices): %d instructions per frame, %.3f x the weights rig (%d)\n", p, p / w, w
     }'
 fi
 

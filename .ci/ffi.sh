@@ -60,7 +60,7 @@ done
 echo "ffi: $(echo "$declared" | wc -l) functions declared, defined by the host and thumbv7em static libraries"
 
 # The golden lines the examples must reproduce, in file order.
-pattern='^(coefficients|weights|coefficients_k4|planar|capture) (frame [0-9]+|sequence) [0-9a-f]{16}$'
+pattern='^(coefficients|weights|coefficients_k4|product|planar|capture) (frame [0-9]+|sequence) [0-9a-f]{16}$'
 cat fixtures/golden/hashes.txt fixtures/golden/hashes_planar.txt | grep -E "$pattern" \
   | sort -s -k1,1 > "$out/expected.txt"
 # The C example also prints every frame's normals (fb_normals) behind the word "normals", and

@@ -6,12 +6,13 @@
 
 import { Fnv1a64 } from './facebake.js';
 
-/** The deform rigs, played through facecap_markers.bin, with their names in the hash files. */
+/** The deform rigs with their names in the hash files and the marker frames each plays. */
 const DEFORM_RIGS = [
-  ['coefficients', 'facecap_coefficients.fbk'],
-  ['weights', 'facecap_weights.fbk'],
-  ['coefficients_k4', 'facecap_coefficients_k4.fbk'],
-  ['planar', 'facecap_planar.fbk'],
+  ['coefficients', 'facecap_coefficients.fbk', 'facecap_markers.bin'],
+  ['weights', 'facecap_weights.fbk', 'facecap_markers.bin'],
+  ['coefficients_k4', 'facecap_coefficients_k4.fbk', 'facecap_markers.bin'],
+  ['product', 'facecap_product.fbk', 'facecap_layout_markers.bin'],
+  ['planar', 'facecap_planar.fbk', 'facecap_markers.bin'],
 ];
 
 async function fetchBytes(url) {
@@ -33,7 +34,7 @@ function normalsLine(rig, name, f, sequence, lines, timing) {
   lines.push(`normals ${name} frame ${f} ${h.hex()}`);
 }
 
-/** Every frame of facecap_markers.bin through `fb_deform`. */
+/** Every frame of a marker file (frames × markers × 3 i32 LE) through `fb_deform`. */
 function deformTake(runtime, name, blob, markers, lines) {
   const rig = runtime.loadRig(blob);
   const frameBytes = rig.markerCount * 12;
@@ -166,8 +167,8 @@ function playPackedTake(runtime, blob, bytes, lines) {
 export async function goldenHashes(runtime, dir) {
   const lines = [];
   const timing = [];
-  const markers = await fetchBytes(dir + 'facecap_markers.bin');
-  for (const [name, file] of DEFORM_RIGS) {
+  for (const [name, file, frames] of DEFORM_RIGS) {
+    const markers = await fetchBytes(dir + frames);
     timing.push(deformTake(runtime, name, await fetchBytes(dir + file), markers, lines));
   }
   const capture = await fetchBytes(dir + 'jawmocap_capture.fbk');

@@ -71,24 +71,35 @@ fn assert_aligned(name: &str, rig: &Rig<'_>) {
     }
 }
 
-/// The golden rigs, by the names `hashes.txt` uses.
-const RIGS: [(&str, &[u8]); 3] = [
+/// Every frame's markers of the 40-marker rigs: frames × markers × 3 `i32` LE, Q8.24.
+const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+
+/// The same frames through the bundled layout's 41 markers, for the product rig.
+const LAYOUT_MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_layout_markers.bin");
+
+/// The golden rigs, by the names `hashes.txt` uses, in its order, each with its marker frames.
+const RIGS: [(&str, &[u8], &[u8]); 4] = [
     (
         "coefficients",
         aligned_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+        MARKERS,
     ),
     (
         "weights",
         aligned_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+        MARKERS,
     ),
     (
         "coefficients_k4",
         aligned_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+        MARKERS,
+    ),
+    (
+        "product",
+        aligned_bytes!("../../fixtures/golden/facecap_product.fbk"),
+        LAYOUT_MARKERS,
     ),
 ];
-
-/// Every frame's markers: frames × markers × 3 `i32` LE, Q8.24.
-const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
 
 /// The capture golden: a rig with capture stages and actor frames (per marker a presence byte
 /// and three `i32` LE, Q8.24 actor units).
@@ -115,9 +126,14 @@ fn frame_end(frame: usize) {
     black_box(!frame);
 }
 
-/// Markers of frame `f` into `buf`; `None` past the last frame.
-fn frame_markers(f: usize, markers: usize, buf: &mut [[i32; 3]; MAX_MARKERS]) -> Option<()> {
-    let bytes = MARKERS.get(f * markers * 12..(f + 1) * markers * 12)?;
+/// Markers of frame `f` of `file` into `buf`; `None` past the last frame.
+fn frame_markers(
+    file: &[u8],
+    f: usize,
+    markers: usize,
+    buf: &mut [[i32; 3]; MAX_MARKERS],
+) -> Option<()> {
+    let bytes = file.get(f * markers * 12..(f + 1) * markers * 12)?;
     for (m, b) in buf.iter_mut().zip(bytes.chunks_exact(12)) {
         for (c, w) in m.iter_mut().zip(b.chunks_exact(4)) {
             *c = i32::from_le_bytes([w[0], w[1], w[2], w[3]]);
@@ -153,9 +169,13 @@ fn normals_frame(
     hprintln!("normals {} frame {} {:016x}", name, frame, h.finish());
 }
 
+/// Play the deform rig `blob` through every frame of `marker_file`: per frame the deformation
+/// and its normals (both bracketed for the instruction counter), hashed as `hashes.txt` and
+/// `hashes_normals.txt` record them.
 fn play(
     name: &str,
     blob: &[u8],
+    marker_file: &[u8],
     out: &mut [[i32; 3]; MAX_VERTICES],
     normals: &mut [[i16; 3]; MAX_VERTICES],
 ) {
@@ -175,7 +195,7 @@ fn play(
     let mut sequence = Fnv1a64::new();
     let mut normals_sequence = Fnv1a64::new();
     let mut frames = 0;
-    while frame_markers(frames, m, &mut markers).is_some() {
+    while frame_markers(marker_file, frames, m, &mut markers).is_some() {
         frame_start(frames);
         let done = rig.deform(&markers[..m], out);
         frame_end(frames);
@@ -396,8 +416,8 @@ fn main() -> ! {
     }
     let mut out = [[0i32; 3]; MAX_VERTICES];
     let mut normals = [[0i16; 3]; MAX_VERTICES];
-    for (name, blob) in RIGS {
-        play(name, blob, &mut out, &mut normals);
+    for (name, blob, marker_file) in RIGS {
+        play(name, blob, marker_file, &mut out, &mut normals);
     }
     play_capture(&mut out, &mut normals);
     play_take(&mut out);

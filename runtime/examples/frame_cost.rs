@@ -6,7 +6,8 @@
 //!
 //! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses> [normals]`
 //!
-//! * `<rig>`: `coefficients`, `weights`, `coefficients_k4` or `planar` (the golden rigs);
+//! * `<rig>`: `coefficients`, `weights`, `coefficients_k4`, `product` or `planar` (the golden
+//!   rigs; `product` plays the layout's 41 markers);
 //! * `<poses>`: `truth` (the 32 ground-truth frames), `rest` (the rest pose, 32 times) or
 //!   `extreme` (the 6 saturated and ±120-unit edge frames, cycled to 32).
 //!
@@ -23,6 +24,8 @@ const FRAMES: usize = 32;
 const TRUTH_FRAMES: usize = 32;
 
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+/// The same frames through the bundled layout's 41 markers, for the product rig.
+const LAYOUT_MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_layout_markers.bin");
 
 /// One frame: the call callgrind measures.
 #[inline(never)]
@@ -47,21 +50,37 @@ fn main() {
         [rig, poses, n] if n == "normals" => (rig, poses, true),
         _ => {
             eprintln!(
-                "usage: frame_cost <coefficients|weights|coefficients_k4|planar> <truth|rest|extreme> [normals]"
+                "usage: frame_cost <coefficients|weights|coefficients_k4|product|planar> <truth|rest|extreme> [normals]"
             );
             std::process::exit(2);
         }
     };
-    let blob: &[u8] = match rig_name.as_str() {
-        "coefficients" => include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
-        "weights" => include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
-        "coefficients_k4" => include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
-        "planar" => include_bytes!("../../fixtures/golden/facecap_planar.fbk"),
+    let (blob, marker_file): (&[u8], &[u8]) = match rig_name.as_str() {
+        "coefficients" => (
+            include_bytes!("../../fixtures/golden/facecap_coefficients.fbk"),
+            MARKERS,
+        ),
+        "weights" => (
+            include_bytes!("../../fixtures/golden/facecap_weights.fbk"),
+            MARKERS,
+        ),
+        "coefficients_k4" => (
+            include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk"),
+            MARKERS,
+        ),
+        "product" => (
+            include_bytes!("../../fixtures/golden/facecap_product.fbk"),
+            LAYOUT_MARKERS,
+        ),
+        "planar" => (
+            include_bytes!("../../fixtures/golden/facecap_planar.fbk"),
+            MARKERS,
+        ),
         other => panic!("unknown rig {other}"),
     };
     let rig = Rig::from_bytes(blob).expect("golden rig loads");
     let m = rig.marker_count();
-    let words: Vec<i32> = MARKERS
+    let words: Vec<i32> = marker_file
         .chunks_exact(4)
         .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();

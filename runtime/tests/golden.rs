@@ -14,7 +14,9 @@ const COEFFICIENTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_coeffi
 const WEIGHTS: &[u8] = include_bytes!("../../fixtures/golden/facecap_weights.fbk");
 const COEFFICIENTS_K4: &[u8] = include_bytes!("../../fixtures/golden/facecap_coefficients_k4.fbk");
 const PLANAR: &[u8] = include_bytes!("../../fixtures/golden/facecap_planar.fbk");
+const PRODUCT: &[u8] = include_bytes!("../../fixtures/golden/facecap_product.fbk");
 const MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_markers.bin");
+const LAYOUT_MARKERS: &[u8] = include_bytes!("../../fixtures/golden/facecap_layout_markers.bin");
 const HASHES: &str = include_str!("../../fixtures/golden/hashes.txt");
 const PLANAR_HASHES: &str = include_str!("../../fixtures/golden/hashes_planar.txt");
 const NORMALS_HASHES: &str = include_str!("../../fixtures/golden/hashes_normals.txt");
@@ -43,9 +45,9 @@ fn expected_normals(rig: &str, what: &str) -> u64 {
     u64::from_str_radix(&line[key.len()..], 16).expect("a 64-bit hex hash")
 }
 
-/// The marker sequence: frames of `markers` × 3 `i32` LE.
-fn frames(markers: usize) -> Vec<Vec<[i32; 3]>> {
-    let words: Vec<i32> = MARKERS
+/// The marker sequence in `file`: frames of `markers` × 3 `i32` LE.
+fn frames(file: &[u8], markers: usize) -> Vec<Vec<[i32; 3]>> {
+    let words: Vec<i32> = file
         .chunks_exact(4)
         .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
@@ -116,9 +118,10 @@ impl<'a> Hashes<'a> {
     }
 }
 
-fn check(name: &str, blob: &[u8]) {
+/// Play `blob` through the marker frames in `markers` and compare every hash.
+fn check(name: &str, blob: &[u8], markers: &[u8]) {
     let rig = Rig::from_bytes(blob).expect("golden rig loads");
-    let frames = frames(rig.marker_count());
+    let frames = frames(markers, rig.marker_count());
     assert_eq!(frames.len(), EXPECTED_FRAMES);
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
     let mut chunked = vec![[0i32; 3]; rig.vertex_count()];
@@ -147,22 +150,29 @@ fn check(name: &str, blob: &[u8]) {
 
 #[test]
 fn coefficients_rig_is_bit_identical_to_the_golden_hashes() {
-    check("coefficients", COEFFICIENTS);
+    check("coefficients", COEFFICIENTS, MARKERS);
 }
 
 #[test]
 fn weights_rig_is_bit_identical_to_the_golden_hashes() {
-    check("weights", WEIGHTS);
+    check("weights", WEIGHTS, MARKERS);
 }
 
 #[test]
 fn k4_coefficients_rig_is_bit_identical_to_the_golden_hashes() {
-    check("coefficients_k4", COEFFICIENTS_K4);
+    check("coefficients_k4", COEFFICIENTS_K4, MARKERS);
+}
+
+/// What `facebake bake` makes with no options: the linear deformer with derived markers (the
+/// mouth's projections and the followed markers' mean), played through the layout's markers.
+#[test]
+fn product_rig_is_bit_identical_to_the_golden_hashes() {
+    check("product", PRODUCT, LAYOUT_MARKERS);
 }
 
 #[test]
 fn planar_rig_is_bit_identical_to_the_golden_hashes() {
-    check("planar", PLANAR);
+    check("planar", PLANAR, MARKERS);
 }
 
 /// The fixed-point primitives at their range edges, beyond the unit tests in `fixed.rs`

@@ -2,15 +2,17 @@
 //!
 //! The cross-architecture test (`runtime/tests/golden.rs`) and the Cortex-M4 firmware
 //! (`firmware/`) check the runtime against these files without the baker, so the files must be
-//! exactly what the baker and the host runtime produce today. This test re-bakes both FaceCap
-//! rigs (twice, to check the bake is deterministic), re-derives the marker sequence, re-computes
+//! exactly what the baker and the host runtime produce today. This test re-bakes the FaceCap
+//! rigs (twice, to check the bake is deterministic), re-derives the marker sequences, re-computes
 //! every frame's hash and fails on any difference. `FACEBAKE_BLESS=1` rewrites the files instead.
 //!
 //! | file | contents |
 //! |---|---|
-//! | `facecap_coefficients.fbk` | the default bake (RBF coefficients, Gaussian, K = 8) |
+//! | `facecap_product.fbk` | what `facebake bake` makes with no options from FaceCap and the bundled layout (41 markers, its groups): geodesic, masked, the linear deformer with its derived markers (the mouth's projections, the followed markers' mean) |
+//! | `facecap_layout_markers.bin` | frames × 41 markers × 3 `i32` LE, Q8.24: the same frames as `facecap_markers.bin`, through the layout's markers |
+//! | `facecap_coefficients.fbk` | the papers' bare Euclidean RBF ([`BakeOptions::default`]: coefficients, Gaussian, K = 8) |
 //! | `facecap_weights.fbk` | the weights bake (IMQ, K = 8) |
-//! | `facecap_coefficients_k4.fbk` | the default bake at K = 4, so per-frame cost can be split into per-vertex and per-influence parts |
+//! | `facecap_coefficients_k4.fbk` | the bare RBF at K = 4, so per-frame cost can be split into per-vertex and per-influence parts |
 //! | `facecap_planar.fbk` | the planar-bones bake (K = 8, automatic control surface) |
 //! | `facecap_markers.bin` | frames × 40 markers × 3 `i32` LE, Q8.24: every ground-truth frame, then [`EDGE_FRAMES`] |
 //! | `jawmocap_capture.fbk` | FaceCap with the JawMoCap layout (41 markers) and the capture stages baked from JawMoCap (head markers [`JAWMOCAP_HEAD_MARKERS`], the markers smoothed) |
@@ -24,15 +26,31 @@ use std::fmt::Write as _;
 use facebake::demo::JAWMOCAP_HEAD_MARKERS;
 use facebake::stages::temporal::SmoothingConfig;
 use facebake::stages::{HeadMarkers, SmoothingUse, StagesConfig};
+use facebake::surface::evaluate::Benchmark;
 use facebake::{BakeOptions, Baked};
 use facebake_runtime::checksum::Fnv1a64;
 use facebake_runtime::fixed::POS_ONE;
 use facebake_runtime::PlayState;
 use facebake_runtime::Rig;
 use facebake_tests::{
-    bake_truth, bless_or_check, facecap_default, facecap_planar, facecap_weights, jawmocap_rig,
-    planar_config, weights_config, JawMoCapRig, FACECAP_MARKERS,
+    bake_scene, bake_truth, bless_or_check, facecap_default, facecap_planar, facecap_weights,
+    jawmocap_rig, layout_benchmark, planar_config, weights_config, JawMoCapRig, FACECAP_MARKERS,
 };
+
+/// Markers a frame in `facecap_layout_markers.bin`: the bundled layout's.
+const LAYOUT_MARKERS: usize = 41;
+
+/// The product default: FaceCap and the bundled layout (its 41 markers and groups) baked as
+/// `facebake bake --mesh FaceCapHeadGeneric.glb --layout facecap_jawmocap_layout.toml` bakes
+/// ([`BakeOptions::product_default`]), with the scene that places the layout, built once.
+fn product() -> &'static (Benchmark, Baked) {
+    static CELL: std::sync::OnceLock<(Benchmark, Baked)> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| {
+        let scene = layout_benchmark(true);
+        let baked = bake_scene(&scene, &BakeOptions::product_default());
+        (scene, baked)
+    })
+}
 
 /// The capture edge frames appended after the JawMoCap frames, in order.
 const CAPTURE_EDGE_FRAMES: [&str; 7] = [
@@ -272,14 +290,17 @@ fn edge_frames(rest: &[[i32; 3]]) -> Vec<Vec<[i32; 3]>> {
     frames
 }
 
-/// Every frame's markers in Q8.24: the ground-truth sequence, then the edge frames.
-fn marker_frames(rig: &Rig<'_>) -> Vec<Vec<[i32; 3]>> {
+/// Every frame's markers in Q8.24: the ground-truth sequence through `markers_of` (a frame's
+/// mesh positions to its markers), then the edge frames about `rig`'s rest markers.
+fn marker_frames(
+    rig: &Rig<'_>,
+    markers_of: impl Fn(&[[f64; 3]]) -> Vec<[f64; 3]>,
+) -> Vec<Vec<[i32; 3]>> {
     let (truth, _) = facecap_default();
     let space = rig.space();
     let mut frames: Vec<Vec<[i32; 3]>> = (0..truth.frames.len())
         .map(|f| {
-            truth
-                .markers_of(&truth.positions(f))
+            markers_of(&truth.positions(f))
                 .iter()
                 .map(|p| space.to_rig_f64(*p).expect("markers fit rig units"))
                 .collect()
@@ -292,14 +313,28 @@ fn marker_frames(rig: &Rig<'_>) -> Vec<Vec<[i32; 3]>> {
     frames
 }
 
-/// `hashes.txt` for the rigs `(name, blob)` played through `frames`.
-fn hashes_txt(rigs: &[(&str, &[u8])], frames: &[Vec<[i32; 3]>]) -> String {
+/// A marker file: frames × markers × 3 `i32` LE.
+fn marker_bytes(frames: &[Vec<[i32; 3]>]) -> Vec<u8> {
+    frames
+        .iter()
+        .flatten()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect()
+}
+
+/// A golden rig: its name in the hash files, its blob and the marker frames it plays.
+type Golden<'a> = (&'a str, &'a [u8], &'a [Vec<[i32; 3]>]);
+
+/// `hashes.txt` for the rigs played through their frames.
+fn hashes_txt(rigs: &[Golden<'_>]) -> String {
     let (truth, _) = facecap_default();
     let mut s = String::from(
         "# facebake golden hashes: FNV-1a-64 of each frame's deformed vertex buffer, hashed as i32\n\
          # little-endian (x y z per vertex), then of all frames' buffers in sequence.\n\
          # Generated by tests/tests/golden.rs (FACEBAKE_BLESS=1); checked by runtime/tests/golden.rs\n\
-         # on every architecture and by the Cortex-M4 firmware. Frames (facecap_markers.bin):\n",
+         # on every architecture and by the Cortex-M4 firmware. Frames (facecap_markers.bin, and\n\
+         # facecap_layout_markers.bin for `product`):\n",
     );
     let names = truth
         .frames
@@ -309,7 +344,7 @@ fn hashes_txt(rigs: &[(&str, &[u8])], frames: &[Vec<[i32; 3]>]) -> String {
     for (i, name) in names.enumerate() {
         writeln!(s, "#   {i:2} {name}").unwrap();
     }
-    for &(name, blob) in rigs {
+    for &(name, blob, frames) in rigs {
         let rig = Rig::from_bytes(blob).expect("golden rig loads");
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
         let mut sequence = Fnv1a64::new();
@@ -328,12 +363,7 @@ fn hashes_txt(rigs: &[(&str, &[u8])], frames: &[Vec<[i32; 3]>]) -> String {
 
 /// `hashes_normals.txt`: the normals of every frame of every rig, played as in `hashes.txt`
 /// (the capture rig through `actor`).
-fn normals_txt(
-    rigs: &[(&str, &[u8])],
-    frames: &[Vec<[i32; 3]>],
-    capture: &[u8],
-    actor: &[Vec<Option<[i32; 3]>>],
-) -> String {
+fn normals_txt(rigs: &[Golden<'_>], capture: &[u8], actor: &[Vec<Option<[i32; 3]>>]) -> String {
     let mut s = String::from(
         "# facebake golden normals: FNV-1a-64 of each frame's unit normals from Rig::normals, hashed\n\
          # as i16 little-endian Q1.14 (x y z per vertex), then of all frames' normals in sequence.\n\
@@ -356,7 +386,7 @@ fn normals_txt(
             }
             writeln!(s, "{name} sequence {:016x}", sequence.finish()).unwrap();
         };
-    for &(name, blob) in rigs {
+    for &(name, blob, frames) in rigs {
         let rig = Rig::from_bytes(blob).expect("golden rig loads");
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
         play(name, &rig, &mut |f| {
@@ -401,17 +431,22 @@ fn bake_is_deterministic() {
         again.blob == facecap_planar().blob,
         "planar bake differs run to run"
     );
+    let (scene, baked) = product();
+    let again = bake_scene(scene, &BakeOptions::product_default());
+    assert!(again.blob == baked.blob, "product bake differs run to run");
 }
 
 #[test]
 fn golden_files_match_the_baker_byte_for_byte() {
-    let coefficients = facecap_default().1.blob.as_slice();
+    let (truth, baked) = facecap_default();
+    let coefficients = baked.blob.as_slice();
     let weights = facecap_weights().blob.as_slice();
     let k4 = facecap_k4().blob.as_slice();
     let planar = facecap_planar().blob.as_slice();
+    let (scene, product) = product();
     let rig = Rig::from_bytes(coefficients).unwrap();
     assert_eq!(rig.marker_count(), FACECAP_MARKERS);
-    // One marker file drives every rig: they must agree on the markers and their units.
+    // One marker file drives these rigs: they must agree on the markers and their units.
     for blob in [weights, k4, planar] {
         let other = Rig::from_bytes(blob).unwrap();
         assert_eq!(rig.space(), other.space());
@@ -419,43 +454,65 @@ fn golden_files_match_the_baker_byte_for_byte() {
             assert_eq!(rig.marker_rest(i), other.marker_rest(i));
         }
     }
-    let frames = marker_frames(&rig);
-    let markers: Vec<u8> = frames
-        .iter()
-        .flatten()
-        .flatten()
-        .flat_map(|c| c.to_le_bytes())
-        .collect();
-    let rigs = [
-        ("coefficients", coefficients),
-        ("weights", weights),
-        ("coefficients_k4", k4),
+    let frames = marker_frames(&rig, |p| truth.markers_of(p));
+    let product_rig = Rig::from_bytes(&product.blob).unwrap();
+    assert_eq!(product_rig.marker_count(), LAYOUT_MARKERS);
+    let layout_frames = marker_frames(&product_rig, |p| scene.markers_of(p));
+    let rigs: [Golden<'_>; 4] = [
+        ("coefficients", coefficients, &frames),
+        ("weights", weights, &frames),
+        ("coefficients_k4", k4, &frames),
+        ("product", &product.blob, &layout_frames),
     ];
     let capture = capture_rig();
     let actor = actor_frames(capture);
-    let hashes = hashes_txt(&rigs, &frames) + &capture_hashes(&capture.baked.blob, &actor);
+    let hashes = hashes_txt(&rigs) + &capture_hashes(&capture.baked.blob, &actor);
     let normals = normals_txt(
-        &[rigs.as_slice(), &[("planar", planar)]].concat(),
-        &frames,
+        &[rigs.as_slice(), &[("planar", planar, &frames)]].concat(),
         &capture.baked.blob,
         &actor,
     );
-    let files: [(&str, Vec<u8>); 10] = [
+    let files: [(&str, Vec<u8>); 12] = [
         ("facecap_coefficients.fbk", coefficients.to_vec()),
         ("facecap_weights.fbk", weights.to_vec()),
         ("facecap_coefficients_k4.fbk", k4.to_vec()),
         ("facecap_planar.fbk", planar.to_vec()),
-        ("facecap_markers.bin", markers),
+        ("facecap_product.fbk", product.blob.clone()),
+        ("facecap_markers.bin", marker_bytes(&frames)),
+        ("facecap_layout_markers.bin", marker_bytes(&layout_frames)),
         ("jawmocap_capture.fbk", capture.baked.blob.clone()),
         ("jawmocap_actor.bin", actor_bytes(&actor)),
         ("hashes.txt", hashes.into_bytes()),
         (
             "hashes_planar.txt",
-            hashes_txt(&[("planar", planar)], &frames).into_bytes(),
+            hashes_txt(&[("planar", planar, &frames)]).into_bytes(),
         ),
         ("hashes_normals.txt", normals.into_bytes()),
     ];
     bless_or_check(&files);
+}
+
+/// The product rig holds both kinds of derived marker, so the golden hashes pin their
+/// arithmetic on every target.
+#[test]
+fn the_product_rig_derives_projections_and_a_mean() {
+    use facebake_runtime::deformer::linear::DerivedMarker;
+    use facebake_runtime::deformer::Deformer;
+    let rig = Rig::from_bytes(&product().1.blob).unwrap();
+    let Deformer::Linear(linear) = rig.deformer() else {
+        panic!("the product default is the linear deformer");
+    };
+    let derived: Vec<DerivedMarker> = linear.derived().collect();
+    let projections = derived
+        .iter()
+        .filter(|d| matches!(d, DerivedMarker::Projection { .. }))
+        .count();
+    let means = derived
+        .iter()
+        .filter(|d| matches!(d, DerivedMarker::Mean { .. }))
+        .count();
+    println!("product rig: {projections} projections, {means} means");
+    assert!(projections >= 2 && means == 1, "{derived:?}");
 }
 
 #[test]

@@ -34,7 +34,7 @@ function fail(message) {
 /** The golden lines, in the format ffi/examples/c/play_golden.c prints (and the page too). */
 function expectedLines() {
   const golden = (name) => readFileSync(join(ROOT, 'fixtures', 'golden', name), 'utf8').split('\n');
-  const pattern = /^(coefficients|weights|coefficients_k4|planar|capture) (frame \d+|sequence) [0-9a-f]{16}$/;
+  const pattern = /^(coefficients|weights|coefficients_k4|product|planar|capture) (frame \d+|sequence) [0-9a-f]{16}$/;
   const positions = [...golden('hashes.txt'), ...golden('hashes_planar.txt')].filter((l) => pattern.test(l));
   const normals = golden('hashes_normals.txt')
     .filter((l) => pattern.test(l))

@@ -5,7 +5,8 @@
  *
  *   play_golden fixtures/golden
  *
- * Deform rigs: every frame of facecap_markers.bin through fb_deform (odd frames split as a job
+ * Deform rigs: every frame of facecap_markers.bin (facecap_layout_markers.bin for the product
+ * rig) through fb_deform (odd frames split as a job
  * system would: fb_prepare once, then fb_deform_chunk on two halves). Capture rig: every frame of
  * jawmocap_actor.bin through fb_play (capture stages, then the deformer), hashing the
  * character's markers, the vertices and (head residual, rebuilt count, held count), as
@@ -154,11 +155,11 @@ static void unload(Loaded *l) {
     free(l->blob);
 }
 
-/* Every frame of facecap_markers.bin through fb_deform. */
-static void deform_take(const char *dir, const char *name, const char *file) {
+/* Every frame of the marker file `frames` through fb_deform. */
+static void deform_take(const char *dir, const char *name, const char *file, const char *frames) {
     Loaded l = load(dir, file);
     size_t len;
-    uint8_t *take = read_file(dir, "facecap_markers.bin", &len);
+    uint8_t *take = read_file(dir, frames, &len);
     size_t frame_bytes = l.markers * 3 * 4;
     int32_t *markers = xmalloc(frame_bytes);
     int32_t *out = xmalloc(l.vertices * 3 * sizeof(int32_t));
@@ -345,10 +346,11 @@ int main(int argc, char **argv) {
         return 1;
     }
     const char *dir = argv[1];
-    deform_take(dir, "coefficients", "facecap_coefficients.fbk");
-    deform_take(dir, "weights", "facecap_weights.fbk");
-    deform_take(dir, "coefficients_k4", "facecap_coefficients_k4.fbk");
-    deform_take(dir, "planar", "facecap_planar.fbk");
+    deform_take(dir, "coefficients", "facecap_coefficients.fbk", "facecap_markers.bin");
+    deform_take(dir, "weights", "facecap_weights.fbk", "facecap_markers.bin");
+    deform_take(dir, "coefficients_k4", "facecap_coefficients_k4.fbk", "facecap_markers.bin");
+    deform_take(dir, "product", "facecap_product.fbk", "facecap_layout_markers.bin");
+    deform_take(dir, "planar", "facecap_planar.fbk", "facecap_markers.bin");
     play_take(dir);
     play_packed_take(dir);
     return 0;

@@ -150,11 +150,13 @@ void print(const std::string &name, const std::string &what, std::uint64_t hash)
     std::printf("%s %s %016" PRIx64 "\n", name.c_str(), what.c_str(), hash);
 }
 
-void deform_take(const std::string &dir, const std::string &name, const std::string &file) {
+// Every frame of the marker file `frames` through Rig::deform.
+void deform_take(const std::string &dir, const std::string &name, const std::string &file,
+                 const std::string &frames) {
     facebake::Rig rig(read_file(dir + "/" + file));
     std::fprintf(stderr, "%s: %zu vertices, %zu markers (first: %s)\n", file.c_str(),
                  rig.vertices(), rig.markers(), rig.marker_name(0).c_str());
-    const auto take = read_file(dir + "/facecap_markers.bin");
+    const auto take = read_file(dir + "/" + frames);
     const std::size_t words = rig.markers() * 3;
     std::vector<std::int32_t> markers(words), out;
     Fnv1a64 sequence;
@@ -214,10 +216,11 @@ int main(int argc, char **argv) {
             throw std::runtime_error("header and library ABI versions differ");
         }
         const std::string dir = argv[1];
-        deform_take(dir, "coefficients", "facecap_coefficients.fbk");
-        deform_take(dir, "weights", "facecap_weights.fbk");
-        deform_take(dir, "coefficients_k4", "facecap_coefficients_k4.fbk");
-        deform_take(dir, "planar", "facecap_planar.fbk");
+        deform_take(dir, "coefficients", "facecap_coefficients.fbk", "facecap_markers.bin");
+        deform_take(dir, "weights", "facecap_weights.fbk", "facecap_markers.bin");
+        deform_take(dir, "coefficients_k4", "facecap_coefficients_k4.fbk", "facecap_markers.bin");
+        deform_take(dir, "product", "facecap_product.fbk", "facecap_layout_markers.bin");
+        deform_take(dir, "planar", "facecap_planar.fbk", "facecap_markers.bin");
         play_take(dir);
     } catch (const std::exception &e) {
         std::fprintf(stderr, "play_golden: %s\n", e.what());
