@@ -37,6 +37,17 @@ pub enum PlacementError {
     /// The mesh lacks a feature the landmarks need.
     #[error("{0}")]
     Mesh(String),
+    /// An alias ([`place_aliased`]) names no marker of the actor, no name of the thesis'
+    /// layout, or a name another marker already has.
+    #[error("alias {actor}={thesis}: {problem}")]
+    BadAlias {
+        /// The actor's marker name.
+        actor: String,
+        /// The thesis' name it was given.
+        thesis: String,
+        /// What is wrong with it.
+        problem: String,
+    },
 }
 
 /// The actor's neutral markers placed on `mesh`: landmarks at their vertices, every other marker
@@ -279,6 +290,25 @@ fn rim_sides(rim: &[u32], p: &[[f64; 3]], neighbours: &[Vec<u32>]) -> (Vec<u32>,
     }
 }
 
+/// The seven landmarks' names in the thesis' marker layout (Table 4.1): the corners of the
+/// mouth (subject's left, right), of the left eye (outer, inner) and of the right eye (outer,
+/// inner), and the nose tip.
+pub const LANDMARK_NAMES: [&str; 7] = [
+    "Mouth_Lend",
+    "Mouth_Rend",
+    "Leye_Outside",
+    "Leye_Inside",
+    "Reye_Outside",
+    "Reye_Inside",
+    "NoseHead",
+];
+
+/// Whether `name` is one of the thesis' names [`place`] reads a role from: a landmark
+/// ([`LANDMARK_NAMES`]) or a lip or eyelid marker ([`FEATURE_MARKERS`]).
+pub fn has_role(name: &str) -> bool {
+    LANDMARK_NAMES.contains(&name) || FEATURE_MARKERS.iter().any(|f| f.0 == name)
+}
+
 /// The seven landmarks of the thesis' marker layout, found from `mesh`'s own shape: the corners
 /// of the mouth and of each eye (the x-extremes of their openings, [`face_openings`]) and the
 /// nose tip (the skin's most forward vertex), read in the file's axes (+X the subject's left,
@@ -300,21 +330,23 @@ pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
     };
     let x = |q: &[f64; 3]| q[0];
     let skin = topo.components.vertices_of(0);
-    // The subject's left is +X (the capture's convention and FaceCap's).
-    let marks: [(&str, u32); 7] = [
-        ("Mouth_Lend", extreme(&lips, &x, true)),
-        ("Mouth_Rend", extreme(&lips, &x, false)),
-        ("Leye_Outside", extreme(&left_eye, &x, true)),
-        ("Leye_Inside", extreme(&left_eye, &x, false)),
-        ("Reye_Outside", extreme(&right_eye, &x, false)),
-        ("Reye_Inside", extreme(&right_eye, &x, true)),
-        ("NoseHead", extreme(&skin, &|q| q[2], true)),
+    // The subject's left is +X (the capture's convention and FaceCap's), in the order of
+    // LANDMARK_NAMES.
+    let marks: [u32; 7] = [
+        extreme(&lips, &x, true),
+        extreme(&lips, &x, false),
+        extreme(&left_eye, &x, true),
+        extreme(&left_eye, &x, false),
+        extreme(&right_eye, &x, false),
+        extreme(&right_eye, &x, true),
+        extreme(&skin, &|q| q[2], true),
     ];
     Ok(MarkerLayout {
         source: mesh.source.clone(),
-        markers: marks
+        markers: LANDMARK_NAMES
             .iter()
-            .map(|&(name, welded)| LayoutMarker {
+            .zip(marks)
+            .map(|(&name, welded)| LayoutMarker {
                 name: name.to_string(),
                 anchor: MarkerAnchor::Vertex(original[welded as usize]),
                 stiffness: 1.0,
@@ -359,6 +391,79 @@ pub fn place(
         }
     }
     layout.source = mesh.source.clone();
+    Ok(layout)
+}
+
+/// [`place`] for a capture whose markers go by other names than the thesis': each alias
+/// `(actor, thesis)` says that the actor's marker `actor` is the thesis' `thesis` (a landmark or
+/// a lip or eyelid marker, [`has_role`]), so it is placed as that one is. The layout keeps the
+/// actor's names (`bake` and `play` match the capture's markers by them); `pins` name the
+/// actor's markers too.
+pub fn place_aliased(
+    mesh: &FaceMesh,
+    actor_names: &[String],
+    actor_neutral: &[[f64; 3]],
+    pins: &[(String, u32)],
+    aliases: &[(String, String)],
+) -> Result<MarkerLayout, PlacementError> {
+    let bad = |actor: &str, thesis: &str, problem: String| PlacementError::BadAlias {
+        actor: actor.to_string(),
+        thesis: thesis.to_string(),
+        problem,
+    };
+    let mut names = actor_names.to_vec();
+    for (actor, thesis) in aliases {
+        if !has_role(thesis) {
+            return Err(bad(
+                actor,
+                thesis,
+                format!(
+                    "{thesis:?} is not a name `place` reads a role from (landmarks {}; lips and \
+                     lids {})",
+                    LANDMARK_NAMES.join(", "),
+                    FEATURE_MARKERS.map(|f| f.0).join(", ")
+                ),
+            ));
+        }
+        let Some(i) = actor_names.iter().position(|n| n == actor) else {
+            return Err(bad(
+                actor,
+                thesis,
+                format!("the actor has no marker {actor:?}"),
+            ));
+        };
+        if let Some(other) = actor_names.iter().find(|n| *n == thesis && *n != actor) {
+            return Err(bad(
+                actor,
+                thesis,
+                format!("the actor's marker {other:?} already has that name"),
+            ));
+        }
+        if let Some((first, _)) = aliases.iter().find(|(a, t)| t == thesis && a != actor) {
+            return Err(bad(
+                actor,
+                thesis,
+                format!("{first:?} is {thesis:?} already"),
+            ));
+        }
+        if aliases.iter().filter(|(a, _)| a == actor).count() > 1 {
+            return Err(bad(actor, thesis, format!("{actor:?} is aliased twice")));
+        }
+        names[i] = thesis.clone();
+    }
+    let thesis_of = |name: &str| {
+        aliases
+            .iter()
+            .find(|(a, _)| a == name)
+            .map_or_else(|| name.to_string(), |(_, t)| t.clone())
+    };
+    let pins: Vec<(String, u32)> = pins.iter().map(|(n, v)| (thesis_of(n), *v)).collect();
+    let mut layout = place(mesh, &names, actor_neutral, &pins)?;
+    for m in &mut layout.markers {
+        if let Some((actor, _)) = aliases.iter().find(|(_, t)| *t == m.name) {
+            m.name = actor.clone();
+        }
+    }
     Ok(layout)
 }
 
@@ -526,5 +631,57 @@ mod tests {
             let centre_y = pts.iter().map(|p| p[1]).sum::<f64>() / pts.len() as f64;
             assert_eq!(y(name) > centre_y, upper, "{name} on the wrong side");
         }
+    }
+
+    /// A capture with its own names (here JawMoCap's with a prefix) places as the thesis' names
+    /// do once its markers with a role are aliased: the same anchors, under the actor's names.
+    /// Without the aliases it has no landmarks; a bad alias names itself and what is wrong.
+    #[test]
+    fn a_capture_with_other_names_places_through_aliases() {
+        let mesh = load_mesh(&fixture("FaceCapHeadGeneric.glb"), Some("head"), None).unwrap();
+        let cap = read_capture(&fixture("JawMoCap.trc")).unwrap();
+        let neutral: Vec<[f64; 3]> = cap.frames[0].iter().map(|p| p.unwrap()).collect();
+        let thesis = place(&mesh, &cap.marker_names, &neutral, &[("Chin".into(), 802)]).unwrap();
+        let renamed: Vec<String> = cap.marker_names.iter().map(|n| format!("X_{n}")).collect();
+        let aliases: Vec<(String, String)> = cap
+            .marker_names
+            .iter()
+            .filter(|n| has_role(n))
+            .map(|n| (format!("X_{n}"), n.clone()))
+            .collect();
+        assert_eq!(aliases.len(), 17);
+        let pins = [("X_Chin".to_string(), 802)];
+        let aliased = place_aliased(&mesh, &renamed, &neutral, &pins, &aliases).unwrap();
+        assert_eq!(aliased.markers.len(), thesis.markers.len());
+        for (a, t) in aliased.markers.iter().zip(&thesis.markers) {
+            assert_eq!(a.name, format!("X_{}", t.name));
+            assert_eq!(a.anchor, t.anchor, "{}", a.name);
+        }
+        let err = |aliases: &[(String, String)]| {
+            place_aliased(&mesh, &renamed, &neutral, &[], aliases)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = err(&[]);
+        assert!(e.contains("Mouth_Lend"), "{e}");
+        let pair = |a: &str, t: &str| (a.to_string(), t.to_string());
+        let e = err(&[pair("X_Chin", "Chin")]);
+        assert!(e.contains("X_Chin=Chin") && e.contains("not a name"), "{e}");
+        let e = err(&[pair("Nope", "NoseHead")]);
+        assert!(e.contains("no marker \"Nope\""), "{e}");
+        let e = err(&[pair("X_Chin", "NoseHead"), pair("X_NoseHead", "NoseHead")]);
+        assert!(e.contains("already"), "{e}");
+        let e = err(&[pair("X_Chin", "NoseHead"), pair("X_Chin", "Mouth_Up")]);
+        assert!(e.contains("twice"), "{e}");
+        let e = place_aliased(
+            &mesh,
+            &cap.marker_names,
+            &neutral,
+            &[],
+            &[pair("Chin", "NoseHead")],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("\"NoseHead\" already has that name"), "{e}");
     }
 }

@@ -1471,9 +1471,10 @@ fn bake_with_a_capture_measures_the_rig_on_it() {
 }
 
 /// `place` puts a capture's markers on a face mesh: on FaceCap, JawMoCap's markers land where
-/// the bundled layout has them (which `place` made), and the layout bakes. Bad input names the
-/// file: a capture without the landmarks' names, neutral frames past the take, a mesh without
-/// openings.
+/// the bundled layout has them (which `place` made), and the layout bakes. A capture with other
+/// names places the same through `--alias`, and bakes and plays the same frames. Bad input names
+/// the file: a capture without the landmarks' names, a bad alias, neutral frames past the take,
+/// a mesh without openings.
 #[test]
 fn place_writes_the_layout_bake_takes() {
     let dir = temp_dir("place");
@@ -1531,6 +1532,46 @@ fn place_writes_the_layout_bake_takes() {
     let out = run(&mesh_path(), &renamed, &[]);
     assert_bad_input(&out, "renamed.csv");
     assert!(stderr(&out).contains("Mouth_Lend"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--alias"), "{}", stderr(&out));
+    // Told which of its markers are the thesis' landmarks, lips and lids, it places them as
+    // the thesis' names place: the same anchors, under the capture's own names.
+    let aliases: Vec<String> = bundled
+        .markers
+        .iter()
+        .filter(|m| facebake::placement::has_role(&m.name))
+        .flat_map(|m| ["--alias".to_string(), format!("X_{0}={0}", m.name)])
+        .collect();
+    let mut extra: Vec<&str> = aliases.iter().map(String::as_str).collect();
+    extra.push("--json");
+    let j = json_ok(&run(&mesh_path(), &renamed, &extra));
+    assert_eq!(j["landmarks"].as_array().unwrap().len(), 7);
+    assert_eq!(j["on_features"].as_array().unwrap().len(), 10);
+    assert_eq!(j["aliases"].as_array().unwrap().len(), 17);
+    let aliased = facebake::io::layout::read_layout(&layout).unwrap();
+    for (a, b) in aliased.markers.iter().zip(&bundled.markers) {
+        assert_eq!(a.name, format!("X_{}", b.name));
+        assert_eq!(a.anchor, b.anchor, "{}", a.name);
+    }
+    // The bake and the play go by the capture's names: the renamed take through the aliased
+    // layout plays the same frames as the thesis-named take through the bundled layout.
+    let frames = |layout: &Path, capture: &Path, name: &str| {
+        let rig = dir.join(format!("{name}.fbk"));
+        baked_rig(&rig, layout, &["--capture", s(capture)]);
+        let npy = dir.join(format!("{name}.npy"));
+        let out = facebake(&["play", s(&rig), "--markers", s(capture), "-o", s(&npy)]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        std::fs::read(npy).unwrap()
+    };
+    assert!(
+        frames(&layout, &renamed, "aliased")
+            == frames(&fixture("facecap_jawmocap_layout.toml"), &capture, "thesis"),
+        "the renamed capture plays other frames"
+    );
+    let out = run(&mesh_path(), &renamed, &["--alias", "X_Chin=Jaw"]);
+    assert_bad_input(&out, "renamed.csv");
+    assert!(stderr(&out).contains("X_Chin=Jaw"), "{}", stderr(&out));
+    let out = run(&mesh_path(), &renamed, &["--alias", "X_Chin"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     let out = run(&mesh_path(), &capture, &["--neutral", "5000"]);
     assert_bad_input(&out, "JawMoCap.trc");
     assert!(stderr(&out).contains("not inside"), "{}", stderr(&out));

@@ -14,7 +14,7 @@ use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
 use facebake::model::{place_markers, MarkerAnchor, Units, DEFAULT_MAX_SNAP_FRACTION};
-use facebake::placement::{place, PlacementError, FEATURE_MARKERS};
+use facebake::placement::{place_aliased, PlacementError, FEATURE_MARKERS};
 use facebake::stages::{neutral_pose, Neutral};
 
 /// Arguments of `facebake place`.
@@ -30,7 +30,10 @@ pub struct PlaceArgs {
     /// The actor's capture (C3D, TRC, CSV or a packed take) with the thesis' marker names: the
     /// corners of the mouth and eyes and the nose tip (`Mouth_Lend`, `Mouth_Rend`,
     /// `Leye_Outside`, `Leye_Inside`, `Reye_Outside`, `Reye_Inside`, `NoseHead`) are the
-    /// landmarks, found on the mesh from its openings and its most forward point.
+    /// landmarks, found on the mesh from its openings and its most forward point; `Mouth_Up`,
+    /// `Mouth_UpL1`, `Mouth_UpR1`, `Mouth_Down`, `Mouth_DownL`, `Mouth_DownR`, `Leye_Up`,
+    /// `Leye_Down`, `Reye_Up` and `Reye_Down` go on their lip or lid. A capture that names
+    /// them otherwise says which is which with `--alias`.
     #[arg(long, value_name = "CAPTURE")]
     pub capture: PathBuf,
     /// Units of the capture's numbers, overriding what the file says.
@@ -46,6 +49,11 @@ pub struct PlaceArgs {
     /// it belongs (a chin, which no landmark sees). It also anchors the warp of the others.
     #[arg(long = "pin", value_name = "NAME=VERTEX", value_parser = parse_pin)]
     pub pins: Vec<(String, u32)>,
+    /// The actor's marker `ACTOR` is the thesis' `THESIS` (one of the names above), as
+    /// `ACTOR=THESIS` (repeatable): for a capture with its own marker names. The layout keeps
+    /// the actor's names; `--pin` takes them too.
+    #[arg(long = "alias", value_name = "ACTOR=THESIS", value_parser = parse_alias)]
+    pub aliases: Vec<(String, String)>,
     /// The layout to write (.toml or .json).
     #[arg(short, long, value_name = "LAYOUT")]
     pub output: PathBuf,
@@ -73,6 +81,18 @@ fn parse_pin(s: &str) -> Result<(String, u32), String> {
     Ok((name.trim().to_string(), vertex))
 }
 
+/// Parse `--alias ACTOR=THESIS`.
+fn parse_alias(s: &str) -> Result<(String, String), String> {
+    let (actor, thesis) = s
+        .split_once('=')
+        .ok_or_else(|| format!("{s:?}: expected ACTOR=THESIS"))?;
+    let (actor, thesis) = (actor.trim(), thesis.trim());
+    if actor.is_empty() || thesis.is_empty() {
+        return Err(format!("{s:?}: a name on each side of the '='"));
+    }
+    Ok((actor.to_string(), thesis.to_string()))
+}
+
 /// What `place` wrote.
 #[derive(Debug, Serialize)]
 pub struct PlaceSummary {
@@ -84,6 +104,8 @@ pub struct PlaceSummary {
     pub landmarks: Vec<String>,
     /// Markers put at the vertices `--pin` gave.
     pub pinned: Vec<String>,
+    /// The actor's markers read as the thesis' names (`--alias`), as `[actor, thesis]`.
+    pub aliases: Vec<(String, String)>,
     /// Lip and eyelid markers put on their lip or lid.
     pub on_features: Vec<String>,
     /// Markers warped from the actor through the landmarks onto the skin.
@@ -105,15 +127,29 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let neutral_filled = neutral.filled_names(&capture, &columns);
     let (neutral, neutral_frames) = (neutral.pose, neutral.frames);
     // A pin is a landmark: `place` checks its vertex (PlacementError::BadVertex).
-    let layout =
-        place(&mesh, &capture.marker_names, &neutral, &args.pins).map_err(|e| match e {
-            // The capture lacks a landmark's marker; anything else is about the mesh.
-            PlacementError::UnknownLandmark(_) => CliError::input(&args.capture, e.to_string()),
-            _ => CliError::input(
-                &args.mesh,
-                format!("placing {}: {e}", args.capture.display()),
+    let layout = place_aliased(
+        &mesh,
+        &capture.marker_names,
+        &neutral,
+        &args.pins,
+        &args.aliases,
+    )
+    .map_err(|e| match e {
+        // The capture lacks a landmark's marker or an alias is wrong; anything else is about
+        // the mesh.
+        PlacementError::UnknownLandmark(ref name) => CliError::input(
+            &args.capture,
+            format!(
+                "{e}; if the capture names that marker otherwise, say which with --alias \
+                 ACTOR={name}"
             ),
-        })?;
+        ),
+        PlacementError::BadAlias { .. } => CliError::input(&args.capture, e.to_string()),
+        _ => CliError::input(
+            &args.mesh,
+            format!("placing {}: {e}", args.capture.display()),
+        ),
+    })?;
     write_layout(&args.output, &layout)?;
     if let Some(path) = &args.marker_sheet {
         let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
@@ -135,7 +171,12 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             if pinned.contains(&m.name) {
                 continue;
             }
-            if FEATURE_MARKERS.iter().any(|f| f.0 == m.name) {
+            let role = args
+                .aliases
+                .iter()
+                .find(|(actor, _)| *actor == m.name)
+                .map_or(m.name.as_str(), |(_, thesis)| thesis.as_str());
+            if FEATURE_MARKERS.iter().any(|f| f.0 == role) {
                 on_features.push(m.name.clone());
             } else {
                 landmarks.push(m.name.clone());
@@ -147,6 +188,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         markers: layout.markers.len(),
         warped: layout.markers.len() - landmarks.len() - on_features.len() - pinned.len(),
         pinned,
+        aliases: args.aliases.clone(),
         landmarks,
         on_features,
         marker_sheet: args.marker_sheet.clone(),
@@ -187,6 +229,14 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             "  warped from the actor onto the skin: {}",
             summary.warped
         );
+        if !summary.aliases.is_empty() {
+            let aliases: Vec<String> = summary
+                .aliases
+                .iter()
+                .map(|(actor, thesis)| format!("{actor} as {thesis}"))
+                .collect();
+            outln!(out, "  aliases: {}", aliases.join(", "));
+        }
         if !summary.pinned.is_empty() {
             outln!(out, "  pinned: {}", summary.pinned.join(", "));
         }
