@@ -84,22 +84,21 @@ pub struct SurfaceOptions {
     pub relax: bool,
 }
 
-/// At the mouth, the share of the corners' square-root profile taken (`surface::corners`) (the rest stays linear): the
-/// largest step of 0.05 that stretches no edge past 2× that the plain bake does not. On
-/// FaceCap's truth with the JawMoCap layout, worst over the takes (`--test structure`):
+/// At the mouth, the share of the corners' square-root profile taken (`surface::corners`) (the
+/// rest stays linear): the largest step of 0.1 that stretches no edge past 2×, on FaceCap's
+/// truth with the JawMoCap layout, on it subdivided once, or on JawMoCap. Measured 2026-12-04
+/// (`--test structure`; docs/measurements.md):
 ///
-/// | share | truth lips | truth stretch (edges > 2×), flips | JawMoCap stretch (frames) |
-/// |---|---|---|---|
-/// | 0 (linear) | 12.5 mm | 2.19× (2), 1 | 2.04× (82) |
-/// | 0.6 | 7.4 | 2.19× (2), 1 | 2.04× (82) |
-/// | **0.7** | **6.8** | 2.19× (2), 1 | 2.04× (82) |
-/// | 0.75 | 6.5 | 2.19× (2), 1 | 2.04× (82), 2 edges in a frame |
-/// | 0.8 | 6.3 | 2.19× (2, in 2 frames), 1 | 2.06× (90) |
-/// | 1.0 | 6.3 | 2.30× (4), 1 | 2.26× (115) |
+/// | share | truth lips, lip band p99 | truth stretch (edges > 2×) | subdivided once | JawMoCap |
+/// |---|---|---|---|---|
+/// | **0.7** | **7.1 mm, 4.21 mm** | **1.89× (0)** | **1.99× (0)** | **1.90×** |
+/// | 0.8 | 6.6, 4.19 | 1.97× (0) | 2.10× (4) | 1.99× |
+/// | 0.9 | 6.3, 4.16 | 2.09× (2) | – | – |
+/// | 1.0 | 6.2, 4.16 | 2.21× (4) | – | – |
 ///
-/// Past 0.7 the open funnel's corner edges stretch (the truth keeps the corners shut there
-/// while the lip markers part). 0.7 also gives the truth's lip band p99 4.18 mm (0.6: 4.24) and
-/// face mean 0.605 mm (0.606), `--test surface`.
+/// With the linear profile alone (0) the truth's lips were 12.5 mm off (2026-12-01). Past 0.7
+/// the corners' short edges stretch where the truth keeps the corners shut while the lip
+/// markers part.
 pub const MOUTH_SHARE: f64 = 0.7;
 
 impl Default for SurfaceOptions {
