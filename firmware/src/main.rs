@@ -345,7 +345,10 @@ fn play_take(out: &mut [[i32; 3]; MAX_VERTICES]) {
         Err(e) => panic!("take: the golden take does not load: {e}"),
     };
     let (m, t, v) = (rig.marker_count(), take.marker_count(), rig.vertex_count());
-    assert!(v <= MAX_VERTICES, "take: {v} vertices, room for {MAX_VERTICES}");
+    assert!(
+        v <= MAX_VERTICES,
+        "take: {v} vertices, room for {MAX_VERTICES}"
+    );
     let out = &mut out[..v];
     // For each rig marker, the take's marker of that name.
     let mut map = [None; MAX_MARKERS];
