@@ -35,7 +35,14 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     let frames = take.frame_count();
-    for f in [0, usize::from(*seed), frames / 2, frames.saturating_sub(1), frames, frames + 1] {
+    for f in [
+        0,
+        usize::from(*seed),
+        frames / 2,
+        frames.saturating_sub(1),
+        frames,
+        frames + 1,
+    ] {
         if reader.seek(f % (frames + 2)).is_ok() {
             let _ = reader.next_frame(&mut row);
             let _ = reader.next_frame(&mut row);
