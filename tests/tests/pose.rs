@@ -405,25 +405,32 @@ fn a_few_degrees_of_pitch_keep_the_skull_still() {
 /// JawMoCap through `bake --capture`'s default rig of the posed head, every frame back on the
 /// upright head.
 fn jawmocap_frames(pose: &Pose) -> Vec<Vec<[f64; 3]>> {
-    let mesh = pose.mesh(&facecap());
     let capture =
         facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).expect("capture reads");
-    let placed = facebake::model::place_markers(
-        &pose.layout(&layout()),
-        &mesh,
-        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
-    )
-    .expect("placed");
-    let mut scene = Scene::placed(&mesh, &placed);
-    scene.capture = Some(&capture);
-    let baked = bake(&scene, &BakeOptions::product_default()).expect("bakes");
-    let rig = Rig::from_bytes(&baked.blob).expect("loads");
-    let frames = frames_in_order(&capture, placed.iter().map(|m| m.name.as_str()));
-    play_take(&rig, &frames)
-        .0
+    capture_frames(&pose.mesh(&facecap()), &pose.layout(&layout()), &capture)
         .into_iter()
         .map(|frame| frame.into_iter().map(|p| pose.back(p)).collect())
         .collect()
+}
+
+/// `capture` through `bake --capture`'s default rig of `mesh` with `layout`, every frame.
+fn capture_frames(
+    mesh: &FaceMesh,
+    layout: &MarkerLayout,
+    capture: &facebake::model::Capture,
+) -> Vec<Vec<[f64; 3]>> {
+    let placed = facebake::model::place_markers(
+        layout,
+        mesh,
+        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
+    )
+    .expect("placed");
+    let mut scene = Scene::placed(mesh, &placed);
+    scene.capture = Some(capture);
+    let baked = bake(&scene, &BakeOptions::product_default()).expect("bakes");
+    let rig = Rig::from_bytes(&baked.blob).expect("loads");
+    let frames = frames_in_order(capture, placed.iter().map(|m| m.name.as_str()));
+    play_take(&rig, &frames).0
 }
 
 /// The capture stages' proportional retargeting scales the actor's motion along the
@@ -544,18 +551,7 @@ fn a_capture_in_other_axes_places_and_plays_alike() {
         worst * 1000.0
     );
     assert!(worst < 1e-6, "{:.4} mm", worst * 1000.0);
-    let on_mesh = facebake::model::place_markers(
-        &placed,
-        &mesh,
-        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
-    )
-    .expect("on the mesh");
-    let mut scene = Scene::placed(&mesh, &on_mesh);
-    scene.capture = Some(&capture);
-    let baked = bake(&scene, &BakeOptions::product_default()).expect("bakes");
-    let rig = Rig::from_bytes(&baked.blob).expect("loads");
-    let frames = frames_in_order(&capture, on_mesh.iter().map(|m| m.name.as_str()));
-    let turned = play_take(&rig, &frames).0;
+    let turned = capture_frames(&mesh, &placed, &capture);
     let upright = jawmocap_frames(&Pose::UPRIGHT);
     let (mut sum, mut count, mut max) = (0.0, 0usize, 0.0f64);
     for (a, b) in turned.iter().zip(&upright) {
