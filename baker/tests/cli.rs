@@ -1404,18 +1404,24 @@ fn the_default_shrinks_the_kept_weights() {
     );
 }
 
-/// A face whose mouth is not cut open (MediaPipe's canonical face is one disk) bakes, but the
-/// bake says the lips cannot part, rather than tying them together silently.
-#[test]
-fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
-    let dir = temp_dir("no_mouth");
-    let layout = dir.join("layout.toml");
+/// A layout of ten markers at vertices of MediaPipe's canonical face, written in `dir`.
+fn disk_layout(dir: &Path) -> PathBuf {
+    let layout = dir.join("disk.toml");
     let markers: String = [0, 13, 61, 105, 152, 199, 234, 291, 334, 454]
         .iter()
         .enumerate()
         .map(|(i, v)| format!("M{i} = {{ vertex = {v} }}\n"))
         .collect();
     std::fs::write(&layout, format!("[markers]\n{markers}")).unwrap();
+    layout
+}
+
+/// A face whose mouth is not cut open (MediaPipe's canonical face is one disk) bakes, but the
+/// bake says the lips cannot part, rather than tying them together silently.
+#[test]
+fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
+    let dir = temp_dir("no_mouth");
+    let layout = disk_layout(&dir);
     let out = bake(
         &fixture("mediapipe_canonical_face_model.glb"),
         &layout,
@@ -1436,6 +1442,130 @@ fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
     assert!(!json_ok(&out)["report"]["warnings"]
         .to_string()
         .contains("no mouth opening"));
+}
+
+/// FaceCap's head, eyes and teeth as the primitives of one mesh, the skin third (an exporter
+/// writes one primitive per material, in its own order), written to `path`. The head's morph
+/// targets are left out: a mesh's primitives must all have as many.
+fn one_mesh_of_primitives(path: &Path) {
+    let bytes = std::fs::read(mesh_path()).unwrap();
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let mut json: Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+    let bin = &bytes[20 + json_len..];
+    let meshes = json["meshes"].as_array().unwrap().clone();
+    let primitive = |mesh: usize| {
+        let mut p = meshes[mesh]["primitives"][0].clone();
+        p.as_object_mut().unwrap().remove("targets");
+        p
+    };
+    json["meshes"] = serde_json::json!([{
+        "name": "character",
+        "primitives": [primitive(1), primitive(3), primitive(0), primitive(2)],
+    }]);
+    json["nodes"] = serde_json::json!([{ "name": "character", "mesh": 0 }]);
+    json["scenes"] = serde_json::json!([{ "nodes": [0] }]);
+    let mut text = serde_json::to_vec(&json).unwrap();
+    text.resize(text.len().next_multiple_of(4), b' ');
+    let total = u32::try_from(12 + 8 + text.len() + bin.len()).unwrap();
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(total.to_le_bytes());
+    glb.extend(u32::try_from(text.len()).unwrap().to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&text);
+    glb.extend(bin);
+    std::fs::write(path, glb).unwrap();
+}
+
+/// A character whose skin is one primitive among its eyes' and teeth's in the same mesh: every
+/// command finds the face without being told (`bake` makes the rig it makes from FaceCap's own
+/// file, byte for byte), and the commands that take a rig find the primitive with its vertex
+/// count, or say which counts the file has.
+#[test]
+fn the_face_is_found_among_a_meshs_primitives() {
+    let dir = temp_dir("primitives");
+    let glb = dir.join("character.glb");
+    one_mesh_of_primitives(&glb);
+    let mesh = load_mesh(&glb, None, None).unwrap();
+    assert_eq!((mesh.primitive_index, mesh.positions.len()), (2, VERTICES));
+    let layout = fixture("facecap_jawmocap_layout.toml");
+    let rig = dir.join("rig.fbk");
+    let j = json_ok(&bake(&glb, &layout, &rig, &["--json"]));
+    assert_eq!(
+        (&j["mesh_name"], &j["primitive"]),
+        (&serde_json::json!("character"), &serde_json::json!(2))
+    );
+    assert_eq!(
+        std::fs::read(&rig).unwrap(),
+        std::fs::read(fixture("golden/facecap_product.fbk")).unwrap(),
+        "the same rig as from FaceCap's own file"
+    );
+    // `place` finds the skin's openings and nose: the same layout as on FaceCap's file.
+    let placed = |mesh: &Path, to: &Path| {
+        let out = facebake(&[
+            "place",
+            "--mesh",
+            s(mesh),
+            "--capture",
+            s(&fixture("JawMoCap.trc")),
+            "-o",
+            s(to),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        std::fs::read_to_string(to).unwrap()
+    };
+    assert_eq!(
+        placed(&glb, &dir.join("character.toml")),
+        placed(&mesh_path(), &dir.join("facecap.toml"))
+    );
+    // `verify`, `play --glb` and `render` take the primitive with the rig's vertex count.
+    let out = facebake(&["verify", s(&rig), "--mesh", s(&glb)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (demo_dir, _) = demo();
+    let (npy, played) = (dir.join("frames.npy"), dir.join("played.glb"));
+    let out = facebake(&[
+        "play",
+        s(&rig),
+        "--markers",
+        s(&demo_dir.join("facecap_capture.csv")),
+        "-o",
+        s(&npy),
+        "--glb",
+        s(&played),
+        "--mesh",
+        s(&glb),
+        "--frames",
+        "0..3",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = facebake(&[
+        "render",
+        s(&npy),
+        "--mesh",
+        s(&glb),
+        "--frames",
+        "1",
+        "-o",
+        s(&dir.join("sheet.png")),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // A rig of another face: no primitive has its vertex count, and the error lists theirs.
+    let disk = dir.join("disk.fbk");
+    let out = bake(
+        &fixture("mediapipe_canonical_face_model.glb"),
+        &disk_layout(&dir),
+        &disk,
+        &[],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = facebake(&["verify", s(&disk), "--mesh", s(&glb)]);
+    assert_bad_input(&out, "character.glb");
+    let e = stderr(&out);
+    assert!(
+        e.contains("no mesh primitive has 468 vertices")
+            && e.contains(&format!("\"character\" primitive 2: {VERTICES}")),
+        "{e}"
+    );
 }
 
 /// With a capture, the bake plays it through the rig it made and reports what the face does on

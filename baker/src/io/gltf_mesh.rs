@@ -1,8 +1,8 @@
 //! Reading a face mesh (rest positions, triangles, morph targets) from glTF 2.0.
 //!
 //! [`load_mesh`] reads a `.glb` or `.gltf` file (buffers embedded, in the GLB `BIN` chunk,
-//! or in external files next to the `.gltf`), picks one mesh (by name, or the first) and one
-//! primitive of it (by index, or the first `TRIANGLES` primitive) and returns a [`FaceMesh`]:
+//! or in external files next to the `.gltf`), picks one primitive of one mesh (by name and
+//! index, else the face: the largest with a mouth and two eyes) and returns a [`FaceMesh`]:
 //! positions and triangles in the file's own vertex order and units, optional normals, the
 //! morph targets (named from `mesh.extras.targetNames`, the convention Blender and most
 //! exporters follow), and a *welded* copy of the topology where vertices with bit-identical
@@ -35,6 +35,17 @@ pub enum MeshLoadErrorKind {
     /// The file failed the checks made before the glTF crate reads it (see `gltf_check`).
     #[error(transparent)]
     Check(#[from] GltfCheckError),
+    /// No primitive allowed has the vertex count asked for ([`load_mesh_with_vertices`]).
+    #[error(
+        "no mesh primitive has {vertices} vertices, as the rig has (not the mesh it was baked \
+         from?); the file's: {available}"
+    )]
+    NoVertexMatch {
+        /// The count asked for.
+        vertices: usize,
+        /// Each primitive of the meshes allowed and its vertex count.
+        available: String,
+    },
     /// The file contains no mesh at all.
     #[error("the file contains no meshes")]
     NoMeshes,
@@ -160,17 +171,41 @@ pub enum MeshLoadErrorKind {
 
 /// Loads one triangle primitive of one mesh from a `.glb` or `.gltf` file.
 ///
-/// `mesh` selects a mesh by name (default: the file's face, the largest mesh whose skin has a
-/// mouth and two eyes, [`crate::frame::has_face`]; else, or in a file of one mesh, the first
-/// mesh); `primitive` selects a
-/// primitive by index (default: the first primitive in `TRIANGLES` mode). A primitive without
-/// indices is read as consecutive vertex triples.
+/// `mesh` selects a mesh by name and `primitive` a primitive of it by index. Whatever they leave
+/// open is the file's face: of the triangle primitives they allow (every one of every mesh when
+/// neither is given), the one with the most vertices whose skin has a mouth and two eyes
+/// ([`crate::frame::has_face`]); if none has, the first mesh's given primitive, else its first
+/// primitive in `TRIANGLES` mode. A primitive without indices is read as consecutive vertex
+/// triples.
 pub fn load_mesh(
     path: &Path,
     mesh: Option<&str>,
     primitive: Option<usize>,
 ) -> Result<FaceMesh, MeshLoadError> {
     load_mesh_with(path, mesh, primitive, BufferAccess::AssetFolder)
+}
+
+/// [`load_mesh`] for a rig of `vertices` vertices (`play --mesh`, `verify`, `render`): of the
+/// primitives `mesh` and `primitive` allow, only those with that many vertices, so a rig baked
+/// from any primitive of the file finds it. No such primitive is an error that lists each
+/// primitive's count.
+pub fn load_mesh_with_vertices(
+    path: &Path,
+    mesh: Option<&str>,
+    primitive: Option<usize>,
+    vertices: usize,
+) -> Result<FaceMesh, MeshLoadError> {
+    load(
+        path,
+        mesh,
+        primitive,
+        Some(vertices),
+        BufferAccess::AssetFolder,
+    )
+    .map_err(|kind| MeshLoadError {
+        path: path.to_path_buf(),
+        kind,
+    })
 }
 
 /// [`load_mesh`], choosing where a `.gltf`'s external buffers may be read from.
@@ -180,7 +215,7 @@ pub fn load_mesh_with(
     primitive: Option<usize>,
     access: BufferAccess,
 ) -> Result<FaceMesh, MeshLoadError> {
-    load(path, mesh, primitive, access).map_err(|kind| MeshLoadError {
+    load(path, mesh, primitive, None, access).map_err(|kind| MeshLoadError {
         path: path.to_path_buf(),
         kind,
     })
@@ -190,50 +225,87 @@ fn load(
     path: &Path,
     mesh_name: Option<&str>,
     primitive_index: Option<usize>,
+    vertices: Option<usize>,
     access: BufferAccess,
 ) -> Result<FaceMesh, MeshLoadErrorKind> {
     // Checked first: the gltf crate trusts the file (see `gltf_check`).
     let (document, buffers) = gltf_check::import(path, access)?;
-    let read = |gmesh: gltf::Mesh<'_>| read_mesh(path, &buffers, gmesh, primitive_index);
-    match mesh_name {
-        Some(name) => {
-            let gmesh = document
-                .meshes()
-                .find(|m| m.name() == Some(name))
-                .ok_or_else(|| MeshLoadErrorKind::NoSuchMesh {
-                    name: name.to_owned(),
-                    available: document
-                        .meshes()
-                        .map(|m| format!("\"{}\"", display_name(&m)))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?;
-            read(gmesh)
+    let meshes: Vec<gltf::Mesh<'_>> = match mesh_name {
+        Some(name) => vec![document
+            .meshes()
+            .find(|m| m.name() == Some(name))
+            .ok_or_else(|| MeshLoadErrorKind::NoSuchMesh {
+                name: name.to_owned(),
+                available: document
+                    .meshes()
+                    .map(|m| format!("\"{}\"", display_name(&m)))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?],
+        None => document.meshes().collect(),
+    };
+    let first = meshes.first().cloned().ok_or(MeshLoadErrorKind::NoMeshes)?;
+    // The candidates: the given primitive of each mesh, else every triangle primitive of each;
+    // of those, the ones with `vertices` vertices if that is asked.
+    let count = |p: &gltf::Primitive<'_>| p.get(&gltf::Semantic::Positions).map(|a| a.count());
+    let candidates: Vec<(gltf::Mesh<'_>, usize)> = meshes
+        .iter()
+        .flat_map(|m| {
+            m.primitives()
+                .filter(|p| match primitive_index {
+                    Some(index) => p.index() == index,
+                    None => p.mode() == Mode::Triangles,
+                })
+                .filter(|p| vertices.is_none_or(|n| count(p) == Some(n)))
+                .map(|p| (m.clone(), p.index()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    if let Some(wanted) = vertices {
+        let Some((m, p)) = candidates.first() else {
+            return Err(MeshLoadErrorKind::NoVertexMatch {
+                vertices: wanted,
+                available: meshes
+                    .iter()
+                    .flat_map(|m| {
+                        m.primitives().map(|p| {
+                            format!(
+                                "\"{}\" primitive {}: {}",
+                                display_name(m),
+                                p.index(),
+                                count(&p).unwrap_or(0)
+                            )
+                        })
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        };
+        if candidates.len() == 1 {
+            return read_mesh(path, &buffers, m.clone(), Some(*p));
         }
-        None if document.meshes().len() > 1 => {
-            // The file's face: of the meshes that read, the largest whose skin has a mouth and
-            // two eyes; else the first mesh, as a file with one.
-            let face = document
-                .meshes()
-                .filter_map(|m| read(m).ok())
-                .filter(crate::frame::has_face)
-                .max_by_key(|m| (m.positions.len(), std::cmp::Reverse(m.mesh_index)));
-            match face {
-                Some(face) => Ok(face),
-                None => read(
-                    document
-                        .meshes()
-                        .next()
-                        .ok_or(MeshLoadErrorKind::NoMeshes)?,
-                ),
-            }
+    }
+    if candidates.len() > 1 {
+        // The file's face: of the primitives that read, the largest whose skin has a mouth and
+        // two eyes (an exporter writes one primitive per material, so the skin may sit beside
+        // eyelashes, teeth or eyes in the same mesh); else the first, as in a file of one.
+        let face = candidates
+            .iter()
+            .filter_map(|(m, p)| read_mesh(path, &buffers, m.clone(), Some(*p)).ok())
+            .filter(crate::frame::has_face)
+            .max_by_key(|m| {
+                (
+                    m.positions.len(),
+                    std::cmp::Reverse((m.mesh_index, m.primitive_index)),
+                )
+            });
+        if let Some(face) = face {
+            return Ok(face);
         }
-        None => read(
-            document
-                .meshes()
-                .next()
-                .ok_or(MeshLoadErrorKind::NoMeshes)?,
-        ),
+    }
+    match (vertices, candidates.first()) {
+        (Some(_), Some((m, p))) => read_mesh(path, &buffers, m.clone(), Some(*p)),
+        _ => read_mesh(path, &buffers, first, primitive_index),
     }
 }
 

@@ -32,11 +32,12 @@ pub struct BakeArgs {
     /// The face mesh (.glb or .gltf).
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
-    /// Which primitive of the mesh (default: the first triangle primitive).
+    /// Which primitive of the mesh (default: the face, the largest with a mouth and two eyes;
+    /// else the first triangle primitive).
     #[arg(long, value_name = "INDEX")]
     pub primitive: Option<usize>,
     /// The marker layout (.toml or .json).
@@ -313,6 +314,8 @@ pub struct BakeSummary {
     pub mesh: PathBuf,
     /// The mesh's name in the file.
     pub mesh_name: String,
+    /// The primitive of that mesh the rig deforms.
+    pub primitive: usize,
     /// The layout file.
     pub layout: PathBuf,
     /// Vertices of the rig.
@@ -523,6 +526,7 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
         output: args.output.clone(),
         mesh: args.mesh.clone(),
         mesh_name: mesh.mesh_name.clone(),
+        primitive: mesh.primitive_index,
         layout: args.layout.clone(),
         vertices: mesh.positions.len(),
         markers: placed.len(),
@@ -599,8 +603,9 @@ fn print_text(s: &BakeSummary) {
     let r = &s.report;
     outln!(
         out,
-        "baked mesh \"{}\" ({}, {} vertices) with {} markers ({})",
+        "baked mesh \"{}\" primitive {} ({}, {} vertices) with {} markers ({})",
         s.mesh_name,
+        s.primitive,
         s.mesh.display(),
         s.vertices,
         s.markers,

@@ -43,10 +43,14 @@ pub struct CompensateArgs {
     /// and the eyes are, so that `auto` never picks a brow, cheek, jaw or lip marker.
     #[arg(long, value_name = "MESH", requires = "layout")]
     pub mesh: Option<PathBuf>,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME", requires = "mesh")]
     pub mesh_name: Option<String>,
+    /// Which primitive of the mesh (default: the face, the largest with a mouth and two eyes;
+    /// else the first triangle primitive).
+    #[arg(long, value_name = "INDEX", requires = "mesh")]
+    pub primitive: Option<usize>,
     /// The marker layout on `--mesh` (.toml or .json), as `bake` takes it.
     #[arg(long, value_name = "LAYOUT", requires = "mesh")]
     pub layout: Option<PathBuf>,
@@ -280,7 +284,7 @@ fn head_candidates(
     if !matches!(args.head_markers, HeadMarkers::MostRigid(_)) {
         return Ok(None);
     }
-    let mesh = load_mesh(mesh_path, args.mesh_name.as_deref(), None)?;
+    let mesh = load_mesh(mesh_path, args.mesh_name.as_deref(), args.primitive)?;
     let layout = read_layout(layout_path)?;
     let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
     let names = Scene::placed(&mesh, &placed)

@@ -24,10 +24,14 @@ pub struct MaskImagesArgs {
     /// The face mesh (.glb or .gltf).
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
+    /// Which primitive of the mesh (default: the face, the largest with a mouth and two eyes;
+    /// else the first triangle primitive).
+    #[arg(long, value_name = "INDEX")]
+    pub primitive: Option<usize>,
     /// The marker layout with a `[groups]` table (one mask per group).
     #[arg(long, value_name = "LAYOUT")]
     pub layout: PathBuf,
@@ -58,7 +62,7 @@ pub struct MaskImage {
 
 /// Run `facebake mask-images`.
 pub fn run(args: &MaskImagesArgs) -> Result<ExitCode, CliError> {
-    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
+    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
     let layout = read_layout(&args.layout)?;
     let placed = place_markers(&layout, &mesh, DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal())?;
     let groups = &layout.groups;

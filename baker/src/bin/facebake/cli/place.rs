@@ -23,10 +23,14 @@ pub struct PlaceArgs {
     /// The face mesh (.glb or .gltf): its skin must have the mouth and both eyes open.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
+    /// Which primitive of the mesh (default: the face, the largest with a mouth and two eyes;
+    /// else the first triangle primitive).
+    #[arg(long, value_name = "INDEX")]
+    pub primitive: Option<usize>,
     /// The actor's capture (C3D, TRC, CSV or a packed take) with the thesis' marker names: the
     /// corners of the mouth and eyes and the nose tip (`Mouth_Lend`, `Mouth_Rend`,
     /// `Leye_Outside`, `Leye_Inside`, `Reye_Outside`, `Reye_Inside`, `NoseHead`) are the
@@ -120,7 +124,7 @@ pub struct PlaceSummary {
 
 /// Run `facebake place`.
 pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
-    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
+    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), args.primitive)?;
     let capture = read_capture_with_units(&args.capture, args.capture_units)?;
     let columns: Vec<usize> = (0..capture.marker_names.len()).collect();
     let neutral = neutral_pose(&capture, &columns, &args.neutral)?;

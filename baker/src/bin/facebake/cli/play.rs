@@ -14,7 +14,7 @@ use super::{
 use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_anim::write_animated_glb;
 use facebake::io::gltf_check::BufferAccess;
-use facebake::io::gltf_mesh::load_mesh;
+use facebake::io::gltf_mesh::load_mesh_with_vertices;
 use facebake::io::npy::write_npy_f32;
 use facebake::model::{Capture, FaceMesh, Units};
 use facebake::morph_basis::{BasisOptions, DEFAULT_MAX_ERROR_MM, DEFAULT_MAX_TARGETS};
@@ -61,8 +61,8 @@ pub struct PlayArgs {
     /// The mesh the rig was baked from, for --glb.
     #[arg(long, value_name = "MESH")]
     pub mesh: Option<PathBuf>,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// Frames (0-based) to put in the .glb, each at its time in the take (default: all):
@@ -438,24 +438,13 @@ pub fn capture_frames(
         .collect()
 }
 
-/// Load a mesh and check it has the rig's vertex count.
+/// The mesh's primitive with the rig's vertex count (the face, if several have it).
 pub fn load_matching_mesh(
     path: &Path,
     name: Option<&str>,
     vertices: usize,
 ) -> Result<FaceMesh, CliError> {
-    let mesh = load_mesh(path, name, None)?;
-    if mesh.positions.len() != vertices {
-        return Err(CliError::input(
-            path,
-            format!(
-                "mesh \"{}\" has {} vertices; the rig has {vertices} (not the mesh it was baked from?)",
-                mesh.mesh_name,
-                mesh.positions.len()
-            ),
-        ));
-    }
-    Ok(mesh)
+    Ok(load_mesh_with_vertices(path, name, None, vertices)?)
 }
 
 /// `count` frame indices evenly spaced over `0..frames`, first and last included.

@@ -9,8 +9,8 @@ use facebake_runtime::Rig;
 use serde::Serialize;
 
 use super::play::evenly_spaced;
+use super::play::load_matching_mesh;
 use super::{emit, load_rig, marker_names, print_json, read_file, CliError};
-use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::npy::read_npy_f32;
 use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
 use facebake::model::FaceMesh;
@@ -31,8 +31,8 @@ pub(crate) struct RenderArgs {
     /// The mesh the frames deform (its triangles and rest pose), glTF/GLB.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face, the largest mesh with a mouth and two eyes;
-    /// else the first).
+    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
+    /// mouth and two eyes; else the first).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// The true frames, same shape: the sheet then shows truth, result and error.
@@ -92,22 +92,39 @@ pub(crate) struct RenderSummary {
 }
 
 /// Read a frames × vertices × 3 `.npy` for a mesh of `vertices` vertices.
-fn read_frames(path: &Path, vertices: usize) -> Result<Vec<Vec<[f64; 3]>>, CliError> {
+/// Frames of vertex positions.
+type Frames = Vec<Vec<[f64; 3]>>;
+
+/// The frames of a `play` output and their vertex count: `vertices` if given, else as many as
+/// the file says (then at least one).
+fn read_frames(path: &Path, vertices: Option<usize>) -> Result<(Frames, usize), CliError> {
     let (shape, data) = read_npy_f32(path).map_err(|e| CliError::input(path, e.to_string()))?;
-    match shape.as_slice() {
-        [_, n, 3] if *n == vertices => Ok(data
-            .chunks_exact(3 * vertices)
-            .map(|f| {
-                f.chunks_exact(3)
-                    .map(|p| [p[0], p[1], p[2]].map(f64::from))
-                    .collect()
-            })
-            .collect()),
-        _ => Err(CliError::input(
-            path,
-            format!("shape {shape:?}: expected frames × {vertices} × 3 (the mesh's vertices)"),
-        )),
+    match (shape.as_slice(), vertices) {
+        ([_, n, 3], Some(v)) if *n == v => {}
+        ([_, n, 3], None) if *n > 0 => {}
+        (_, Some(v)) => {
+            return Err(CliError::input(
+                path,
+                format!("shape {shape:?}: expected frames × {v} × 3 (the mesh's vertices)"),
+            ))
+        }
+        (_, None) => {
+            return Err(CliError::input(
+                path,
+                format!("shape {shape:?}: expected frames × vertices × 3"),
+            ))
+        }
     }
+    let n = shape[1];
+    let frames = data
+        .chunks_exact(3 * n)
+        .map(|f| {
+            f.chunks_exact(3)
+                .map(|p| [p[0], p[1], p[2]].map(f64::from))
+                .collect()
+        })
+        .collect();
+    Ok((frames, n))
 }
 
 /// The rig's markers at rest (asset units) and its head markers.
@@ -250,14 +267,13 @@ pub(crate) fn write_marker_sheet(
 
 /// Run `facebake render`.
 pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
-    let mesh = load_mesh(&args.mesh, args.mesh_name.as_deref(), None)?;
-    let n = mesh.positions.len();
-    let frames = read_frames(&args.frames_npy, n)?;
+    let (frames, n) = read_frames(&args.frames_npy, None)?;
+    let mesh = load_matching_mesh(&args.mesh, args.mesh_name.as_deref(), n)?;
     let truth = args
         .truth
         .as_deref()
         .map(|p| {
-            let t = read_frames(p, n)?;
+            let (t, _) = read_frames(p, Some(n))?;
             if t.len() == frames.len() {
                 Ok(t)
             } else {
