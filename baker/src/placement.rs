@@ -37,6 +37,15 @@ pub enum PlacementError {
     /// The mesh lacks a feature the landmarks need.
     #[error("{0}")]
     Mesh(String),
+    /// The landmarks cannot be found on the mesh (it has no mouth and eye openings) and not
+    /// all of them are pinned.
+    #[error("{why}; to place on a face without them, pin every landmark (not pinned: {unpinned})")]
+    LandmarksUnfound {
+        /// Why they cannot be found.
+        why: String,
+        /// The landmarks not pinned, comma separated.
+        unpinned: String,
+    },
     /// An alias ([`place_aliased`]) names no marker of the actor, no name of the thesis'
     /// layout, or a name another marker already has.
     #[error("alias {actor}={thesis}: {problem}")]
@@ -182,6 +191,12 @@ pub fn face_openings(mesh: &FaceMesh) -> Result<[Vec<u32>; 3], PlacementError> {
         left.vertices.clone(),
         right.vertices.clone(),
     ])
+}
+
+/// Whether `mesh`'s skin has the mouth and eye openings [`place`] finds the landmarks from and
+/// puts the lip and eyelid markers beside.
+pub fn has_openings(mesh: &FaceMesh) -> bool {
+    face_openings(&crate::frame::FaceFrame::of(mesh).mesh(mesh)).is_ok()
 }
 
 /// Put every marker of [`FEATURE_MARKERS`] that `layout` has on its lip or eyelid: on the skin
@@ -363,7 +378,10 @@ pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
 /// the lips and lids ([`snap_to_features`]), all read in the face's own axes
 /// ([`crate::frame::FaceFrame`]). The actor's markers must include the seven landmarks' names.
 /// `pins` (marker name, glTF vertex) put markers where the user knows they belong: each is a
-/// landmark of the warp too (replacing a found one of the same name) and is not snapped.
+/// landmark of the warp too (replacing a found one of the same name) and is not snapped. A face
+/// whose skin has no mouth and eye openings ([`has_openings`]: a sculpt or a scan with its lips
+/// and lids closed) is placed only if every landmark is pinned, and its lip and eyelid markers
+/// are warped as the others are, there being no opening to put them beside.
 pub fn place(
     mesh: &FaceMesh,
     actor_names: &[String],
@@ -372,7 +390,30 @@ pub fn place(
 ) -> Result<MarkerLayout, PlacementError> {
     let frame = crate::frame::FaceFrame::of(mesh);
     let local = frame.mesh(mesh);
-    let mut marks = landmarks(&local)?;
+    let openings = face_openings(&local);
+    let mut marks = match landmarks(&local) {
+        Ok(marks) => marks,
+        // A face without openings (a sculpt or a scan, its lips and lids closed) is placed
+        // from landmarks the user pinned, every one of them.
+        Err(e) => {
+            let unpinned: Vec<&str> = LANDMARK_NAMES
+                .into_iter()
+                .filter(|name| !pins.iter().any(|(pinned, _)| pinned == name))
+                .collect();
+            if !unpinned.is_empty() {
+                return Err(PlacementError::LandmarksUnfound {
+                    why: e.to_string(),
+                    unpinned: unpinned.join(", "),
+                });
+            }
+            MarkerLayout {
+                source: mesh.source.clone(),
+                markers: Vec::new(),
+                groups: Vec::new(),
+                triangles: None,
+            }
+        }
+    };
     for (name, vertex) in pins {
         marks.markers.retain(|m| m.name != *name);
         marks.markers.push(LayoutMarker {
@@ -382,7 +423,9 @@ pub fn place(
         });
     }
     let mut layout = place_from_landmarks(actor_names, actor_neutral, &marks, &local)?;
-    snap_to_features(&mut layout, &local)?;
+    if openings.is_ok() {
+        snap_to_features(&mut layout, &local)?;
+    }
     for m in &mut layout.markers {
         if let Some((_, vertex)) = pins.iter().find(|(name, _)| *name == m.name) {
             m.anchor = MarkerAnchor::Vertex(*vertex);

@@ -1721,10 +1721,92 @@ fn place_writes_the_layout_bake_takes() {
     let out = run(&mesh_path(), &capture, &["--pin", "Nope=5"]);
     assert_bad_input(&out, "JawMoCap.trc");
     assert!(stderr(&out).contains("Nope"), "{}", stderr(&out));
+}
+
+/// A face without mouth and eye openings (MediaPipe's canonical face, one disk, centimetres)
+/// has no landmarks to find: `place` says so and asks for every one pinned; pinned, it places
+/// the others by the warp, says that the lip and eyelid markers could not go on their lips and
+/// lids, and the layout bakes with the capture.
+#[test]
+fn a_face_without_openings_is_placed_from_pinned_landmarks() {
+    let dir = temp_dir("place_disk");
     let disk = fixture("mediapipe_canonical_face_model.glb");
-    let out = run(&disk, &capture, &[]);
+    let capture = fixture("JawMoCap.trc");
+    let layout = dir.join("disk.toml");
+    let run = |pins: &[(&str, u32)]| {
+        let pins: Vec<String> = pins
+            .iter()
+            .flat_map(|(n, v)| ["--pin".to_string(), format!("{n}={v}")])
+            .collect();
+        let mut args = vec!["place", "--mesh", s(&disk), "--capture", s(&capture), "-o"];
+        args.push(s(&layout));
+        args.extend(pins.iter().map(String::as_str));
+        args.push("--json");
+        facebake(&args)
+    };
+    // The corners of its mouth and eyes and its nose tip, by their glTF vertices.
+    let landmarks = [
+        ("Mouth_Lend", 142),
+        ("Mouth_Rend", 143),
+        ("Leye_Outside", 9),
+        ("Leye_Inside", 7),
+        ("Reye_Outside", 4),
+        ("Reye_Inside", 0),
+        ("NoseHead", 182),
+    ];
+    let out = run(&[]);
     assert_bad_input(&out, "mediapipe_canonical_face_model.glb");
-    assert!(stderr(&out).contains("openings"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("0 openings") && stderr(&out).contains("--pin NAME=VERTEX"),
+        "{}",
+        stderr(&out)
+    );
+    let out = run(&landmarks[..6]);
+    assert_bad_input(&out, "mediapipe_canonical_face_model.glb");
+    assert!(
+        stderr(&out).contains("not pinned: NoseHead)"),
+        "{}",
+        stderr(&out)
+    );
+    let j = json_ok(&run(&landmarks));
+    assert_eq!(j["pinned"].as_array().unwrap().len(), 7);
+    assert_eq!(j["on_features"], serde_json::json!([]));
+    assert_eq!(j["warped"], 34);
+    assert!(
+        j["warnings"]
+            .to_string()
+            .contains("no mouth and eye openings"),
+        "{}",
+        j["warnings"]
+    );
+    // The warp puts the others where a face has them: the forehead's middle on the midline
+    // above the eyes, the chin's below the mouth, each side's cheek on its side.
+    let placed = facebake::io::layout::read_layout(&layout).unwrap();
+    let at = |name: &str| match placed
+        .markers
+        .iter()
+        .find(|m| m.name == name)
+        .unwrap()
+        .anchor
+    {
+        facebake::model::MarkerAnchor::Point(p) => p,
+        a => panic!("{name} is {a:?}, not warped"),
+    };
+    let mesh = load_mesh(&disk, None, None).unwrap();
+    let vertex = |v: usize| mesh.positions[v];
+    assert!(at("ForeHead_M")[0].abs() < 0.5 && at("ForeHead_M")[1] > vertex(7)[1] + 2.0);
+    assert!(at("Chin")[0].abs() < 0.5 && at("Chin")[1] < vertex(142)[1] - 2.0);
+    assert!(at("Lcheek_Outside")[0] > vertex(9)[0] && at("Rcheek_Outside")[0] < vertex(4)[0]);
+    let rig = dir.join("disk.fbk");
+    let j = json_ok(&bake(
+        &disk,
+        &layout,
+        &rig,
+        &["--capture", s(&capture), "--json"],
+    ));
+    assert!(j["report"]["warnings"]
+        .to_string()
+        .contains("no mouth opening"));
 }
 
 /// A take whose first frames miss a marker (a dropout at the start, as real captures have)

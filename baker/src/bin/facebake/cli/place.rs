@@ -14,7 +14,7 @@ use facebake::io::capture::read_capture_with_units;
 use facebake::io::gltf_mesh::load_mesh;
 use facebake::io::layout::write_layout;
 use facebake::model::{place_markers, MarkerAnchor, Units, DEFAULT_MAX_SNAP_FRACTION};
-use facebake::placement::{place_aliased, PlacementError, FEATURE_MARKERS};
+use facebake::placement::{has_openings, place_aliased, PlacementError, FEATURE_MARKERS};
 use facebake::stages::{neutral_pose, Neutral};
 
 /// Arguments of `facebake place`.
@@ -120,6 +120,18 @@ pub struct PlaceSummary {
     pub neutral_filled: Vec<String>,
     /// The marker sheet, if one was drawn.
     pub marker_sheet: Option<PathBuf>,
+    /// What the user should know: a placement that could not do all it does on a face with
+    /// its mouth and eyes open.
+    pub warnings: Vec<String>,
+}
+
+/// `names` comma separated, or "none".
+fn list_or_none(names: &[String]) -> String {
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 /// Run `facebake place`.
@@ -149,6 +161,13 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             ),
         ),
         PlacementError::BadAlias { .. } => CliError::input(&args.capture, e.to_string()),
+        PlacementError::LandmarksUnfound { .. } => CliError::input(
+            &args.mesh,
+            format!(
+                "placing {}: {e}, each with --pin NAME=VERTEX (a glTF vertex index)",
+                args.capture.display()
+            ),
+        ),
         _ => CliError::input(
             &args.mesh,
             format!("placing {}: {e}", args.capture.display()),
@@ -198,6 +217,16 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         marker_sheet: args.marker_sheet.clone(),
         neutral_frames,
         neutral_filled,
+        warnings: if has_openings(&mesh) {
+            Vec::new()
+        } else {
+            vec![format!(
+                "{}: the skin has no mouth and eye openings: the landmarks are where --pin put \
+                 them and the lip and eyelid markers are warped like the rest, not put on their \
+                 lip or lid (pin them where they belong)",
+                args.mesh.display()
+            )]
+        },
     };
     if args.json {
         print_json(&summary);
@@ -221,12 +250,12 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         outln!(
             out,
             "  landmarks (from the openings and the nose): {}",
-            summary.landmarks.join(", ")
+            list_or_none(&summary.landmarks)
         );
         outln!(
             out,
             "  on their lip or lid: {}",
-            summary.on_features.join(", ")
+            list_or_none(&summary.on_features)
         );
         outln!(
             out,
@@ -246,6 +275,9 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         }
         if let Some(path) = &summary.marker_sheet {
             outln!(out, "  marker sheet → {}", path.display());
+        }
+        for w in &summary.warnings {
+            eprintln!("warning: {w}");
         }
         emit(&out);
     }
