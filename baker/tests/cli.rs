@@ -1432,16 +1432,20 @@ fn a_mesh_without_a_mouth_opening_is_said_to_tie_the_lips() {
     let warnings = j["report"]["warnings"].to_string();
     assert!(warnings.contains("no mouth opening"), "{warnings}");
     assert!(warnings.contains("baked without masks"), "{warnings}");
-    // FaceCap's mouth is open: no such warning.
+    // The file is in centimetres, against glTF's metres: the figures in mm would mislead.
+    assert!(warnings.contains("likely in centimetres"), "{warnings}");
+    // FaceCap's mouth is open and its file in metres: no such warnings.
     let out = bake(
         &mesh_path(),
         &fixture("facecap_jawmocap_layout.toml"),
         &dir.join("facecap.fbk"),
         &["--json"],
     );
-    assert!(!json_ok(&out)["report"]["warnings"]
-        .to_string()
-        .contains("no mouth opening"));
+    let warnings = json_ok(&out)["report"]["warnings"].to_string();
+    assert!(
+        !warnings.contains("no mouth opening") && !warnings.contains("units across"),
+        "{warnings}"
+    );
 }
 
 /// FaceCap's head, eyes and teeth as the primitives of one mesh, the skin third (an exporter

@@ -42,6 +42,10 @@ pub struct MorphTarget {
     pub deltas: Vec<[f64; 3]>,
 }
 
+/// The bounding-box diagonals, in metres, within which a mesh is taken to be a head in metres
+/// ([`FaceMesh::units_warning`]): a generous band round the 0.2 to 0.5 m of real heads.
+pub const HEAD_DIAGONAL_M: (f64, f64) = (0.05, 3.0);
+
 /// A triangle mesh read from glTF, with its morph targets and a welded copy of its topology.
 #[derive(Debug, Clone)]
 pub struct FaceMesh {
@@ -211,6 +215,38 @@ impl FaceMesh {
         crate::mesh::distance(&lo, &hi)
     }
 
+    /// A warning if the mesh is not head-sized in metres (glTF's unit), naming the unit its
+    /// size suggests: every figure in millimetres reads its positions as metres, so a head in
+    /// centimetres reads 100 × too large. Heads are 0.2 to 0.5 m across their bounding box
+    /// (FaceCap's 0.38, ICT-FaceKit's 0.48); outside [`HEAD_DIAGONAL_M`] this says so.
+    pub fn units_warning(&self) -> Option<String> {
+        let d = self.diagonal();
+        if (HEAD_DIAGONAL_M.0..=HEAD_DIAGONAL_M.1).contains(&d) || !d.is_finite() {
+            return None;
+        }
+        let (unit, per_metre) = [
+            ("centimetres", 100.0),
+            ("millimetres", 1000.0),
+            ("inches", 39.37),
+        ]
+        .into_iter()
+        .min_by(|a, b| {
+            let off = |per: f64| (d / (0.35 * per)).ln().abs();
+            off(a.1).total_cmp(&off(b.1))
+        })
+        .unwrap_or(("centimetres", 100.0));
+        let guess = if d > HEAD_DIAGONAL_M.1 {
+            format!("it is likely in {unit}, and the figures in mm read {per_metre} × too large")
+        } else {
+            "the figures in mm read it as metres".to_string()
+        };
+        Some(format!(
+            "{}: the mesh is {d:.3} units across its bounding box, and glTF's unit is the metre \
+             (a head is 0.2 to 0.5 m): {guess}; scale the file to metres",
+            self.source.display()
+        ))
+    }
+
     /// Indices of triangles whose welded vertices are not three distinct ids.
     pub fn degenerate_welded_triangles(&self) -> Vec<usize> {
         self.welded_triangles
@@ -287,6 +323,28 @@ pub fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A head-sized box says nothing of its units; the same box in centimetres, millimetres or
+    /// inches is named so, and one a thousandth of a head's size is said to be read as metres.
+    #[test]
+    fn a_mesh_not_head_sized_in_metres_is_named_by_its_likely_unit() {
+        let boxed = |size: f64| {
+            let p = [[0.0, 0.0, 0.0], [size, 0.0, 0.0], [0.0, size, size]];
+            FaceMesh::from_triangles("box", p.to_vec(), vec![[0, 1, 2]])
+        };
+        // A 0.25 m cube's corners span 0.35 m: FaceCap's head is 0.38 m across.
+        assert_eq!(boxed(0.25).units_warning(), None);
+        for (scale, unit) in [
+            (100.0, "centimetres"),
+            (1000.0, "millimetres"),
+            (39.37, "inches"),
+        ] {
+            let w = boxed(0.25 * scale).units_warning().expect("a warning");
+            assert!(w.contains(&format!("likely in {unit}")), "{w}");
+        }
+        let w = boxed(0.000_25).units_warning().expect("a warning");
+        assert!(w.contains("read it as metres"), "{w}");
+    }
 
     /// A square of two triangles cut by a UV seam along its diagonal (the diagonal's vertices
     /// written twice) welds whole; a third triangle on that diagonal (a fin, as an eyelash strip

@@ -269,6 +269,9 @@ pub(crate) fn write_marker_sheet(
 pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
     let (frames, n) = read_frames(&args.frames_npy, None)?;
     let mesh = load_matching_mesh(&args.mesh, args.mesh_name.as_deref(), n)?;
+    if let Some(w) = mesh.units_warning() {
+        eprintln!("warning: {w}");
+    }
     let truth = args
         .truth
         .as_deref()

@@ -137,6 +137,9 @@ pub fn run(args: &VerifyArgs) -> Result<ExitCode, CliError> {
     let bytes = read_file(&args.rig)?;
     let rig = load_rig(&args.rig, &bytes)?;
     let mesh = load_matching_mesh(&args.mesh, args.mesh_name.as_deref(), rig.vertex_count())?;
+    if let Some(w) = mesh.units_warning() {
+        eprintln!("warning: {w}");
+    }
     let diagonal = mesh.diagonal();
     let regions = super::render::rig_regions(&rig, &mesh)?;
     let seq = sequence(&rig, mesh)?;
