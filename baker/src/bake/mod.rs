@@ -492,6 +492,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let dropped = &d.output.dropped;
     let mean_dropped_mass = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
     let mut warnings: Vec<String> = scene.mesh.units_warning().into_iter().collect();
+    warnings.extend(scene.capture.and_then(Capture::units_warning));
     warnings.extend(d.warnings);
     warnings.extend(unmasked);
     if let Some(st) = &stages {

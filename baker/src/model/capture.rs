@@ -88,6 +88,10 @@ pub struct Capture {
     pub frames: Vec<Vec<Option<[f64; 3]>>>,
 }
 
+/// The span, in metres, of a capture's markers within which its units are taken to be right
+/// ([`Capture::units_warning`]): a generous band round a face's (JawMoCap's 0.17 m).
+pub const FACE_SPAN_M: (f64, f64) = (0.03, 1.0);
+
 impl Capture {
     /// The column of the marker called `name` (exact match), if any.
     pub fn marker_index(&self, name: &str) -> Option<usize> {
@@ -107,6 +111,60 @@ impl Capture {
             .sum()
     }
 
+    /// A warning if the markers do not span a face in the capture's units, naming the unit
+    /// that would make them one: a capture whose header gives the wrong unit (a file in
+    /// millimetres labelled centimetres) bakes with every threshold in metres ten times off.
+    /// The span is the diagonal of the box between the 10th and the 90th percentile of the
+    /// first frame with three markers or more, per axis (so a ghost sample does not count);
+    /// outside [`FACE_SPAN_M`] this says so.
+    pub fn units_warning(&self) -> Option<String> {
+        let frame = self
+            .frames
+            .iter()
+            .find(|f| f.iter().flatten().count() >= 3)?;
+        let points: Vec<[f64; 3]> = frame.iter().flatten().copied().collect();
+        let span_here = (0..3)
+            .map(|axis| {
+                let mut c: Vec<f64> = points.iter().map(|p| p[axis]).collect();
+                c.sort_by(f64::total_cmp);
+                let at = |q: f64| c[((c.len() - 1) as f64 * q).round() as usize];
+                (at(0.9) - at(0.1)).powi(2)
+            })
+            .sum::<f64>()
+            .sqrt();
+        let span = span_here * self.units.to_metres();
+        if (FACE_SPAN_M.0..=FACE_SPAN_M.1).contains(&span) || !span.is_finite() || span == 0.0 {
+            return None;
+        }
+        // JawMoCap's first frame spans 0.17 m so.
+        let likely = [
+            Units::Millimetres,
+            Units::Centimetres,
+            Units::Metres,
+            Units::Inches,
+        ]
+        .into_iter()
+        .min_by(|a, b| {
+            let off = |u: Units| (span_here * u.to_metres() / 0.17).ln().abs();
+            off(*a).total_cmp(&off(*b))
+        })
+        .unwrap_or(self.units);
+        let hint = if likely == self.units {
+            "are they all a face's?".to_string()
+        } else {
+            format!(
+                "if they are a face's, it is likely in {0} (--capture-units {0})",
+                likely.symbol()
+            )
+        };
+        Some(format!(
+            "{}: its markers span {span:.3} m in its first frame, read in {}, where a face's span \
+             about 0.17 m: {hint}",
+            self.source.display(),
+            self.units.symbol(),
+        ))
+    }
+
     /// A copy with every position converted to metres (and `units` = [`Units::Metres`]).
     pub fn in_metres(&self) -> Capture {
         let k = self.units.to_metres();
@@ -124,5 +182,35 @@ impl Capture {
                 .collect(),
             ..self.clone()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fixture(name: &str) -> PathBuf {
+        PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures")).join(name)
+    }
+
+    /// JawMoCap read in its own centimetres says nothing; labelled millimetres or metres, it is
+    /// said to be likely in centimetres. The C3D sample (a body, 1.06 m across in millimetres)
+    /// is asked whether its markers are a face's.
+    #[test]
+    fn a_capture_not_face_sized_in_its_units_is_named_by_its_likely_unit() {
+        let mut jaw = crate::io::capture::read_capture(&fixture("JawMoCap.trc")).unwrap();
+        assert_eq!(jaw.units, Units::Centimetres);
+        assert_eq!(jaw.units_warning(), None);
+        for wrong in [Units::Millimetres, Units::Metres] {
+            jaw.units = wrong;
+            let w = jaw.units_warning().expect("a warning");
+            assert!(w.contains("likely in cm (--capture-units cm)"), "{w}");
+        }
+        let body = crate::io::capture::read_capture(&fixture("c3d/pc_real.c3d")).unwrap();
+        let w = body.units_warning().expect("a warning");
+        assert!(
+            w.contains("span 1.057 m") && w.contains("all a face's"),
+            "{w}"
+        );
     }
 }

@@ -217,16 +217,18 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         marker_sheet: args.marker_sheet.clone(),
         neutral_frames,
         neutral_filled,
-        warnings: if has_openings(&mesh) {
-            Vec::new()
-        } else {
-            vec![format!(
+        warnings: capture
+            .units_warning()
+            .into_iter()
+            .chain((!has_openings(&mesh)).then(|| {
+                format!(
                 "{}: the skin has no mouth and eye openings: the landmarks are where --pin put \
                  them and the lip and eyelid markers are warped like the rest, not put on their \
                  lip or lid (pin them where they belong)",
-                args.mesh.display()
-            )]
-        },
+                    args.mesh.display()
+                )
+            }))
+            .collect(),
     };
     if args.json {
         print_json(&summary);

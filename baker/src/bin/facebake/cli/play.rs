@@ -464,6 +464,9 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     let names = marker_names(&rig);
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let full = read_capture_with_units(&args.markers, args.capture_units)?;
+    if let Some(w) = full.units_warning() {
+        eprintln!("warning: {w}");
+    }
     // A rig with capture stages rebuilds markers the capture lacks (virtual markers); without
     // stages every rig marker must be in the capture.
     let absent: Vec<&str> = name_refs
