@@ -174,9 +174,8 @@ pub enum MeshLoadErrorKind {
 /// `mesh` selects a mesh by name and `primitive` a primitive of it by index. Whatever they leave
 /// open is the file's face: of the triangle primitives they allow (every one of every mesh when
 /// neither is given), the one with the most vertices whose skin has a mouth and two eyes
-/// ([`crate::frame::has_face`]); if none has, the first mesh's given primitive, else its first
-/// primitive in `TRIANGLES` mode. A primitive without indices is read as consecutive vertex
-/// triples.
+/// ([`crate::frame::has_face`]); if none has, the first of them. A primitive without indices is
+/// read as consecutive vertex triples.
 pub fn load_mesh(
     path: &Path,
     mesh: Option<&str>,
@@ -261,34 +260,29 @@ fn load(
                 .collect::<Vec<_>>()
         })
         .collect();
-    if let Some(wanted) = vertices {
-        let Some((m, p)) = candidates.first() else {
-            return Err(MeshLoadErrorKind::NoVertexMatch {
-                vertices: wanted,
-                available: meshes
-                    .iter()
-                    .flat_map(|m| {
-                        m.primitives().map(|p| {
-                            format!(
-                                "\"{}\" primitive {}: {}",
-                                display_name(m),
-                                p.index(),
-                                count(&p).unwrap_or(0)
-                            )
-                        })
+    if let (Some(wanted), true) = (vertices, candidates.is_empty()) {
+        return Err(MeshLoadErrorKind::NoVertexMatch {
+            vertices: wanted,
+            available: meshes
+                .iter()
+                .flat_map(|m| {
+                    m.primitives().map(|p| {
+                        format!(
+                            "\"{}\" primitive {}: {}",
+                            display_name(m),
+                            p.index(),
+                            count(&p).unwrap_or(0)
+                        )
                     })
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        };
-        if candidates.len() == 1 {
-            return read_mesh(path, &buffers, m.clone(), Some(*p));
-        }
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
     }
     if candidates.len() > 1 {
         // The file's face: of the primitives that read, the largest whose skin has a mouth and
         // two eyes (an exporter writes one primitive per material, so the skin may sit beside
-        // eyelashes, teeth or eyes in the same mesh); else the first, as in a file of one.
+        // eyelashes, teeth or eyes in the same mesh); else the first.
         let face = candidates
             .iter()
             .filter_map(|(m, p)| read_mesh(path, &buffers, m.clone(), Some(*p)).ok())
@@ -303,9 +297,10 @@ fn load(
             return Ok(face);
         }
     }
-    match (vertices, candidates.first()) {
-        (Some(_), Some((m, p))) => read_mesh(path, &buffers, m.clone(), Some(*p)),
-        _ => read_mesh(path, &buffers, first, primitive_index),
+    match candidates.into_iter().next() {
+        Some((m, p)) => read_mesh(path, &buffers, m, Some(p)),
+        // No primitive allowed: the first mesh's read says why.
+        None => read_mesh(path, &buffers, first, primitive_index),
     }
 }
 

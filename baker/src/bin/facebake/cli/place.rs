@@ -206,6 +206,14 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             }
         }
     }
+    let closed = (!has_openings(&mesh)).then(|| {
+        format!(
+            "{}: the skin has no mouth and eye openings: the landmarks are where --pin put them \
+             and the lip and eyelid markers are warped like the rest, not put on their lip or \
+             lid (pin them where they belong)",
+            args.mesh.display()
+        )
+    });
     let summary = PlaceSummary {
         layout: args.output.clone(),
         markers: layout.markers.len(),
@@ -217,18 +225,7 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         marker_sheet: args.marker_sheet.clone(),
         neutral_frames,
         neutral_filled,
-        warnings: capture
-            .units_warning()
-            .into_iter()
-            .chain((!has_openings(&mesh)).then(|| {
-                format!(
-                "{}: the skin has no mouth and eye openings: the landmarks are where --pin put \
-                 them and the lip and eyelid markers are warped like the rest, not put on their \
-                 lip or lid (pin them where they belong)",
-                    args.mesh.display()
-                )
-            }))
-            .collect(),
+        warnings: capture.units_warning().into_iter().chain(closed).collect(),
     };
     if args.json {
         print_json(&summary);

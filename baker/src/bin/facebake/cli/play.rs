@@ -61,8 +61,8 @@ pub struct PlayArgs {
     /// The mesh the rig was baked from, for --glb.
     #[arg(long, value_name = "MESH")]
     pub mesh: Option<PathBuf>,
-    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
-    /// mouth and two eyes; else the first).
+    /// Which mesh of the file (default: the one with a primitive of the rig's vertex count;
+    /// of several, the face's).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// Frames (0-based) to put in the .glb, each at its time in the take (default: all):

@@ -31,8 +31,8 @@ pub(crate) struct RenderArgs {
     /// The mesh the frames deform (its triangles and rest pose), glTF/GLB.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
-    /// mouth and two eyes; else the first).
+    /// Which mesh of the file (default: the one with a primitive of the frames' vertex count;
+    /// of several, the face's).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// The true frames, same shape: the sheet then shows truth, result and error.
@@ -91,7 +91,6 @@ pub(crate) struct RenderSummary {
     pub structure: Structure,
 }
 
-/// Read a frames × vertices × 3 `.npy` for a mesh of `vertices` vertices.
 /// Frames of vertex positions.
 type Frames = Vec<Vec<[f64; 3]>>;
 

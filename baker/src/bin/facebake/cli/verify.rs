@@ -33,8 +33,8 @@ pub struct VerifyArgs {
     /// played and scored (the rig's markers must sit at vertices); without, a synthetic one.
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
-    /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
-    /// mouth and two eyes; else the first).
+    /// Which mesh of the file (default: the one with a primitive of the rig's vertex count;
+    /// of several, the face's).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
     /// Units of the mesh, for millimetre figures: mm, cm, m or in.
