@@ -10,7 +10,7 @@
 //! landmarks: FaceCap's lips are closed (the opening's top and bottom are 4 mm apart) while the
 //! capture's sit on the outer lips, 30 mm apart.
 
-use crate::mesh::closest_point;
+use crate::mesh::{closest_point, distance};
 use crate::model::FaceMesh;
 use crate::model::{LayoutMarker, MarkerAnchor, MarkerLayout};
 use crate::stages::retarget::RetargetMap;
@@ -203,31 +203,159 @@ pub fn has_openings(mesh: &FaceMesh) -> bool {
 /// [`FEATURE_OFFSET`] × the opening's width from the opening's upper or lower rim, at its
 /// fraction of the opening's half width. Other markers are left where they are.
 pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<(), PlacementError> {
-    if !layout
+    if !has_feature_markers(layout) {
+        return Ok(());
+    }
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
+    let rims = face_openings(mesh)?.map(|rim| {
+        let (upper, lower) = rim_sides(&rim, &mesh.welded_positions, &topo.neighbours);
+        Beside::Opening { rim, upper, lower }
+    });
+    snap_beside(layout, mesh, &topo, rims)
+}
+
+/// [`snap_to_features`] for a face whose lips and lids are closed (no openings): each lip or lid
+/// marker goes beside the line its lips or lids meet along, the shortest path on the skin
+/// between its opening's corners (`corners`: glTF vertices of the mouth's, the left eye's and
+/// the right eye's, each pair in any order), above it for an upper marker, below it for a lower.
+pub fn snap_to_seams(
+    layout: &mut MarkerLayout,
+    mesh: &FaceMesh,
+    corners: [[u32; 2]; 3],
+) -> Result<(), PlacementError> {
+    if !has_feature_markers(layout) {
+        return Ok(());
+    }
+    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
+    let graph = crate::geodesic::dijkstra::Graph::new(&topo);
+    let welded = |v: u32| {
+        mesh.weld
+            .get(v as usize)
+            .copied()
+            .ok_or(PlacementError::BadVertex {
+                name: "a corner".into(),
+                vertex: v,
+                count: mesh.positions.len(),
+            })
+    };
+    let mut seams = Vec::with_capacity(3);
+    for [a, b] in corners {
+        let (a, b) = (welded(a)?, welded(b)?);
+        seams.push(Beside::Seam(seam_between(
+            &topo,
+            &graph,
+            &mesh.welded_positions,
+            a,
+            b,
+        )?));
+    }
+    let rims: [Beside; 3] = seams
+        .try_into()
+        .map_err(|_| PlacementError::Mesh("three seams expected".into()))?;
+    snap_beside(layout, mesh, &topo, rims)
+}
+
+/// Whether `layout` has a marker of [`FEATURE_MARKERS`].
+fn has_feature_markers(layout: &MarkerLayout) -> bool {
+    layout
         .markers
         .iter()
         .any(|m| FEATURE_MARKERS.iter().any(|f| f.0 == m.name))
-    {
-        return Ok(());
+}
+
+/// What a lip or lid marker goes beside: an opening (its rim, and the rim's upper and lower
+/// chains) or, on a face whose lips or lids are closed, the seam they meet along.
+enum Beside {
+    /// An opening of the skin.
+    Opening {
+        /// Its rim, a loop of welded vertices.
+        rim: Vec<u32>,
+        /// The rim's upper chain ([`rim_sides`]).
+        upper: Vec<u32>,
+        /// Its lower chain.
+        lower: Vec<u32>,
+    },
+    /// A closed opening's seam, welded vertices from corner to corner ([`seam_between`]).
+    Seam(Vec<u32>),
+}
+
+/// The shortest edge path over the skin from welded vertex `a` to `b`, both included: where a
+/// closed mouth's lips or a closed eye's lids meet, between their corners. An error if `b`
+/// cannot be reached from `a`.
+fn seam_between(
+    topo: &crate::mesh::Topology,
+    graph: &crate::geodesic::dijkstra::Graph,
+    p: &[[f64; 3]],
+    a: u32,
+    b: u32,
+) -> Result<Vec<u32>, PlacementError> {
+    let d = crate::geodesic::dijkstra::distances(graph, &[(a, 0.0)]);
+    let (mut path, mut v) = (vec![b], b as usize);
+    // Back from `b`, each step to the neighbour its shortest path came through; the distance
+    // falls at every step, so this ends within a step per vertex.
+    for _ in 0..p.len() {
+        if v == a as usize {
+            return Ok(path);
+        }
+        let through = |u: &u32| d[*u as usize] + distance(&p[*u as usize], &p[v]);
+        match topo.neighbours[v]
+            .iter()
+            .min_by(|x, y| through(x).total_cmp(&through(y)))
+        {
+            Some(&u) if d[u as usize] < d[v] => {
+                path.push(u);
+                v = u as usize;
+            }
+            _ => break,
+        }
     }
-    let openings = face_openings(mesh)?;
-    let topo = crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
-    let graph = crate::geodesic::dijkstra::Graph::new(&topo);
+    Err(PlacementError::Mesh(format!(
+        "no path over the skin between the corners at welded vertices {a} and {b}"
+    )))
+}
+
+/// One side of a rim or seam: per welded vertex, its distance from the rim and whether it lies
+/// on that side.
+type Side = (Vec<f64>, Vec<bool>);
+
+/// Snap the feature markers of `layout` beside `rims` (mouth, left eye, right eye).
+fn snap_beside(
+    layout: &mut MarkerLayout,
+    mesh: &FaceMesh,
+    topo: &crate::mesh::Topology,
+    rims: [Beside; 3],
+) -> Result<(), PlacementError> {
+    let graph = crate::geodesic::dijkstra::Graph::new(topo);
     let p = &mesh.welded_positions;
     let original = mesh.welded_to_original();
     let skin = &topo.components.vertex_component;
-    for (i, opening) in [Feature::Mouth, Feature::LeftEye, Feature::RightEye]
+    let from = |chain: &[u32]| {
+        let seeds: Vec<(u32, f64)> = chain.iter().map(|&v| (v, 0.0)).collect();
+        crate::geodesic::dijkstra::distances(&graph, &seeds)
+    };
+    for (opening, beside) in [Feature::Mouth, Feature::LeftEye, Feature::RightEye]
         .into_iter()
-        .enumerate()
+        .zip(&rims)
     {
-        let rim = &openings[i];
-        let (upper, lower) = rim_sides(rim, p, &topo.neighbours);
-        let from = |chain: &[u32]| {
-            let seeds: Vec<(u32, f64)> = chain.iter().map(|&v| (v, 0.0)).collect();
-            crate::geodesic::dijkstra::distances(&graph, &seeds)
+        // Per side, each vertex's distance from the rim and whether it is on that side.
+        let (outline, sides): (&[u32], [Side; 2]) = match beside {
+            Beside::Opening { rim, upper, lower } => {
+                let (d_up, d_low) = (from(upper), from(lower));
+                let on_upper: Vec<bool> = d_up.iter().zip(&d_low).map(|(u, l)| u < l).collect();
+                let on_lower = d_up.iter().zip(&d_low).map(|(u, l)| l < u).collect();
+                (rim, [(d_up, on_upper), (d_low, on_lower)])
+            }
+            Beside::Seam(seam) => {
+                let d = from(seam);
+                let above: Vec<bool> = p
+                    .iter()
+                    .map(|q| q[1] > seam_height(seam, p, q[0]))
+                    .collect();
+                let below = above.iter().map(|a| !a).collect();
+                (seam, [(d.clone(), above), (d, below)])
+            }
         };
-        let (d_up, d_low) = (from(&upper), from(&lower));
-        let (lo, hi) = rim
+        let (lo, hi) = outline
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
                 (lo.min(p[v as usize][0]), hi.max(p[v as usize][0]))
@@ -241,17 +369,18 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
             let Some(marker) = layout.markers.iter_mut().find(|m| m.name == name) else {
                 continue;
             };
-            let (near, far) = if is_upper {
-                (&d_up, &d_low)
-            } else {
-                (&d_low, &d_up)
-            };
+            let (near, on_side) = &sides[usize::from(!is_upper)];
             let x = centre + along * half;
             // The skin vertex on this side, about `offset` from the rim, closest to the place
-            // along the opening.
+            // along the opening. Beside a seam, whose skin need not have a row of vertices that
+            // near (a closed face is often coarse there), up to twice as far.
+            let band = match beside {
+                Beside::Opening { .. } => 0.5 * offset,
+                Beside::Seam(_) => offset,
+            };
             let best = (0..p.len())
-                .filter(|&v| skin[v] == 0 && near[v] < far[v])
-                .filter(|&v| (near[v] - offset).abs() <= 0.5 * offset)
+                .filter(|&v| skin[v] == 0 && on_side[v])
+                .filter(|&v| (near[v] - offset).abs() <= band)
                 .min_by(|&a, &b| {
                     let off_rim = match feature {
                         Feature::Mouth => LIP_OFF_RIM_COST,
@@ -273,6 +402,37 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
         }
     }
     Ok(())
+}
+
+/// The height of `seam` (welded vertices) at `x`, linearly between its vertices (its end's
+/// height past either end).
+fn seam_height(seam: &[u32], p: &[[f64; 3]], x: f64) -> f64 {
+    let mut points: Vec<[f64; 2]> = seam
+        .iter()
+        .map(|&v| [p[v as usize][0], p[v as usize][1]])
+        .collect();
+    points.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let (Some(first), Some(last)) = (points.first(), points.last()) else {
+        return 0.0;
+    };
+    if x <= first[0] {
+        return first[1];
+    }
+    if x >= last[0] {
+        return last[1];
+    }
+    points
+        .windows(2)
+        .find(|w| x <= w[1][0])
+        .map_or(last[1], |w| {
+            let span = w[1][0] - w[0][0];
+            let t = if span > 0.0 {
+                (x - w[0][0]) / span
+            } else {
+                0.0
+            };
+            w[0][1] + t * (w[1][1] - w[0][1])
+        })
 }
 
 /// An opening's rim split at its two x-extremes (the mouth's corners, the eye's) into the upper
@@ -381,7 +541,7 @@ pub fn landmarks(mesh: &FaceMesh) -> Result<MarkerLayout, PlacementError> {
 /// landmark of the warp too (replacing a found one of the same name) and is not snapped. A face
 /// whose skin has no mouth and eye openings ([`has_openings`]: a sculpt or a scan with its lips
 /// and lids closed) is placed only if every landmark is pinned, and its lip and eyelid markers
-/// are warped as the others are, there being no opening to put them beside.
+/// go beside the seams between the pinned corners ([`snap_to_seams`]).
 pub fn place(
     mesh: &FaceMesh,
     actor_names: &[String],
@@ -425,6 +585,16 @@ pub fn place(
     let mut layout = place_from_landmarks(actor_names, actor_neutral, &marks, &local)?;
     if openings.is_ok() {
         snap_to_features(&mut layout, &local)?;
+    } else {
+        // Every landmark is pinned (above): the corners of the closed mouth and eyes.
+        let pinned = |name: &str| pins.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
+        let corners = [
+            ["Mouth_Lend", "Mouth_Rend"],
+            ["Leye_Outside", "Leye_Inside"],
+            ["Reye_Outside", "Reye_Inside"],
+        ]
+        .map(|pair| pair.map(pinned));
+        snap_to_seams(&mut layout, &local, corners)?;
     }
     for m in &mut layout.markers {
         if let Some((_, vertex)) = pins.iter().find(|(name, _)| *name == m.name) {

@@ -1729,8 +1729,8 @@ fn place_writes_the_layout_bake_takes() {
 
 /// A face without mouth and eye openings (MediaPipe's canonical face, one disk, centimetres)
 /// has no landmarks to find: `place` says so and asks for every one pinned; pinned, it places
-/// the others by the warp, says that the lip and eyelid markers could not go on their lips and
-/// lids, and the layout bakes with the capture.
+/// the others by the warp and the lip and eyelid markers beside the seams between the pinned
+/// corners, says how, and the layout bakes with the capture.
 #[test]
 fn a_face_without_openings_is_placed_from_pinned_landmarks() {
     let dir = temp_dir("place_disk");
@@ -1774,25 +1774,28 @@ fn a_face_without_openings_is_placed_from_pinned_landmarks() {
     );
     let j = json_ok(&run(&landmarks));
     assert_eq!(j["pinned"].as_array().unwrap().len(), 7);
-    assert_eq!(j["on_features"], serde_json::json!([]));
-    assert_eq!(j["warped"], 34);
+    assert_eq!(j["on_features"].as_array().unwrap().len(), 10);
+    assert_eq!(j["warped"], 24);
     assert!(
         j["warnings"]
             .to_string()
-            .contains("no mouth and eye openings"),
+            .contains("no mouth and eye openings")
+            && j["warnings"].to_string().contains("between their corners"),
         "{}",
         j["warnings"]
     );
     // The warp puts the others where a face has them: the forehead's middle on the midline
     // above the eyes, the chin's below the mouth, each side's cheek on its side.
     let placed = facebake::io::layout::read_layout(&layout).unwrap();
-    let at = |name: &str| match placed
-        .markers
-        .iter()
-        .find(|m| m.name == name)
-        .unwrap()
-        .anchor
-    {
+    let anchor = |name: &str| {
+        placed
+            .markers
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap()
+            .anchor
+    };
+    let at = |name: &str| match anchor(name) {
         facebake::model::MarkerAnchor::Point(p) => p,
         a => panic!("{name} is {a:?}, not warped"),
     };
@@ -1801,6 +1804,19 @@ fn a_face_without_openings_is_placed_from_pinned_landmarks() {
     assert!(at("ForeHead_M")[0].abs() < 0.5 && at("ForeHead_M")[1] > vertex(7)[1] + 2.0);
     assert!(at("Chin")[0].abs() < 0.5 && at("Chin")[1] < vertex(142)[1] - 2.0);
     assert!(at("Lcheek_Outside")[0] > vertex(9)[0] && at("Rcheek_Outside")[0] < vertex(4)[0]);
+    // The lips' middle markers on the lips: the upper above the line the lips meet along, the
+    // lower below it, each within a centimetre of the corners' height (the warp alone put
+    // `Mouth_Up` on the philtrum and `Mouth_Down` on the chin's crease).
+    let on_vertex = |name: &str| match anchor(name) {
+        facebake::model::MarkerAnchor::Vertex(v) => vertex(v as usize),
+        a => panic!("{name} is {a:?}, not on its lip or lid"),
+    };
+    let corners = 0.5 * (vertex(142)[1] + vertex(143)[1]);
+    let (up, down) = (on_vertex("Mouth_Up"), on_vertex("Mouth_Down"));
+    assert!(up[0].abs() < 0.3 && down[0].abs() < 0.3, "{up:?} {down:?}");
+    assert!(up[1] > corners && up[1] < corners + 1.0, "{up:?}");
+    assert!(down[1] < corners && down[1] > corners - 1.0, "{down:?}");
+    assert!(on_vertex("Leye_Up")[1] > on_vertex("Leye_Down")[1]);
     let rig = dir.join("disk.fbk");
     let j = json_ok(&bake(
         &disk,

@@ -209,8 +209,9 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
     let closed = (!has_openings(&mesh)).then(|| {
         format!(
             "{}: the skin has no mouth and eye openings: the landmarks are where --pin put them \
-             and the lip and eyelid markers are warped like the rest, not put on their lip or \
-             lid (pin them where they belong)",
+             and the lip and eyelid markers beside the shortest path over the skin between \
+             their corners, taken for the line the lips or lids meet along (look at \
+             --marker-sheet; pin any that is not where the actor wore it)",
             args.mesh.display()
         )
     });
