@@ -20,7 +20,8 @@ use facebake::stages::{neutral_pose, Neutral};
 /// Arguments of `facebake place`.
 #[derive(Debug, Args)]
 pub struct PlaceArgs {
-    /// The face mesh (.glb or .gltf): its skin must have the mouth and both eyes open.
+    /// The face mesh (.glb or .gltf): its mouth and eye openings give the landmarks; a face
+    /// without them is placed from every landmark pinned (--pin).
     #[arg(long, value_name = "MESH")]
     pub mesh: PathBuf,
     /// Which mesh of the file (default: the face's, the largest primitive of any mesh with a
