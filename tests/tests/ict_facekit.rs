@@ -212,7 +212,11 @@ fn place_and_the_default_bake_play_its_expressions() {
 /// the face in the head's frame), so the static skin stays within 0.05 mm. The take tears the
 /// mouth's corner profile, so the bake keeps less of it (`facebake::bake::mouth_share`), and
 /// folds the throat under the jaw open, so the bake relaxes the weights there
-/// (`facebake::bake::relax`). Measured 2026-12-04 with the head markers the fit holds still
+/// (`facebake::bake::relax`). Measured 2026-12-04 (session 7), the chooser leaving the sub-0.1 mm
+/// sliver edges by the mouth's corners out of its tear test (`bake::mouth_share::TEAR_EDGE_FLOOR`):
+/// the take tears 0.7 and 0.5 and keeps 0.35, face mean 0.592 mm, p99 3.59 mm, lips 6.9 and
+/// eyelids 1.8 mm off at worst, 1.83×, no flip. Before, those edges tore every share and the
+/// linear profile was kept (lips 8.3 mm, mean 0.594 mm). Measured 2026-12-04 with the head markers the fit holds still
 /// sharing one of a vertex's K weights (`surface::anchoring::merge_held`): face mean 0.594 mm,
 /// p99 3.62 mm, lips 8.3 and eyelids 1.8 mm off at worst, 1.83×, no flip; the take tears every
 /// mouth share, so the linear profile is kept, and the relaxation unfolds the throat (11
@@ -261,7 +265,7 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         &score.take,
         &Pinned {
             drift_mm: 0.0,
-            lips_mm: 8.3,
+            lips_mm: 6.9,
             eyelids_mm: 1.8,
             stretch: 1.83,
             over_2x: 0,
@@ -281,10 +285,10 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
     );
     assert_eq!(
         baked.report.mouth_share.as_ref().map(|m| m.share),
-        Some(0.0),
-        "the take tears the mouth's corner profile on this head"
+        Some(0.35),
+        "the take tears the mouth's corner profile at 0.7 and 0.5 on this head, not at 0.35"
     );
-    assert!(score.mean_mm <= 0.595, "{}", score.mean_mm);
+    assert!(score.mean_mm <= 0.593, "{}", score.mean_mm);
 }
 
 /// JawMoCap placed on this head and baked with its own capture (`place`, then `bake
