@@ -211,13 +211,16 @@ pub fn snap_to_features(layout: &mut MarkerLayout, mesh: &FaceMesh) -> Result<()
         let (upper, lower) = rim_sides(&rim, &mesh.welded_positions, &topo.neighbours);
         Beside::Opening { rim, upper, lower }
     });
-    snap_beside(layout, mesh, &topo, rims)
+    let graph = crate::geodesic::dijkstra::Graph::new(&topo);
+    snap_beside(layout, mesh, &topo, &graph, rims)
 }
 
 /// [`snap_to_features`] for a face whose lips and lids are closed (no openings): each lip or lid
 /// marker goes beside the line its lips or lids meet along, the shortest path on the skin
 /// between its opening's corners (`corners`: glTF vertices of the mouth's, the left eye's and
-/// the right eye's, each pair in any order), above it for an upper marker, below it for a lower.
+/// the right eye's, each pair in any order), above it for an upper marker, below it for a lower,
+/// "above" along the mesh's +Y (a face without openings has no axes of its own for
+/// [`crate::frame::FaceFrame`] to find, so it must stand upright in its file).
 pub fn snap_to_seams(
     layout: &mut MarkerLayout,
     mesh: &FaceMesh,
@@ -240,19 +243,25 @@ pub fn snap_to_seams(
     };
     let mut seams = Vec::with_capacity(3);
     for [a, b] in corners {
-        let (a, b) = (welded(a)?, welded(b)?);
-        seams.push(Beside::Seam(seam_between(
+        let seam = seam_between(
             &topo,
             &graph,
             &mesh.welded_positions,
-            a,
-            b,
-        )?));
+            welded(a)?,
+            welded(b)?,
+        )
+        .ok_or_else(|| {
+            PlacementError::Mesh(format!(
+                "{}: no path over the skin between the corners at vertices {a} and {b}",
+                mesh.source.display()
+            ))
+        })?;
+        seams.push(Beside::Seam(seam));
     }
     let rims: [Beside; 3] = seams
         .try_into()
         .map_err(|_| PlacementError::Mesh("three seams expected".into()))?;
-    snap_beside(layout, mesh, &topo, rims)
+    snap_beside(layout, mesh, &topo, &graph, rims)
 }
 
 /// Whether `layout` has a marker of [`FEATURE_MARKERS`].
@@ -280,7 +289,7 @@ enum Beside {
 }
 
 /// The shortest edge path over the skin from welded vertex `a` to `b`, both included: where a
-/// closed mouth's lips or a closed eye's lids meet, between their corners. An error if `b`
+/// closed mouth's lips or a closed eye's lids meet, between their corners. `None` if `b`
 /// cannot be reached from `a`.
 fn seam_between(
     topo: &crate::mesh::Topology,
@@ -288,14 +297,14 @@ fn seam_between(
     p: &[[f64; 3]],
     a: u32,
     b: u32,
-) -> Result<Vec<u32>, PlacementError> {
+) -> Option<Vec<u32>> {
     let d = crate::geodesic::dijkstra::distances(graph, &[(a, 0.0)]);
     let (mut path, mut v) = (vec![b], b as usize);
     // Back from `b`, each step to the neighbour its shortest path came through; the distance
     // falls at every step, so this ends within a step per vertex.
     for _ in 0..p.len() {
         if v == a as usize {
-            return Ok(path);
+            return Some(path);
         }
         let through = |u: &u32| d[*u as usize] + distance(&p[*u as usize], &p[v]);
         match topo.neighbours[v]
@@ -309,9 +318,7 @@ fn seam_between(
             _ => break,
         }
     }
-    Err(PlacementError::Mesh(format!(
-        "no path over the skin between the corners at welded vertices {a} and {b}"
-    )))
+    None
 }
 
 /// One side of a rim or seam: per welded vertex, its distance from the rim and whether it lies
@@ -323,15 +330,15 @@ fn snap_beside(
     layout: &mut MarkerLayout,
     mesh: &FaceMesh,
     topo: &crate::mesh::Topology,
+    graph: &crate::geodesic::dijkstra::Graph,
     rims: [Beside; 3],
 ) -> Result<(), PlacementError> {
-    let graph = crate::geodesic::dijkstra::Graph::new(topo);
     let p = &mesh.welded_positions;
     let original = mesh.welded_to_original();
     let skin = &topo.components.vertex_component;
     let from = |chain: &[u32]| {
         let seeds: Vec<(u32, f64)> = chain.iter().map(|&v| (v, 0.0)).collect();
-        crate::geodesic::dijkstra::distances(&graph, &seeds)
+        crate::geodesic::dijkstra::distances(graph, &seeds)
     };
     for (opening, beside) in [Feature::Mouth, Feature::LeftEye, Feature::RightEye]
         .into_iter()
@@ -347,10 +354,8 @@ fn snap_beside(
             }
             Beside::Seam(seam) => {
                 let d = from(seam);
-                let above: Vec<bool> = p
-                    .iter()
-                    .map(|q| q[1] > seam_height(seam, p, q[0]))
-                    .collect();
+                let line = seam_line(seam, p);
+                let above: Vec<bool> = p.iter().map(|q| q[1] > height_at(&line, q[0])).collect();
                 let below = above.iter().map(|a| !a).collect();
                 (seam, [(d.clone(), above), (d, below)])
             }
@@ -404,35 +409,33 @@ fn snap_beside(
     Ok(())
 }
 
-/// The height of `seam` (welded vertices) at `x`, linearly between its vertices (its end's
-/// height past either end).
-fn seam_height(seam: &[u32], p: &[[f64; 3]], x: f64) -> f64 {
+/// `seam`'s vertices (welded) as (x, height) points in order of x.
+fn seam_line(seam: &[u32], p: &[[f64; 3]]) -> Vec<[f64; 2]> {
     let mut points: Vec<[f64; 2]> = seam
         .iter()
         .map(|&v| [p[v as usize][0], p[v as usize][1]])
         .collect();
     points.sort_by(|a, b| a[0].total_cmp(&b[0]));
-    let (Some(first), Some(last)) = (points.first(), points.last()) else {
+    points
+}
+
+/// The height of the polyline `line` ([`seam_line`]) at `x`, its end's height past either end.
+fn height_at(line: &[[f64; 2]], x: f64) -> f64 {
+    let (Some(first), Some(last)) = (line.first(), line.last()) else {
         return 0.0;
     };
     if x <= first[0] {
         return first[1];
     }
-    if x >= last[0] {
-        return last[1];
-    }
-    points
-        .windows(2)
-        .find(|w| x <= w[1][0])
-        .map_or(last[1], |w| {
-            let span = w[1][0] - w[0][0];
-            let t = if span > 0.0 {
-                (x - w[0][0]) / span
-            } else {
-                0.0
-            };
-            w[0][1] + t * (w[1][1] - w[0][1])
-        })
+    line.windows(2).find(|w| x <= w[1][0]).map_or(last[1], |w| {
+        let span = w[1][0] - w[0][0];
+        let t = if span > 0.0 {
+            (x - w[0][0]) / span
+        } else {
+            0.0
+        };
+        w[0][1] + t * (w[1][1] - w[0][1])
+    })
 }
 
 /// An opening's rim split at its two x-extremes (the mouth's corners, the eye's) into the upper
