@@ -61,7 +61,9 @@ pub enum PlacementError {
 
 /// The actor's neutral markers placed on `mesh`: landmarks at their vertices, every other marker
 /// warped through the landmarks and projected onto the largest connected piece (the skin).
-/// Returns a layout with point anchors in the actor's marker order.
+/// Returns a layout with point anchors in the actor's marker order, less the markers that warp
+/// further than [`OFF_FACE`] × the mesh's diagonal from the skin: not the face's (a shoulder, a
+/// camera rig), which would otherwise be pulled onto it and drag it.
 pub fn place_from_landmarks(
     actor_names: &[String],
     actor_neutral: &[[f64; 3]],
@@ -102,6 +104,7 @@ pub fn place_from_landmarks(
         .filter(|t| topo.components.vertex_component[mesh.weld[t[0] as usize] as usize] == 0)
         .copied()
         .collect();
+    let off_face = OFF_FACE * mesh.diagonal();
     let mut markers = Vec::with_capacity(actor_names.len());
     for (name, p) in actor_names.iter().zip(actor_neutral) {
         let anchor = match landmarks.markers.iter().find(|l| l.name == *name) {
@@ -110,6 +113,9 @@ pub fn place_from_landmarks(
                 let warped = warp.map(p);
                 let on_skin = closest_point(&mesh.positions, &skin_triangles, warped)
                     .ok_or_else(|| PlacementError::Mesh("the mesh has no skin triangles".into()))?;
+                if on_skin.distance > off_face {
+                    continue;
+                }
                 MarkerAnchor::Point(on_skin.point)
             }
         };
@@ -126,6 +132,13 @@ pub fn place_from_landmarks(
         triangles: None,
     })
 }
+
+/// A marker warped further than this fraction of the mesh's bounding-box diagonal from its skin
+/// is not the face's and is left out ([`place_from_landmarks`]). The face's own markers warp at
+/// most 0.062 of it off FaceCap's skin (`Chin_L2`, JawMoCap's layout), 0.046 off ICT-FaceKit's
+/// and 0.106 off MediaPipe's mask of a face (`ForeHead_M`, past its top edge); a shoulder is
+/// half a head's diagonal away.
+pub const OFF_FACE: f64 = 0.2;
 
 /// Which opening a feature marker sits beside.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1727,6 +1727,53 @@ fn place_writes_the_layout_bake_takes() {
     assert!(stderr(&out).contains("Nope"), "{}", stderr(&out));
 }
 
+/// A capture with a marker that is not the face's (a shoulder, 40 cm below the forehead): `place`
+/// leaves it out rather than pull it onto the skin, says so, and places the face's markers as
+/// without it; the layout bakes with the capture, whose extra column it does not use.
+#[test]
+fn a_marker_off_the_face_is_left_out_of_the_placed_layout() {
+    let dir = temp_dir("place_off_face");
+    let mut cap = facebake::io::capture::read_capture(&fixture("JawMoCap.trc")).unwrap();
+    let forehead = cap.marker_index("ForeHead_M").unwrap();
+    cap.marker_names.push("LShoulder".into());
+    for frame in &mut cap.frames {
+        let p = frame[forehead].expect("JawMoCap has every sample");
+        frame.push(Some([p[0] + 15.0, p[1] - 35.0, p[2] - 5.0]));
+    }
+    let csv = dir.join("with_shoulder.csv");
+    write_csv(&csv, &cap).unwrap();
+    let layout = dir.join("placed.toml");
+    let j = json_ok(&facebake(&[
+        "place",
+        "--mesh",
+        s(&mesh_path()),
+        "--capture",
+        s(&csv),
+        "-o",
+        s(&layout),
+        "--json",
+    ]));
+    assert_eq!(j["left_out"], serde_json::json!(["LShoulder"]));
+    assert!(
+        j["warnings"].to_string().contains("LShoulder"),
+        "{}",
+        j["warnings"]
+    );
+    let placed = facebake::io::layout::read_layout(&layout).unwrap();
+    let bundled =
+        facebake::io::layout::read_layout(&fixture("facecap_jawmocap_layout.toml")).unwrap();
+    assert_eq!(placed.markers.len(), bundled.markers.len());
+    for (a, b) in placed.markers.iter().zip(&bundled.markers) {
+        assert_eq!((&a.name, a.anchor), (&b.name, b.anchor));
+    }
+    json_ok(&bake(
+        &mesh_path(),
+        &layout,
+        &dir.join("rig.fbk"),
+        &["--capture", s(&csv), "--json"],
+    ));
+}
+
 /// A face without mouth and eye openings (MediaPipe's canonical face, one disk, centimetres)
 /// has no landmarks to find: `place` says so and asks for every one pinned; pinned, it places
 /// the others by the warp and the lip and eyelid markers beside the seams between the pinned

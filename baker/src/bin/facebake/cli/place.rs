@@ -115,6 +115,9 @@ pub struct PlaceSummary {
     pub on_features: Vec<String>,
     /// Markers warped from the actor through the landmarks onto the skin.
     pub warped: usize,
+    /// The capture's markers left out of the layout: they warp too far from the skin to be the
+    /// face's ([`facebake::placement::OFF_FACE`]).
+    pub left_out: Vec<String>,
     /// The capture's frames taken as the actor's neutral pose.
     pub neutral_frames: Range<usize>,
     /// Markers no neutral frame has, taken from the nearest frame that has them.
@@ -216,10 +219,30 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
             args.mesh.display()
         )
     });
+    let left_out: Vec<String> = capture
+        .marker_names
+        .iter()
+        .filter(|n| !layout.markers.iter().any(|m| m.name == **n))
+        .cloned()
+        .collect();
+    let left_out_warning = (!left_out.is_empty()).then(|| {
+        format!(
+            "{}: left out of the layout, warped further than {} of the mesh's size from its skin \
+             (not the face's): {}",
+            args.capture.display(),
+            facebake::placement::OFF_FACE,
+            left_out
+                .iter()
+                .map(|n| facebake::io::escape_control(n))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    });
     let summary = PlaceSummary {
         layout: args.output.clone(),
         markers: layout.markers.len(),
         warped: layout.markers.len() - landmarks.len() - on_features.len() - pinned.len(),
+        left_out,
         pinned,
         aliases: args.aliases.clone(),
         landmarks,
@@ -227,7 +250,12 @@ pub fn run(args: &PlaceArgs) -> Result<ExitCode, CliError> {
         marker_sheet: args.marker_sheet.clone(),
         neutral_frames,
         neutral_filled,
-        warnings: capture.units_warning().into_iter().chain(closed).collect(),
+        warnings: capture
+            .units_warning()
+            .into_iter()
+            .chain(closed)
+            .chain(left_out_warning)
+            .collect(),
     };
     if args.json {
         print_json(&summary);
