@@ -32,7 +32,8 @@
 //! than [`MOVING_FRACTION_OF_DIAGONAL`](crate::ground_truth::MOVING_FRACTION_OF_DIAGONAL) of the
 //! diagonal, the ground truth's rule). Without morph targets it is geometric: skin vertices
 //! farther than [`STATIC_SPACING_FACTOR`] × the mean marker spacing (mean distance from a marker
-//! to its nearest other marker) from every marker that is not a head marker.
+//! to its nearest other marker) from every marker that is not a head marker, less the throat
+//! under the jaw ([`throat`]), which a jaw open moves. Without markers it is empty.
 
 use crate::mesh::{cross, distance, dot, norm, sub, Topology};
 use crate::model::FaceMesh;
@@ -49,6 +50,16 @@ pub const MIN_OPENING_VERTICES: usize = 6;
 /// Geometric static rule: skin farther than this many mean marker spacings from every face
 /// (non-head) marker is static.
 pub const STATIC_SPACING_FACTOR: f64 = 2.5;
+
+/// Geometric static rule: skin under the mouth (up to one mean marker spacing above its
+/// height, as the jaw's angle is), between the jaw's sides and within this many spacings of a
+/// marker under the mouth is the jaw's and the throat's ([`throat`]), not static, however far
+/// from the markers. Measured against the morph-target rule's truth (`docs/measurements.md`,
+/// "The static region of a mesh without morph targets"): ICT-FaceKit's expressions move skin
+/// that the rule without it calls static by up to 19.4 mm (under the chin, 5 cm behind it),
+/// 2459 vertices by over 1 mm; with it by 3.2 mm (the jaw's angle, which ICT's own shapes move),
+/// 1862; FaceCap's 5.4 → 3.4 mm (its temple), 11 → 3 vertices over 1 mm, 670 → 656 static.
+pub const THROAT_SPACING_FACTOR: f64 = 6.0;
 
 /// An edge counts as over-stretched beyond this ratio.
 pub const STRETCH_LIMIT: f64 = 2.0;
@@ -88,6 +99,8 @@ pub enum StaticRule {
     },
     /// Given by the caller.
     Given,
+    /// None: the mesh has no morph targets and no face markers were given to find it by.
+    NoMarkers,
 }
 
 /// Rim vertex pairs across one opening: (upper, lower), vertex ids of the input positions.
@@ -136,8 +149,11 @@ impl Aperture {
 /// The structure metrics of one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FrameMetrics {
-    /// Largest displacement of the static region from rest, mm.
+    /// Largest displacement of the static region from rest, mm (0 without one).
     pub static_drift_mm: f64,
+    /// Whether there was a static region to measure (a mesh without morph targets needs
+    /// markers to find it, [`StaticRule::NoMarkers`]).
+    pub static_measured: bool,
     /// Across the mouth (`None`: no mouth opening).
     pub lips: Option<Aperture>,
     /// Across the eyes, both together (`None`: no eye openings).
@@ -160,6 +176,8 @@ pub struct TakeMetrics {
     pub against_truth: bool,
     /// Worst static drift, mm, and its frame.
     pub static_drift_mm: (f64, usize),
+    /// Whether any frame had a static region to measure.
+    pub static_measured: bool,
     /// Worst lip figure (error with a truth, else widest aperture), mm, and its frame.
     pub lips_mm: Option<(f64, usize)>,
     /// Worst eyelid figure, mm, and its frame.
@@ -189,6 +207,7 @@ impl TakeMetrics {
         };
         for (f, m) in frames.iter().enumerate() {
             worse(&mut t.static_drift_mm, m.static_drift_mm, f);
+            t.static_measured |= m.static_measured;
             t.against_truth |= m.lips.or(m.eyelids).is_some_and(|a| a.error_mm.is_some());
             for (slot, a) in [(&mut t.lips_mm, m.lips), (&mut t.eyelids_mm, m.eyelids)] {
                 if let Some(a) = a {
@@ -203,6 +222,9 @@ impl TakeMetrics {
         t
     }
 }
+
+/// What the metrics say in place of the static drift when there was no static region.
+const NO_STATIC_REGION: &str = "static drift not measured (no static region)";
 
 fn aperture_text(name: &str, a: Option<Aperture>) -> String {
     match a {
@@ -223,8 +245,12 @@ impl std::fmt::Display for FrameMetrics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "static drift {:.2} mm, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×), {} flipped",
-            self.static_drift_mm,
+            "{}, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×), {} flipped",
+            if self.static_measured {
+                format!("static drift {:.2} mm", self.static_drift_mm)
+            } else {
+                NO_STATIC_REGION.to_string()
+            },
             aperture_text("lips", self.lips),
             aperture_text("eyelids", self.eyelids),
             self.max_stretch,
@@ -257,18 +283,42 @@ impl std::fmt::Display for TakeMetrics {
             (0, _) => "no flipped triangle".to_string(),
             (n, fr) => format!("flipped up to {n} (frame {fr})"),
         };
+        let drift = if self.static_measured {
+            format!(
+                "static drift {:.2} mm (frame {})",
+                self.static_drift_mm.0, self.static_drift_mm.1
+            )
+        } else {
+            NO_STATIC_REGION.to_string()
+        };
         write!(
             f,
-            "static drift {:.2} mm (frame {}), lips {}, eyelids {}, stretch {:.2}× (frame {}), \
-             {edges}, {flips}",
-            self.static_drift_mm.0,
-            self.static_drift_mm.1,
+            "{drift}, lips {}, eyelids {}, stretch {:.2}× (frame {}), {edges}, {flips}",
             opening(self.lips_mm),
             opening(self.eyelids_mm),
             self.max_stretch.0,
             self.max_stretch.1,
         )
     }
+}
+
+/// The face's own axes from the skin's openings on `welded` (`topology` its seen topology),
+/// and the openings with their centres in those axes.
+fn face_openings(
+    topology: &Topology,
+    welded: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> (crate::frame::FaceFrame, Vec<Opening>) {
+    let openings = skin_openings(topology, welded, triangles);
+    let frame = crate::frame::FaceFrame::from_openings(&openings, crate::mesh::mean(welded));
+    let local = openings
+        .into_iter()
+        .map(|o| Opening {
+            centre: frame.local(&o.centre),
+            ..o
+        })
+        .collect();
+    (frame, local)
 }
 
 /// Skin vertices (largest connected piece) of `rest`/`triangles`, per input vertex.
@@ -366,16 +416,8 @@ impl Regions {
             .collect();
         let topology = crate::openings::seen_topology(&welded, &welded_triangles);
         // Read in the face's own axes: the mouth below the eyes, its rims paired across it.
-        let openings = skin_openings(&topology, &welded, &welded_triangles);
-        let frame = crate::frame::FaceFrame::from_openings(&openings, crate::mesh::mean(&welded));
+        let (frame, openings) = face_openings(&topology, &welded, &welded_triangles);
         let welded = frame.points(&welded);
-        let openings: Vec<Opening> = openings
-            .into_iter()
-            .map(|o| Opening {
-                centre: frame.local(&o.centre),
-                ..o
-            })
-            .collect();
         let (mouth, eyes) = mouth_and_eyes(&openings);
         let to_input = |pairs: Vec<[u32; 2]>| -> RimPairs {
             pairs
@@ -424,12 +466,29 @@ impl Regions {
         let topology =
             crate::openings::seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
         let skin = skin_of(&mesh.weld, &topology);
-        let (static_vertices, rule) = if mesh.morph_targets.is_empty() {
-            let distance = STATIC_SPACING_FACTOR * mean_spacing(markers);
-            (
-                far_from_markers(&mesh.positions, &skin, markers, head, distance),
-                StaticRule::FarFromMarkers { distance },
-            )
+        let face_markers = (0..markers.len()).filter(|i| !head.contains(i)).count();
+        let (static_vertices, rule) = if mesh.morph_targets.is_empty() && face_markers == 0 {
+            (Vec::new(), StaticRule::NoMarkers)
+        } else if mesh.morph_targets.is_empty() {
+            let spacing = mean_spacing(markers);
+            let distance = STATIC_SPACING_FACTOR * spacing;
+            let mut still = far_from_markers(&mesh.positions, &skin, markers, head, distance);
+            // The throat is judged in the face's own axes, under its mouth.
+            let (frame, local) =
+                face_openings(&topology, &mesh.welded_positions, &mesh.welded_triangles);
+            let local_markers = frame.points(markers);
+            let floor = mouth_and_eyes(&local).0.map_or_else(
+                || local_markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64,
+                |m| m.centre[1],
+            );
+            let throat = throat(
+                &frame.points(&mesh.positions),
+                &local_markers,
+                floor,
+                spacing,
+            );
+            still.retain(|&v| !throat[v as usize]);
+            (still, StaticRule::FarFromMarkers { distance })
         } else {
             let threshold = crate::ground_truth::MOVING_FRACTION_OF_DIAGONAL * mesh.diagonal();
             let still = (0..mesh.positions.len())
@@ -535,6 +594,7 @@ impl Regions {
             .count();
         FrameMetrics {
             static_drift_mm,
+            static_measured: !self.static_vertices.is_empty(),
             lips: aperture(&[&self.lips]),
             eyelids: aperture(&self.eyes.iter().collect::<Vec<_>>()),
             max_stretch,
@@ -588,6 +648,31 @@ pub fn mean_spacing(markers: &[[f64; 3]]) -> f64 {
     }
     let sum: f64 = crate::rbf::radial::nearest_distances(markers).iter().sum();
     sum / markers.len() as f64
+}
+
+/// Which of `positions` are the jaw's and the throat's: under the mouth's height `floor` plus
+/// one `spacing`, no farther across from the face's middle (the markers' median x) than the
+/// widest of the `markers` under the mouth's height plus one `spacing`, and within
+/// [`THROAT_SPACING_FACTOR`] spacings of one of those markers (all in the face's own axes, y
+/// up). A jaw open moves that skin however far it is from the face's markers, so the geometric
+/// static rule leaves it out.
+pub fn throat(positions: &[[f64; 3]], markers: &[[f64; 3]], floor: f64, spacing: f64) -> Vec<bool> {
+    let jaw: Vec<&[f64; 3]> = markers.iter().filter(|m| m[1] < floor).collect();
+    let middle = crate::surface::anchoring::middle_x(markers);
+    let half_width = jaw
+        .iter()
+        .map(|m| (m[0] - middle).abs())
+        .fold(0.0, f64::max)
+        + spacing;
+    let reach = THROAT_SPACING_FACTOR * spacing;
+    positions
+        .iter()
+        .map(|p| {
+            p[1] < floor + spacing
+                && (p[0] - middle).abs() <= half_width
+                && jaw.iter().any(|m| distance(m, p) < reach)
+        })
+        .collect()
 }
 
 /// Skin vertices farther than `distance` from every marker not in `head`.

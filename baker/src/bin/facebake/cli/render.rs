@@ -195,11 +195,16 @@ pub(crate) fn structure(
 /// The text report of a [`Structure`]: the take's worst, then one line per frame if `per_frame`.
 pub(crate) fn structure_text(s: &Structure, per_frame: bool) -> String {
     let mut out = String::new();
+    let region = match s.static_rule {
+        facebake::metrics::StaticRule::NoMarkers => {
+            "no static region (the mesh has no morph targets: --rig finds it from the rig's markers)"
+                .to_string()
+        }
+        ref rule => format!("static region {} vertices ({rule:?})", s.static_vertices),
+    };
     outln!(
         out,
-        "  structure       static region {} vertices ({:?}), {} lip and {} eyelid rim pairs",
-        s.static_vertices,
-        s.static_rule,
+        "  structure       {region}, {} lip and {} eyelid rim pairs",
         s.rim_pairs.0,
         s.rim_pairs.1
     );
