@@ -297,6 +297,14 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
         _ => None,
     };
     let (markers, head) = rig.as_ref().map(rig_markers).unwrap_or_default();
+    let regions = regions(&mesh, &markers, &head)?;
+    if args.remove_rigid && regions.static_vertices.len() < 3 {
+        return Err(CliError::input(
+            &args.mesh,
+            "--remove-rigid fits each frame's rigid motion over the static region, and this mesh \
+             has none to fit it on (no morph targets: give --rig, whose markers find it)",
+        ));
+    }
     let chosen = match &args.frames {
         Some(selection) => selection
             .resolve(frames.len())
@@ -329,7 +337,6 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
         write_marker_sheet(path, title, &mesh, &marker_names(rig), &markers)?;
         files.push(path.clone());
     }
-    let regions = regions(&mesh, &markers, &head)?;
     let structure = structure(
         &regions,
         &frames,
