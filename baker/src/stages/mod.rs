@@ -316,6 +316,10 @@ pub struct StagesReport {
     pub head_smoothing: Option<temporal::SmoothingConfig>,
     /// The capture's measurement noise, metres ([`temporal::capture_noise`]).
     pub capture_noise: f64,
+    /// The head markers' own noise, metres (the same estimate over them alone): the markers
+    /// are smoothed by the larger of the two, since the head fit carries the head markers'
+    /// noise to every marker.
+    pub head_markers_noise: f64,
     /// How much the head fit magnifies the head markers' noise at the farthest marker
     /// ([`rigid::fit_noise_gain`]); `None` without a head fit.
     pub head_noise_gain: Option<f64>,
@@ -676,11 +680,22 @@ pub fn bake_stages(
     bytes.head_tolerance = temporal::encode_bound(head_tolerance, "head tolerance")?;
     bytes.max_step = temporal::encode_bound(max_step, "max step")?;
     let capture_noise = temporal::capture_noise(&frames);
+    // The head markers' own noise: the head fit carries it to every marker, magnified, so a
+    // take whose head markers alone are noisy is smoothed as if all were. ICT-FaceKit's 30 Hz
+    // rehearsal with ±0.5 / ±1 mm of jitter on its five head markers alone (the capture's
+    // noise, a median over all 41, read 0.003 mm and nothing was smoothed): face mean 0.602 →
+    // 0.567 / 0.815 → 0.716 mm (`docs/measurements.md`, session 8).
+    let head_frames: Vec<Vec<Option<[f64; 3]>>> = frames
+        .iter()
+        .map(|f| head.iter().map(|&h| f[h]).collect())
+        .collect();
+    let head_noise = temporal::capture_noise(&head_frames);
+    let marker_noise = capture_noise.max(head_noise);
     let smoothing = match config.smoothing {
         SmoothingUse::Off => None,
         SmoothingUse::On(s) => Some(s),
         SmoothingUse::Auto(s) => {
-            (capture_noise > temporal::MARKER_NOISE_LIMIT).then(|| s.for_noise(capture_noise))
+            (marker_noise > temporal::MARKER_NOISE_LIMIT).then(|| s.for_noise(marker_noise))
         }
     };
     bytes.smoothing = smoothing
@@ -730,6 +745,7 @@ pub fn bake_stages(
         head_smoothing,
         head_noise_gain,
         capture_noise,
+        head_markers_noise: head_noise,
         smoothing_lag_frames: bytes.smoothing.map_or(0, |s| s.still_lag_frames()),
     };
     Ok(BakedStages {

@@ -802,8 +802,13 @@ fn print_text(s: &BakeSummary) {
         };
         outln!(
             out,
-            "  smoothing     the capture's noise {:.3} mm (markers smoothed by default over {:.2} mm); markers {}{}; head pose {}{}",
+            "  smoothing     the capture's noise {:.3} mm{} (markers smoothed by default over {:.2} mm); markers {}{}; head pose {}{}",
             st.capture_noise * 1000.0,
+            if st.head_markers_noise > st.capture_noise {
+                format!(", its head markers' {:.3} mm", st.head_markers_noise * 1000.0)
+            } else {
+                String::new()
+            },
             facebake::stages::temporal::MARKER_NOISE_LIMIT * 1000.0,
             filter(&st.smoothing),
             if st.smoothing.is_some() {
