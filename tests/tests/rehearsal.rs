@@ -116,22 +116,13 @@ fn a_clean_take_is_not_smoothed() {
     assert!(default.mean_mm <= 0.35, "{}", default.mean_mm);
 }
 
-/// Occlusions as a real take has them: each marker lost in runs of 0.2 to 2 s besides the
-/// noisy take's jitter, head motion and 5 % dropped samples (11.8 % of the samples lost in
-/// all). In 70 frames three of the five head markers are lost at once while the head turns.
-/// Measured 2026-12-04, the pose tracked from the last frame through the markers present
-/// (`RigidStatus::Tracked`): face mean 0.495 mm (0.463 without the runs), p99 3.61 mm, 1.89×
-/// (1.94× before the still head markers shared one of the K weights) and no flip the take
-/// without the runs does not have. Measured 2026-12-03 with the last
-/// pose held through them instead: 0.599 mm, p99 4.27 mm, 2.13× (1 edge over 2×) and 5 flips at
-/// the end of a 20-frame run (tracked, 0.554 mm, with the one-frame neutral of the time). The
-/// lips (7.4 mm) and eyelids (1.7 mm) are the rebuilt lid and lip markers' (the bars 2
-/// and 1.5 mm are not met here).
 /// A take whose head markers alone are noisy (±0.5 mm on the five head markers, the rest
 /// clean): the capture's noise, a median over every marker, reads it as clean, but the head fit
 /// carries the head markers' jitter to every marker, magnified down to the chin. The bake
-/// smooths by the head markers' own noise too, and beats no smoothing. Measured 2026-12-04
-/// (ICT-FaceKit's 30 Hz rehearsal, a scratch test): 0.602 → 0.567 mm; at ±1 mm 0.815 → 0.716.
+/// smooths by the head markers' own noise too, and beats no smoothing. Measured 2026-12-04:
+/// here 0.536 → 0.469 mm against no smoothing (eyelids 0.9 → 1.3 mm, the filter's lag in the
+/// blink); ICT-FaceKit's 30 Hz rehearsal (a scratch test) 0.602 → 0.567 mm, at ±1 mm 0.815 →
+/// 0.716.
 #[test]
 fn noisy_head_markers_alone_are_smoothed() {
     let scene = layout_benchmark(false);
@@ -182,6 +173,17 @@ fn noisy_head_markers_alone_are_smoothed() {
     );
 }
 
+/// Occlusions as a real take has them: each marker lost in runs of 0.2 to 2 s besides the
+/// noisy take's jitter, head motion and 5 % dropped samples (11.8 % of the samples lost in
+/// all). In 70 frames three of the five head markers are lost at once while the head turns.
+/// Measured 2026-12-04, the pose tracked from the last frame through the markers present
+/// (`RigidStatus::Tracked`): face mean 0.495 mm (0.463 without the runs), p99 3.61 mm, 1.89×
+/// (1.94× before the still head markers shared one of the K weights) and no flip the take
+/// without the runs does not have. Measured 2026-12-03 with the last
+/// pose held through them instead: 0.599 mm, p99 4.27 mm, 2.13× (1 edge over 2×) and 5 flips at
+/// the end of a 20-frame run (tracked, 0.554 mm, with the one-frame neutral of the time). The
+/// lips (7.4 mm) and eyelids (1.7 mm) are the rebuilt lid and lip markers' (the bars 2
+/// and 1.5 mm are not met here).
 #[test]
 fn occlusions_in_runs() {
     let scene = layout_benchmark(false);
