@@ -384,25 +384,23 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     for (i, row) in a.iter_mut().enumerate() {
         row[i] += sigma;
     }
-    let mut a = renormalise(&a, 30)?;
+    let a = renormalise(&a, 30)?;
+    // A is symmetric (N is, σ is on the diagonal, the shifts are common), and so is every
+    // power: only its ten upper entries are kept, row by row.
+    let mut u = UPPER.map(|(i, j)| a[i][j] as i32);
     for _ in 0..SQUARINGS {
-        // Entries below 2^30 after renormalising: each is an i32, each product a 32 × 32 → 64-bit
-        // multiply (one SMULL or SMLAL on a 32-bit core instead of a 64 × 64 multiply), and the
-        // sums of four below 2^62. A is symmetric (N is, σ is on the diagonal, the shifts are
-        // common), so A² is: ten entries computed, mirrored — the same integers as all sixteen.
-        let b = a.map(|row| row.map(|v| v as i32));
-        let mut sq = [[0i64; 4]; 4];
-        for i in 0..4 {
-            for j in i..4 {
-                let v: i64 = (0..4)
-                    .map(|k| i64::from(b[i][k]) * i64::from(b[k][j]))
-                    .sum();
-                sq[i][j] = v;
-                sq[j][i] = v;
-            }
-        }
-        a = renormalise(&sq, 30)?;
+        // Entries below 2^30 after renormalising: each product is a 32 × 32 → 64-bit multiply
+        // (one SMULL or SMLAL on a 32-bit core instead of a 64 × 64 multiply), and the sums
+        // of four below 2^62. The same integers as squaring all sixteen and renormalising
+        // them: the largest magnitude is among the ten.
+        let full = |i: usize, j: usize| i64::from(u[UPPER_AT[i][j]]);
+        let sq = UPPER.map(|(i, j)| (0..4).map(|k| full(i, k) * full(k, j)).sum::<i64>());
+        let largest = sq.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
+        let shift = shift_for(largest, 30)?;
+        u = sq.map(|v| apply_shift(v, shift) as i32);
     }
+    let a: [[i64; 4]; 4] =
+        core::array::from_fn(|i| core::array::from_fn(|j| i64::from(u[UPPER_AT[i][j]])));
     let col = (0..4).max_by_key(|&j| a[j][j]).unwrap_or(0);
     let mut q = normalize([a[0][col], a[1][col], a[2][col], a[3][col]])?;
     if q[0] < 0 {
@@ -410,6 +408,23 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     }
     Some(q)
 }
+
+/// The upper triangle of a symmetric 4 × 4 matrix, row by row: (row, column) of each kept entry.
+const UPPER: [(usize, usize); 10] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (0, 3),
+    (1, 1),
+    (1, 2),
+    (1, 3),
+    (2, 2),
+    (2, 3),
+    (3, 3),
+];
+
+/// Where entry (row, column) of a symmetric 4 × 4 matrix is kept in [`UPPER`].
+const UPPER_AT: [[usize; 4]; 4] = [[0, 1, 2, 3], [1, 4, 5, 6], [2, 5, 7, 8], [3, 6, 8, 9]];
 
 /// Shift so the largest magnitude has its top bit at `bits − 1` (exact for left shifts, floor
 /// for right shifts); `None` for an all-zero matrix.
