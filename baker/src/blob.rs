@@ -150,6 +150,7 @@ fn stages_section(stages: &StagesBytes) -> Stages<'_> {
         max_step: stages.max_step,
         smoothing: stages.smoothing,
         head_smoothing: stages.head_smoothing,
+        refit_cutoff: stages.refit_cutoff,
         retarget: match &stages.proportional {
             Some((shift, matrices, rest)) => Retarget::Proportional(ProportionalRetarget {
                 shift: *shift,

@@ -401,6 +401,9 @@ pub enum StagesLoadError {
     BadHeadTolerance,
     /// `max_step` is not in (0, `INPUT_LIMIT`].
     BadMaxStep,
+    /// The refit cutoff is neither 0 nor in [`MIN_REFIT_CUTOFF`, `MAX_REFIT_CUTOFF`]
+    /// (`crate::stages::refit`).
+    BadRefitCutoff,
     /// The smoothing's `min_cutoff` is not in [1, `MAX_CUTOFF`].
     BadMinCutoff,
     /// The smoothing's `speed_gain` is above `MAX_SPEED_GAIN`.
@@ -477,6 +480,9 @@ impl core::fmt::Display for StagesLoadError {
                 f.write_str("head-marker distance tolerance must be in (0, 64] actor units")
             }
             Self::BadMaxStep => f.write_str("max step must be in (0, 64] actor units per frame"),
+            Self::BadRefitCutoff => {
+                f.write_str("the head refit's cutoff must be 0 or in [2^-12, 1] actor unit")
+            }
             Self::BadMinCutoff => f.write_str("smoothing minimum cutoff must be in (0, 256]"),
             Self::BadSpeedGain => f.write_str("smoothing speed gain must be at most 2^14"),
             Self::BadDerivativeCutoff => {

@@ -41,12 +41,12 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 /// The first eight bytes of every rig blob.
 pub const MAGIC: [u8; 8] = *b"FACEBAKE";
 /// The format version this crate writes (and the newest it reads).
-pub const VERSION: u16 = 11;
-/// The oldest format version this crate reads: version 10 gave the linear deformer's derived
-/// markers a direction (they kept file axes before), so older blobs must be baked again.
-/// Version 11 added the derived mean, in a byte version 10 held at zero: a version 10 blob
-/// reads the same.
-pub const OLDEST_VERSION: u16 = 10;
+pub const VERSION: u16 = 12;
+/// The oldest format version this crate reads: version 12 added the capture stages' head refit
+/// over the face (`Stages::refit_cutoff`, after the stages' last field), so older blobs must be
+/// baked again. (Version 10 gave the linear deformer's derived markers a direction, version 11
+/// the derived mean.)
+pub const OLDEST_VERSION: u16 = 12;
 /// Bytes of the fixed header that precedes the payload (see [`crate::format::header`]).
 pub const HEADER_LEN: usize = 20;
 

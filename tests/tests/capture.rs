@@ -191,8 +191,13 @@ fn matches_the_f64_pipeline_on(j: &JawMoCapRig, frames: &[Vec<Option<[f64; 3]>>]
     );
     println!("worst rigid-residual difference {worst_residual:.3e} actor units");
     assert!(worst_vertex / diag < 2e-5);
-    assert!(worst_marker < 2e-6, "{worst_marker}");
-    assert!(worst_residual < 1e-6, "{worst_residual}");
+    // The head refit weighs each marker by its last displacement and its motion since, a
+    // 16-bit weight of two rounded quantities: the runtime's own rounding moves a weight by a
+    // unit now and then, and moves the markers by up to 9.2e-6 rig units (2.6e-7 before the refit;
+    // the vertices stay within 4.7e-6 of the diagonal).
+    assert!(worst_marker < 1.5e-5, "{worst_marker}");
+    // The same rounding, in the head markers' residual from the refit: 1.6e-6 actor units.
+    assert!(worst_residual < 3e-6, "{worst_residual}");
     tracked
 }
 
@@ -299,7 +304,8 @@ fn head_pose_smoothing_lags_head_motion_by_a_bounded_amount() {
     });
     let worst = head_motion_error(&j) * 1000.0;
     println!("smoothed head pose: worst vertex difference under head motion {worst:.2} mm");
-    assert!(worst < 3.7, "{worst}");
+    // With the head refit over the face, 3.76 mm (2026-12-04).
+    assert!(worst < 3.85, "{worst}");
 }
 
 /// Play the first 400 frames as captured and moved rigidly (a known rotation and translation
@@ -400,7 +406,11 @@ fn knocked_out_markers_are_rebuilt() {
     // fill, which moved the forehead and the far skin with it, 0.596 / 4.89 / 40.0 mm before;
     // the lip markers on the lip rims, rebuilt from neighbours along the same lip, miss the
     // rim's own motion when the mouth is widest).
-    assert!(mean < 0.13 && p99 < 1.6 && max < 11.0, "{mean} {p99} {max}");
+    // With the head refit over the face (2026-12-04): 0.182 / 1.96 / 10.7 mm. A knocked-out
+    // marker the refit weighed no longer pulls the head's pose, which moves the face a little
+    // everywhere (weighed by its last displacement alone: 0.167 / 1.86 / 4.79 mm, but a take
+    // whose frames jump then moved the pose, `--test other_faces the_truth_through`).
+    assert!(mean < 0.2 && p99 < 2.1 && max < 11.5, "{mean} {p99} {max}");
 }
 
 /// Retargeting the actor onto himself is the identity, and onto a copy scaled by 1.5 scales the

@@ -168,8 +168,10 @@ fn every_deformer_stays_within_the_jitter_bar() {
     check("planar", &planar_product(8));
 }
 
-/// The smoothing's effect: three fifths of the unsmoothed 99th percentile or less, for a lag
-/// of 3 frames when still. Measured 2026-12-03 with the filter tuned against the truth (3 Hz,
+/// The smoothing's effect: under 0.7 of the unsmoothed 99th percentile, for a lag of 3 frames
+/// when still. Measured 2026-12-04 with the head refit over the face, whose weights carry some
+/// of the jitter (a marker's motion since the last frame counts in its weight): linear 0.53
+/// of 0.81 mm, planar 0.54 of 0.90 mm. Measured 2026-12-03 with the filter tuned against the truth (3 Hz,
 /// 2 Hz, the speed gain scaled to this take's noise, β 200): linear 0.68 of 1.18 mm, planar
 /// 0.67 of 1.21 mm, the lag on the clean take p99 0.41 mm. With β 50, 0.55 of 1.18 for a lag
 /// of p99 0.78 mm; the filter before, 1 Hz, β 10, 1 Hz, took two thirds, 0.34 of 1.18 and 0.35
@@ -183,7 +185,7 @@ fn smoothing_cuts_the_jitter() {
     ] {
         let m = measure_and_print(name, &bake);
         assert!(
-            m.smoothed.p99 <= 0.6 * m.unsmoothed.p99,
+            m.smoothed.p99 <= 0.7 * m.unsmoothed.p99,
             "{name}: {:?}",
             m.smoothed
         );
@@ -299,7 +301,11 @@ fn a_take_that_never_has_every_marker_still_bakes() {
 /// JawMoCap with the head moving and 5 % / 20 % of the samples dropped at random, played
 /// through the clean take's rig, against the clean take with the same head motion (every
 /// vertex of every frame past the smoothing's start-up). The take as captured is clean, so
-/// the default bake does not smooth it. Measured 2026-12-03, the face's p99 / max error: 5 %:
+/// the default bake does not smooth it. Measured 2026-12-04 with the head refit over the face
+/// (`facebake_runtime::stages::refit`): 5 %: 0.36 / 1.08 mm, 20 %: 0.75 / 2.35 mm: a dropped
+/// marker that the refit weighed no longer pulls the head's pose, which moves the whole face a
+/// little (JawMoCap's head markers stray 0.39 mm from a rigid head, median, so its refit
+/// weighs markers up to 1.16 mm from neutral). Before it, 2026-12-03, p99 / max: 5 %:
 /// 0.11 / 0.64 mm, 20 %: 0.39 / 2.77 mm, stretch 1.90× as the clean take (20 %: 0.49 / 2.77
 /// while a frame with fewer than three head markers held the last pose instead of tracking
 /// it, `RigidStatus::Tracked`). Unsmoothed, before a
@@ -316,7 +322,7 @@ fn dropped_markers_keep_their_place_among_their_neighbours() {
     let clean = moved_and_dropped(&j.capture.in_metres(), 0.0, false);
     let want = play_take(&rig, &take(&j, &clean)).0;
     let regions = facebake::metrics::Regions::for_mesh(&j.mesh, &[], &[]).expect("regions");
-    for (rate, p99, max) in [(0.05, 0.15, 0.8), (0.2, 0.45, 3.2)] {
+    for (rate, p99, max) in [(0.05, 0.4, 1.2), (0.2, 0.9, 3.2)] {
         let dropped = moved_and_dropped(&j.capture.in_metres(), rate, false);
         let got = play_take(&rig, &take(&j, &dropped)).0;
         let f = figures(&want[START_UP..], &got[START_UP..]);

@@ -18,6 +18,7 @@ use facebake_runtime::fixed::pack_influence;
 use facebake_runtime::format::records::FILL_NEIGHBOURS;
 use facebake_runtime::stages::compensate::MAX_HEAD_MARKERS;
 use facebake_runtime::stages::fill::FILL_FRAC_BITS;
+use facebake_runtime::stages::refit;
 use facebake_runtime::stages::retarget::{MAX_ALPHA_SHIFT, NEUTRAL_LIMIT};
 use facebake_runtime::stages::smoothing::Smoothing;
 use facebake_runtime::Space;
@@ -99,6 +100,19 @@ pub enum SmoothingUse {
     On(temporal::SmoothingConfig),
 }
 
+/// Whether the head fit is done again over the face's markers (the runtime's
+/// `facebake_runtime::stages::refit`), and with what cutoff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RefitUse {
+    /// Never: the head markers' fit alone.
+    Off,
+    /// With the cutoff [`HEAD_REFIT_CUTOFF`] or [`REFIT_NOISE_FACTOR`] × the capture's noise,
+    /// the larger.
+    Auto,
+    /// With this cutoff, metres.
+    Cutoff(f64),
+}
+
 /// The displacement bound the reference compensates with before the bound is learned, and the
 /// largest a learned one may be: the runtime's input limit, 64 actor units.
 const PROVISIONAL_MAX_DISPLACEMENT: f64 = 64.0;
@@ -143,6 +157,8 @@ pub struct StagesConfig {
     pub smoothing: SmoothingUse,
     /// The head pose's smoothing filter: when to use it.
     pub head_smoothing: SmoothingUse,
+    /// The head fit done again over the face's markers: when, and with what cutoff.
+    pub head_refit: RefitUse,
     /// The character's skin and the rig markers' places on it, for
     /// [`RetargetKind::Geodesic`] (positions in asset units); [`crate::bake()`] fills it from
     /// the scene when that retargeting is asked for.
@@ -167,6 +183,7 @@ impl Default for StagesConfig {
             max_step: None,
             smoothing: SmoothingUse::Auto(temporal::SmoothingConfig::default()),
             head_smoothing: SmoothingUse::Auto(temporal::SmoothingConfig::HEAD),
+            head_refit: RefitUse::Auto,
             character_surface: None,
             face_axes: None,
         }
@@ -314,6 +331,12 @@ pub struct StagesReport {
     pub smoothing: Option<temporal::SmoothingConfig>,
     /// The head pose's smoothing filter, if any (see [`SmoothingUse`]).
     pub head_smoothing: Option<temporal::SmoothingConfig>,
+    /// The head fit over the face's markers: its cutoff, metres, if any ([`RefitUse`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub head_refit: Option<f64>,
+    /// The head markers' RMS residual from their fit, the median over the capture's frames,
+    /// metres ([`temporal::head_residual`]; 0 without a head fit).
+    pub head_residual: f64,
     /// The capture's measurement noise, metres ([`temporal::capture_noise`]).
     pub capture_noise: f64,
     /// The head markers' own noise, metres (the same estimate over them alone): the markers
@@ -365,6 +388,8 @@ pub struct StagesBytes {
     pub smoothing: Option<Smoothing>,
     /// The head pose's smoothing filter, per frame.
     pub head_smoothing: Option<Smoothing>,
+    /// The head refit's cutoff, Q8.24 actor units (0: no refit).
+    pub refit_cutoff: i32,
 }
 
 /// The baked stages: bytes for the blob, the f64 reference and a report.
@@ -630,6 +655,7 @@ pub fn bake_stages(
         anchors: bytes.anchors.iter().map(|&a| usize::from(a)).collect(),
         map,
         proportional,
+        refit_cutoff: 0.0,
     };
     let half_extent = f64::from(actor_space.half_extent);
     let head_tolerance = match config.head_tolerance {
@@ -691,11 +717,48 @@ pub fn bake_stages(
         .collect();
     let head_noise = temporal::capture_noise(&head_frames);
     let marker_noise = capture_noise.max(head_noise);
+    let head_residual = temporal::head_residual(&reference, &frames) * half_extent;
+    let refit = match config.head_refit {
+        RefitUse::Off => None,
+        RefitUse::Auto => Some(
+            HEAD_REFIT_CUTOFF
+                .max(REFIT_NOISE_FACTOR * marker_noise)
+                .max(REFIT_NOISE_FACTOR * head_residual),
+        ),
+        RefitUse::Cutoff(m) => Some(m),
+    }
+    .filter(|_| !head.is_empty());
+    bytes.refit_cutoff = match refit {
+        None => 0,
+        Some(m) => {
+            let q = (m / half_extent * f64::from(1u32 << 24)).round();
+            let range = f64::from(refit::MIN_REFIT_CUTOFF)..=f64::from(refit::MAX_REFIT_CUTOFF);
+            if !(m.is_finite() && range.contains(&q)) {
+                return Err(StagesError::OutOfRange(format!(
+                    "the head refit's cutoff ({:.3} mm) must be within {:.4} and {:.1} mm (2^-12 and 1 times the actor's half extent)",
+                    m * 1000.0,
+                    half_extent * 1000.0 / 4096.0,
+                    half_extent * 1000.0
+                )));
+            }
+            q as i32
+        }
+    };
+    reference.refit_cutoff = f64::from(bytes.refit_cutoff) / f64::from(1u32 << 24);
+    // The refit averages the head markers' noise over the face's still markers, which then
+    // no longer reaches the face through the head fit: with it, the markers are smoothed by
+    // the capture's own noise alone. The same take with noisy head markers: smoothed by their
+    // noise 0.372 mm, not smoothed 0.363 (`--test rehearsal noisy_head`).
+    let smoothing_noise = if refit.is_some() {
+        capture_noise
+    } else {
+        marker_noise
+    };
     let smoothing = match config.smoothing {
         SmoothingUse::Off => None,
         SmoothingUse::On(s) => Some(s),
         SmoothingUse::Auto(s) => {
-            (marker_noise > temporal::MARKER_NOISE_LIMIT).then(|| s.for_noise(marker_noise))
+            (smoothing_noise > temporal::MARKER_NOISE_LIMIT).then(|| s.for_noise(smoothing_noise))
         }
     };
     bytes.smoothing = smoothing
@@ -743,6 +806,8 @@ pub fn bake_stages(
         max_displacement: reference.max_displacement * half_extent,
         smoothing,
         head_smoothing,
+        head_refit: refit,
+        head_residual,
         head_noise_gain,
         capture_noise,
         head_markers_noise: head_noise,
@@ -754,6 +819,24 @@ pub fn bake_stages(
         report,
     })
 }
+
+/// The head fit is done again over the face's markers, each weighted by Tukey's biweight of its
+/// last displacement and half its motion since with this cutoff, metres, or [`REFIT_NOISE_FACTOR`] ×
+/// the capture's noise or × the head markers' median residual from a rigid head, the largest
+/// ([`RefitUse::Auto`]; the runtime's `facebake_runtime::stages::refit`). The head markers are
+/// skin, and a brow raise lifts the forehead's, which their fit alone reads as the head pitching
+/// back; and a fit from many markers averages their jitter. Face mean by cutoff, off / 0.5 / 1 /
+/// 1.5 / 2 mm (weighed by the last displacement alone; `docs/measurements.md`, "The head fit
+/// over the face"): FaceCap's rehearsal clean 0.336 / **0.331** / 0.340 / 0.352 / 0.365, with
+/// ±0.5 mm of jitter (noise 0.32 mm) 0.463 / 0.419 / **0.403** / 0.409 / 0.417; ICT-FaceKit's
+/// clean 0.478 / **0.431** / 0.441 / 0.457 / 0.459, jittered 0.592 / 0.530 / **0.502** / 0.505 /
+/// 0.511. A real take's still skin is not still: JawMoCap's head markers stray 0.39 mm from a
+/// rigid head, and at 0.5 mm its refit rested on a handful of markers (5 % dropped: p99 0.81
+/// mm against the clean take; at its 1.16 mm, 0.35).
+pub const HEAD_REFIT_CUTOFF: f64 = 0.0005;
+
+/// See [`HEAD_REFIT_CUTOFF`].
+pub const REFIT_NOISE_FACTOR: f64 = 3.0;
 
 /// How long after its first frame the neutral pose may run, seconds: the still frames that
 /// follow it ([`NEUTRAL_STILL_SIGMAS`]) are averaged into it (`settled_neutral`).
@@ -1270,6 +1353,7 @@ fn encode(
         max_step: 1,
         smoothing: None,
         head_smoothing: None,
+        refit_cutoff: 0,
     })
 }
 

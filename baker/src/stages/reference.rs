@@ -18,7 +18,7 @@
 use facebake_runtime::Space;
 
 use super::retarget::{Proportional, RetargetMap};
-use super::rigid::{kabsch, RigidTransform};
+use super::rigid::{kabsch, weighted_kabsch, RigidTransform};
 use crate::mesh::distance;
 use crate::space::to_rig_units;
 
@@ -40,6 +40,8 @@ pub struct StagesF64 {
     pub map: RetargetMap,
     /// Proportional retargeting, used instead of `map` when present.
     pub proportional: Option<Proportional>,
+    /// The head refit over the face ([`Self::refit`]): its cutoff, actor units (0: none).
+    pub refit_cutoff: f64,
 }
 
 /// What the reference did with one frame (mirrors the runtime's report).
@@ -192,6 +194,9 @@ impl StagesF64 {
         }
         match fitted {
             Ok(fit) => {
+                let fit = self
+                    .refit(state, actor, &used, &from, &to, &fit)
+                    .unwrap_or(fit);
                 report.residual = fit.rms_residual(&from, &to);
                 report.fit = Some(fit);
                 state.fit = Some(fit);
@@ -209,6 +214,59 @@ impl StagesF64 {
             }
             Err(_) => state.fit.unwrap_or_else(RigidTransform::identity),
         }
+    }
+
+    /// The runtime's `Stages::refit`: `fit` done again, the head markers `used` (`from` →
+    /// `to`) weighted by the biweight of their kept residuals (at least the floor), and every
+    /// other marker present now and measured last frame by the biweight of its last
+    /// displacement and of how far `fit` puts it from there, together. The weights are the
+    /// runtime's, of the displacements rounded to Q8.24.
+    fn refit(
+        &self,
+        state: &StateF64,
+        actor: &[Option<[f64; 3]>],
+        used: &[usize],
+        from: &[[f64; 3]],
+        to: &[[f64; 3]],
+        fit: &RigidTransform,
+    ) -> Option<RigidTransform> {
+        use facebake_runtime::stages::refit::{
+            Biweight, FULL_WEIGHT, HEAD_WEIGHT_FLOOR, REFIT_MARKERS,
+        };
+        if self.refit_cutoff <= 0.0 {
+            return None;
+        }
+        let q824 = |v: f64| (v * f64::from(1u32 << 24)).round() as i32;
+        let biweight = Biweight::new(q824(self.refit_cutoff));
+        let weight = |d: &[f64; 3], moved: [i32; 3]| biweight.weight(d.map(q824), moved);
+        let (mut a, mut b, mut w) = (from.to_vec(), to.to_vec(), Vec::new());
+        for &h in used {
+            let k = self.head.iter().position(|&m| m == h);
+            w.push(match k.and_then(|k| state.head_residuals.get(k)) {
+                Some(r) => weight(r, [0; 3]).max(HEAD_WEIGHT_FLOOR),
+                None => FULL_WEIGHT,
+            });
+        }
+        let face = (0..self.neutral.len())
+            .filter(|j| !self.head.contains(j))
+            .take(REFIT_MARKERS);
+        for j in face {
+            let (Some(q), Some(Some(last)), Some(true)) =
+                (actor[j], state.last.get(j), state.measured.get(j))
+            else {
+                continue;
+            };
+            let d = sub(&fit.apply_inverse(&q), &self.neutral[j]);
+            // Half the motion, as the runtime halves it (Q8.24, floor).
+            let weight = weight(last, sub(&d, last).map(|c| q824(c) >> 1));
+            if weight > 0 {
+                a.push(self.neutral[j]);
+                b.push(q);
+                w.push(weight);
+            }
+        }
+        let w: Vec<f64> = w.into_iter().map(f64::from).collect();
+        weighted_kabsch(&a, &b, &w).ok()
     }
 
     /// The runtime's `Stages::track`: with fewer than three head markers

@@ -102,6 +102,45 @@ pub fn kabsch(from: &[[f64; 3]], to: &[[f64; 3]]) -> Result<RigidTransform, Rigi
     for (p, q) in from.iter().zip(to) {
         h += (v(p) - cf) * (v(q) - ct).transpose();
     }
+    rotation_of(h, cf, ct)
+}
+
+/// [`kabsch`] with a weight per pair (finite, ≥ 0, not all 0): the rigid motion minimising
+/// Σ wᵢ |R pᵢ + t − qᵢ|², centroids weighted. The points of positive weight must not be
+/// collinear.
+pub fn weighted_kabsch(
+    from: &[[f64; 3]],
+    to: &[[f64; 3]],
+    weights: &[f64],
+) -> Result<RigidTransform, RigidError> {
+    check(from, to)?;
+    let total: f64 = weights.iter().sum();
+    if weights.len() != from.len() || !(total > 0.0 && total.is_finite()) {
+        return Err(RigidError::Degenerate);
+    }
+    let mean = |points: &[[f64; 3]]| {
+        points
+            .iter()
+            .zip(weights)
+            .map(|(p, &w)| v(p) * w)
+            .sum::<Vector3<f64>>()
+            / total
+    };
+    let (cf, ct) = (mean(from), mean(to));
+    let mut h = Matrix3::zeros();
+    for ((p, q), &w) in from.iter().zip(to).zip(weights) {
+        h += (v(p) - cf) * (v(q) - ct).transpose() * w;
+    }
+    rotation_of(h, cf, ct)
+}
+
+/// The proper rotation maximising tr(R H) for the cross-covariance `h` of points centred on
+/// `cf` (from) and `ct` (to), and the translation that carries `cf` onto `ct`.
+fn rotation_of(
+    h: Matrix3<f64>,
+    cf: Vector3<f64>,
+    ct: Vector3<f64>,
+) -> Result<RigidTransform, RigidError> {
     let svd = h.svd(true, true);
     let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
         return Err(RigidError::Degenerate);

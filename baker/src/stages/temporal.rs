@@ -198,6 +198,22 @@ pub fn head_distance_change(frames: &[Vec<[f64; 3]>], neutral: &[[f64; 3]], head
     worst
 }
 
+/// The median over `frames` (metres, rig marker order) of the head markers' RMS residual from
+/// `reference`'s head fit, actor units (0 without a frame that fits them): how far the head
+/// markers stray from a rigid head, skin sliding and jitter alike.
+pub fn head_residual(reference: &StagesF64, frames: &[Vec<Option<[f64; 3]>>]) -> f64 {
+    let mut state = StateF64::default();
+    let mut residuals: Vec<f64> = frames
+        .iter()
+        .filter_map(|frame| {
+            let (_, report) = reference.compensate(&mut state, frame);
+            report.fit.map(|_| report.residual)
+        })
+        .collect();
+    residuals.sort_by(f64::total_cmp);
+    residuals.get(residuals.len() / 2).copied().unwrap_or(0.0)
+}
+
 /// Every frame of `frames` (metres, rig marker order) through `reference`'s compensation: per
 /// marker its compensated position (actor units) when it was measured (present, not rebuilt,
 /// held or rejected), else `None`.

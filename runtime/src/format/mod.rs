@@ -128,6 +128,7 @@ use crate::stages::Stages;
 /// | `max_step` | — | varint `i32`, Q8.24 actor units per frame, in (0, 64]: the step gate |
 /// | `smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`], below: the markers' filter |
 /// | `head_smoothing` | — | `0`, or `1` then [`crate::stages::smoothing::Smoothing`]: the head pose's filter |
+/// | `refit_cutoff` | — | varint `i32`, Q8.24 actor units, 0 or in [2⁻¹², 1]: the head fit done again over the face, weighted by Tukey's biweight with this cutoff ([`crate::stages::refit`]; 0: not) |
 ///
 /// Retargeting, variant 0, **rbf** ([`crate::stages::retarget::RbfRetarget`]):
 ///
@@ -158,7 +159,8 @@ use crate::stages::Stages;
 ///
 /// Version 2 added the optional capture stages, version 3 their `head_tolerance`, `max_step`
 /// and `smoothing`, version 4 the `normals` section and the stages' `head_smoothing`, version
-/// 9 the planar deformer's centroid region (nothing else: version 8 blobs load as they are);
+/// 9 the planar deformer's centroid region (nothing else: version 8 blobs load as they are),
+/// version 12 the stages' `refit_cutoff`;
 /// blobs older than [`crate::records::OLDEST_VERSION`] are rejected with
 /// [`LoadError::UnsupportedVersion`] (re-bake them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

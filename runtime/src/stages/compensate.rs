@@ -42,10 +42,14 @@ pub(crate) fn validate(head_markers: Bytes<'_>, markers: usize) -> Result<(), St
     }
 }
 
-/// Squarings of Horn's shifted matrix: it is raised to the power 2^SQUARINGS.
-pub const SQUARINGS: usize = 32;
+/// Squarings of Horn's shifted matrix: it is raised to the power 2^SQUARINGS. Its two largest
+/// eigenvalues are closest for markers nearly on a line; for those the collinearity check
+/// still lets through, 12 squarings give the rotation to the inputs' rounding and 8 do not
+/// (`nearly_collinear_markers_fit_after_the_squarings`): 16 leave a margin of 2^4 in the
+/// exponent. (32 until 2026-12-04: each squaring costs a Cortex-M4 about 250 instructions.)
+pub const SQUARINGS: usize = 16;
 /// Centred coordinates are clamped to this magnitude (16 actor units in Q8.24) before products.
-const CENTRED_LIMIT: i64 = 1 << 28;
+pub(crate) const CENTRED_LIMIT: i64 = 1 << 28;
 /// Output positions are clamped to this magnitude (64 actor units), the input limit.
 const POSITION_LIMIT: i64 = 1 << 30;
 
@@ -100,12 +104,14 @@ fn transform(
     from: [i32; 3],
     to: [i32; 3],
 ) -> [i32; 3] {
+    // Clamped into the i32 range, so each product is one 32 × 32 → 64-bit multiply.
     let d = [0, 1, 2].map(|c| {
         (i64::from(p[c]) - i64::from(from[c])).clamp(-i64::from(i32::MAX), i64::from(i32::MAX))
+            as i32
     });
     [0, 1, 2].map(|i| {
         // |d| < 2^31, |m| ≤ 2^30: three products below 2^63.
-        let acc: i64 = (0..3).map(|j| i64::from(m(i, j)) * d[j]).sum();
+        let acc: i64 = (0..3).map(|j| i64::from(m(i, j)) * i64::from(d[j])).sum();
         let v = i64::from(round_shift_sat(acc, UNIT_FRAC_BITS)) + i64::from(to[i]);
         v.clamp(-POSITION_LIMIT, POSITION_LIMIT) as i32
     })
@@ -167,6 +173,11 @@ impl HeadPairs {
         }
     }
 
+    /// Pair `i`'s neutral point.
+    pub fn neutral(&self, i: usize) -> [i32; 3] {
+        self.neutral[i]
+    }
+
     /// Pair `i`'s current point.
     pub fn current(&self, i: usize) -> [i32; 3] {
         self.current[i]
@@ -208,7 +219,9 @@ impl HeadPairs {
                     others.push(self.neutral[i], self.current[i]);
                 }
                 let fit = others.fit().ok()?;
-                let worst = (0..others.len).map(|i| others.residual(&fit, i)).max()?;
+                let worst = (0..others.len)
+                    .map(|i| others.squared_residual(&fit, i))
+                    .max()?;
                 Some((worst, out))
             })
             .min()
@@ -248,18 +261,24 @@ impl HeadPairs {
             .fold(0, |mask, i| mask | (1 << i))
     }
 
-    /// Per pair, the distance between the fitted neutral point and the current one, Q8.24
-    /// (saturated to 2²⁸).
-    pub fn residual(&self, fit: &RigidFit, i: usize) -> i32 {
+    /// Per pair, the squared distance between the fitted neutral point and the current one,
+    /// Q16.48 (each coordinate's difference saturated to 2²⁸: below 3 · 2⁵⁶). Compared squared,
+    /// residuals need no square root.
+    pub fn squared_residual(&self, fit: &RigidFit, i: usize) -> u64 {
         let moved = fit.apply(self.neutral[i]);
-        let sq: u64 = (0..3)
+        (0..3)
             .map(|c| {
                 let d = (i64::from(moved[c]) - i64::from(self.current[i][c]))
-                    .clamp(-CENTRED_LIMIT, CENTRED_LIMIT);
-                (d * d) as u64
+                    .clamp(-CENTRED_LIMIT, CENTRED_LIMIT) as i32;
+                (i64::from(d) * i64::from(d)) as u64
             })
-            .sum();
-        isqrt_u64(sq) as i32
+            .sum()
+    }
+
+    /// Whether some pair lies further than `tolerance` (Q8.24, ≥ 0) from `fit`.
+    pub fn any_beyond(&self, fit: &RigidFit, tolerance: i32) -> bool {
+        let t = u64::from(tolerance.unsigned_abs());
+        (0..self.len).any(|i| self.squared_residual(fit, i) > t * t)
     }
 
     /// Root-mean-square residual over all pairs, Q8.24.
@@ -268,12 +287,7 @@ impl HeadPairs {
             return 0;
         }
         // Each squared residual is below 3 · 2^56; 32 of them fit a u64.
-        let sum: u64 = (0..self.len)
-            .map(|i| {
-                let r = u64::from(self.residual(fit, i).unsigned_abs());
-                r * r
-            })
-            .sum();
+        let sum: u64 = (0..self.len).map(|i| self.squared_residual(fit, i)).sum();
         isqrt_u64(sum / self.len as u64) as i32
     }
 
@@ -285,12 +299,15 @@ impl HeadPairs {
         }
         let cn = centroid(&self.neutral[..n]);
         let cq = centroid(&self.current[..n]);
+        // Saturated then clamped: the same as the exact difference clamped, in 32 bits, so
+        // each product below is one 32 × 32 → 64-bit multiply-add.
+        let limit = CENTRED_LIMIT as i32;
         let centred = |p: [i32; 3], c: [i32; 3]| {
-            [0, 1, 2]
-                .map(|k| (i64::from(p[k]) - i64::from(c[k])).clamp(-CENTRED_LIMIT, CENTRED_LIMIT))
+            [0, 1, 2].map(|k| p[k].saturating_sub(c[k]).clamp(-limit, limit))
         };
-        if collinear(self.neutral[..n].iter().map(|&p| centred(p, cn)))
-            || collinear(self.current[..n].iter().map(|&q| centred(q, cq)))
+        let wide = |p: [i32; 3]| p.map(i64::from);
+        if collinear(self.neutral[..n].iter().map(|&p| wide(centred(p, cn))))
+            || collinear(self.current[..n].iter().map(|&q| wide(centred(q, cq))))
         {
             return Err(FitFailure::Collinear);
         }
@@ -300,7 +317,8 @@ impl HeadPairs {
             let q = centred(*q, cq);
             for a in 0..3 {
                 for b in 0..3 {
-                    s[a][b] += p[a] * q[b];
+                    // |p q| ≤ 2^56, at most 32 of them.
+                    s[a][b] += i64::from(p[a]) * i64::from(q[b]);
                 }
             }
         }
@@ -339,32 +357,37 @@ fn centroid(points: &[[i32; 3]]) -> [i32; 3] {
 /// point's cross product with the farthest point is below 1/16 of that point's squared length.
 fn collinear(points: impl Iterator<Item = [i64; 3]> + Clone) -> bool {
     // Coarse coordinates (2^-10 units) keep the products small; a head spans thousands of them.
-    let coarse = |p: [i64; 3]| p.map(|c| c >> 14);
-    let sq = |p: [i64; 3]| p.iter().map(|c| c * c).sum::<i64>();
+    // Centred coordinates within ±2^28 give coarse ones within ±2^14: products below 2^28, a
+    // cross product's coordinates below 2^29, their squares' sum below 2^60, and so is the
+    // farthest point's squared length squared: all in 64 bits.
+    let coarse = |p: [i64; 3]| p.map(|c| (c.clamp(-CENTRED_LIMIT, CENTRED_LIMIT) >> 14) as i32);
+    let sq = |p: [i32; 3]| p.iter().map(|&c| i64::from(c) * i64::from(c)).sum::<i64>();
     let Some(far) = points.clone().map(coarse).max_by_key(|&p| sq(p)) else {
         return true;
     };
-    let far_sq = sq(far) as u128;
+    let far_sq = sq(far) as u64;
     if far_sq == 0 {
         return true;
     }
+    let cross = |a: i32, b: i32, c: i32, d: i32| i64::from(a) * i64::from(b) - i64::from(c) * i64::from(d);
     let widest = points
         .map(coarse)
         .map(|p| {
             let x = [
-                far[1] * p[2] - far[2] * p[1],
-                far[2] * p[0] - far[0] * p[2],
-                far[0] * p[1] - far[1] * p[0],
+                cross(far[1], p[2], far[2], p[1]),
+                cross(far[2], p[0], far[0], p[2]),
+                cross(far[0], p[1], far[1], p[0]),
             ];
-            sq(x) as u128
+            x.iter().map(|c| c * c).sum::<i64>() as u64
         })
         .max()
         .unwrap_or(0);
-    widest * 256 < far_sq * far_sq
+    // widest · 256 < far_sq², without the 2^68 product: widest < ⌈far_sq² / 256⌉.
+    widest < (far_sq * far_sq).div_ceil(256)
 }
 
 /// Horn's quaternion (w, x, y, z) of the rotation maximising Σ qᵢ · R pᵢ, Q1.30, w ≥ 0.
-fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
+pub(crate) fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
     // Bring S to entries below 2^28 so N's sums of three stay below 2^30.
     let s = renormalise(s, 28)?;
     let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
@@ -392,12 +415,48 @@ fn dominant_quaternion(s: &[[i64; 3]; 3]) -> Option<[i32; 4]> {
         // Entries below 2^30 after renormalising: each product is a 32 × 32 → 64-bit multiply
         // (one SMULL or SMLAL on a 32-bit core instead of a 64 × 64 multiply), and the sums
         // of four below 2^62. The same integers as squaring all sixteen and renormalising
-        // them: the largest magnitude is among the ten.
-        let full = |i: usize, j: usize| i64::from(u[UPPER_AT[i][j]]);
-        let sq = UPPER.map(|(i, j)| (0..4).map(|k| full(i, k) * full(k, j)).sum::<i64>());
-        let largest = sq.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
+        // them: the largest magnitude is among the ten. Written out entry by entry, so every
+        // index is a constant.
+        let m = [
+            [u[0], u[1], u[2], u[3]],
+            [u[1], u[4], u[5], u[6]],
+            [u[2], u[5], u[7], u[8]],
+            [u[3], u[6], u[8], u[9]],
+        ];
+        let dot = |i: usize, j: usize| -> i64 {
+            i64::from(m[i][0]) * i64::from(m[0][j])
+                + i64::from(m[i][1]) * i64::from(m[1][j])
+                + i64::from(m[i][2]) * i64::from(m[2][j])
+                + i64::from(m[i][3]) * i64::from(m[3][j])
+        };
+        let sq = [
+            dot(0, 0),
+            dot(0, 1),
+            dot(0, 2),
+            dot(0, 3),
+            dot(1, 1),
+            dot(1, 2),
+            dot(1, 3),
+            dot(2, 2),
+            dot(2, 3),
+            dot(3, 3),
+        ];
+        // The square of a symmetric matrix is positive semi-definite, so its largest magnitude
+        // is on its diagonal (|bᵢⱼ| ≤ √(bᵢᵢ bⱼⱼ)): the same shift as over all ten. Its
+        // largest entry is at least 2^58 (the square of A's, 2^29 or more, is a term of it)
+        // and below 2^62, so the shift is 29 to 32, done in 32-bit words.
+        let largest = [sq[0], sq[4], sq[7], sq[9]]
+            .iter()
+            .map(|v| v.unsigned_abs())
+            .max()
+            .unwrap_or(0);
         let shift = shift_for(largest, 30)?;
-        u = sq.map(|v| apply_shift(v, shift) as i32);
+        u = if (29..=32).contains(&shift) {
+            let s = shift as u32;
+            sq.map(|v| ((v >> 32) as i32) << (32 - s) | ((v as u32 >> 29) >> (s - 29)) as i32)
+        } else {
+            sq.map(|v| apply_shift(v, shift) as i32)
+        };
     }
     let a: [[i64; 4]; 4] =
         core::array::from_fn(|i| core::array::from_fn(|j| i64::from(u[UPPER_AT[i][j]])));
@@ -456,7 +515,7 @@ fn renormalise<const N: usize>(m: &[[i64; N]; N], bits: i32) -> Option<[[i64; N]
 }
 
 /// The rotation matrix of a unit quaternion (w, x, y, z), both Q1.30.
-fn rotation_from(q: [i32; 4]) -> [[i32; 3]; 3] {
+pub(crate) fn rotation_from(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q.map(i64::from);
     // Products are Q2.60 below 2^60; sums of four below 2^62.
     let r = |acc: i64| round_shift_sat(acc, UNIT_FRAC_BITS);
@@ -555,6 +614,41 @@ mod tests {
                 }
             }
             assert!(pairs.rms_residual(&fit) <= 4);
+        }
+    }
+
+    /// Horn's matrix converges slowest when the markers are nearly collinear (its two largest
+    /// eigenvalues close): markers barely wide enough to pass the collinearity check (one
+    /// 1/11 of the longest arm off the line; 1/16 is refused) still give the rotation to the
+    /// inputs' own rounding after [`SQUARINGS`] (12 were enough, 8 were not).
+    #[test]
+    fn nearly_collinear_markers_fit_after_the_squarings() {
+        let head = [
+            [-0.5, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+            [0.0, 0.05, 0.0],
+            [0.25, -0.01, 0.004],
+        ];
+        for quaternion in [
+            [0.99, 0.0, 0.15, 0.0],
+            [0.85, -0.45, -0.09, 0.18],
+            [0.12, 0.3, -0.8, 0.5],
+            [0.97, 0.2, 0.0, 0.1],
+        ] {
+            let r = rot(quaternion);
+            let mut pairs = HeadPairs::new();
+            for p in head {
+                let q = [0, 1, 2].map(|i| (0..3).map(|j| r[i][j] * p[j]).sum::<f64>());
+                pairs.push(p.map(q824), q.map(q824));
+            }
+            let fit = pairs.fit().expect("not collinear");
+            for (row, got_row) in r.iter().zip(&fit.rotation) {
+                for (want, got) in row.iter().zip(got_row) {
+                    // 2^-24 of rounding over a 0.035 arm: about 2^-19 of R.
+                    let err = (f64::from(*got) - want * f64::from(1 << 30)).abs();
+                    assert!(err < 2f64.powi(13), "{quaternion:?}: {err}");
+                }
+            }
         }
     }
 

@@ -11,7 +11,11 @@
 //!    than `head_tolerance` is rejected (a swapped, jumped or ghost head marker). Then the
 //!    least-squares rigid motion of the rest from the neutral frame (Horn's quaternion method in
 //!    fixed point); the head marker furthest from the fit, if further than `head_tolerance`, is
-//!    rejected and the fit done once more. With fewer than three head markers present, the pose
+//!    rejected and the fit done once more. Then, when the rig carries a refit cutoff, the fit
+//!    is done again over the face ([`refit`]): every marker weighted by how still it held in
+//!    the last frame (Tukey's biweight of its displacement), the head markers among them, so a
+//!    brow raise lifting the forehead's head markers is not read as the head pitching and the
+//!    head markers' jitter is averaged over the still skin. With fewer than three head markers present, the pose
 //!    is tracked from the last frame through the head markers present and every other marker
 //!    present in both frames ([`RigidStatus::Tracked`]). With too few for that, or collinear or
 //!    coincident head markers (in the neutral frame or in this one), the last good fit is held
@@ -49,6 +53,7 @@ pub mod compensate;
 pub mod fill;
 pub mod report;
 pub mod retarget;
+pub mod refit;
 pub mod smoothing;
 
 use serde::{Deserialize, Serialize};
@@ -122,6 +127,9 @@ pub struct Stages<'a> {
     /// points of the head ([`HEAD_FRAME_POINTS`]) and fitted again, so that a head fit from a
     /// few close head markers does not pass their jitter, magnified, to every marker.
     pub head_smoothing: Option<Smoothing>,
+    /// Step 2's refit over the face ([`refit`]): the cutoff of its weights, Q8.24 actor units,
+    /// 0 (no refit) or in [[`refit::MIN_REFIT_CUTOFF`], [`refit::MAX_REFIT_CUTOFF`]].
+    pub refit_cutoff: i32,
 }
 
 
@@ -170,6 +178,11 @@ impl<'a> Stages<'a> {
         if !(1..=INPUT_LIMIT).contains(&self.max_step) {
             return Err(StagesLoadError::BadMaxStep);
         }
+        if self.refit_cutoff != 0
+            && !(refit::MIN_REFIT_CUTOFF..=refit::MAX_REFIT_CUTOFF).contains(&self.refit_cutoff)
+        {
+            return Err(StagesLoadError::BadRefitCutoff);
+        }
         for smoothing in [&self.smoothing, &self.head_smoothing].into_iter().flatten() {
             smoothing.validate()?;
         }
@@ -203,12 +216,17 @@ impl<'a> Stages<'a> {
     }
 
     /// Rigid fits per frame at most: one, then with a head marker off it one per head marker
-    /// left out and one without the worst, and one of the smoothed head points.
+    /// left out and one without the worst, one over the face ([`refit`]) and one of the
+    /// smoothed head points.
     #[cfg(feature = "format")]
     fn rigid_fits(&self) -> usize {
         match self.head_markers.0.len() {
             0 => 0,
-            head => head + 2 + usize::from(self.head_smoothing.is_some()),
+            head => {
+                head + 2
+                    + usize::from(self.refit_cutoff > 0)
+                    + usize::from(self.head_smoothing.is_some())
+            }
         }
     }
 
@@ -233,6 +251,11 @@ impl<'a> Stages<'a> {
                 Retarget::Proportional(_) => 9 * markers,
             },
             step_checks: markers,
+            refit_markers: if self.refit_cutoff > 0 && head > 0 {
+                (markers - head).min(refit::REFIT_MARKERS)
+            } else {
+                0
+            },
             smoothed_markers: if self.smoothing.is_some() { markers } else { 0 }
                 + if self.head_smoothing.is_some() && head > 0 {
                     HEAD_FRAME_POINTS.len()
@@ -448,7 +471,7 @@ impl<'a> Stages<'a> {
             // rest): the one whose leaving out fits the others best is dropped, and the fit
             // done once more. The least-squares fit spreads one marker's error over all, so the
             // furthest marker is not always the culprit.
-            let off = (0..pairs.len()).any(|i| pairs.residual(&fit, i) > self.head_tolerance);
+            let off = pairs.any_beyond(&fit, self.head_tolerance);
             if let Some(w) = off.then(|| pairs.best_left_out()).flatten() {
                 let h = which[w];
                 present.remove(h);
@@ -463,6 +486,11 @@ impl<'a> Stages<'a> {
                     Err(FitFailure::TooFew) => Err(FitFailure::NotRigid),
                     other => other,
                 };
+            }
+        }
+        if let (Ok(fit), None) = (&fitted, tracked) {
+            if let Some(refit) = self.refit(state, actor, present, &pairs, &which, fit) {
+                fitted = Ok(refit);
             }
         }
         if let (Ok(fit), None) = (&fitted, tracked) {
@@ -567,7 +595,7 @@ impl<'a> Stages<'a> {
     }
 
     /// Marker `h`'s place among the head markers (the index of its residual), if it is one.
-    fn head_slot(&self, h: usize) -> Option<usize> {
+    pub(crate) fn head_slot(&self, h: usize) -> Option<usize> {
         self.head_markers.0.iter().position(|&m| usize::from(m) == h)
     }
 
@@ -662,8 +690,13 @@ pub const HEAD_FRAME_POINTS: [[i32; 3]; 4] = [
 
 /// Whether the vector `d` is longer than `limit` (at most 2³⁰). The squares are only formed
 /// once every |dᵢ| ≤ limit: below 2⁶² in all.
-fn beyond(d: [i64; 3], limit: i64) -> bool {
-    d.iter().any(|v| v.abs() > limit) || d.iter().map(|v| v * v).sum::<i64>() > limit * limit
+pub(crate) fn beyond(d: [i64; 3], limit: i64) -> bool {
+    if d.iter().any(|v| v.abs() > limit) {
+        return true;
+    }
+    // Each |dᵢ| ≤ limit ≤ 2^30 now: an `i32`, squared by one 32 × 32 → 64-bit multiply.
+    let d = d.map(|v| v as i32);
+    d.iter().map(|&v| i64::from(v) * i64::from(v)).sum::<i64>() > limit * limit
 }
 
 /// The work of one frame of the capture stages.
@@ -693,6 +726,9 @@ pub struct StagesCost {
     pub retarget_multiply_adds: usize,
     /// Markers checked against `max_step` (one squared distance each).
     pub step_checks: usize,
+    /// Face markers weighed into the refit over the face ([`refit`]): one compensation, one
+    /// weight (a 64-bit division) and nine weighted products each; 0 without a refit.
+    pub refit_markers: usize,
     /// Markers and head points smoothed (one integer square root and two divisions each; 0
     /// without smoothing).
     pub smoothed_markers: usize,

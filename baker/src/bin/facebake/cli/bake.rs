@@ -198,6 +198,14 @@ pub struct BakeArgs {
     /// the pose while the head moves.
     #[arg(long, value_name = "PARAMS", default_value = "auto", value_parser = parse_head_smoothing, requires = "capture")]
     pub head_smoothing: SmoothingUse,
+    /// The head fit done again every frame over the face's markers, each weighted by how still
+    /// it held (Tukey's biweight of its displacement in the last frame and half its motion since,
+    /// zero from the cutoff on), so a brow raise (which lifts the forehead's head markers) is
+    /// not read as the head pitching and the head markers' jitter is averaged away: `auto`
+    /// (0.5 mm, or 3 × the capture's noise or the head markers' residual from a rigid head,
+    /// the largest), `off` (the head markers' fit alone), or the cutoff in mm.
+    #[arg(long, value_name = "MM", default_value = "auto", value_parser = parse_head_refit, requires = "capture")]
+    pub head_refit: facebake::stages::RefitUse,
     /// How the actor's markers become the character's: per-region proportional scaling (paper
     /// 003 §4; the default: it keeps the actor's jaw opening, where the RBF map of a layout
     /// whose lip markers sit closer on the character than on the actor exaggerates it), the
@@ -284,6 +292,7 @@ impl BakeArgs {
                 max_step: self.max_step,
                 smoothing: self.smoothing,
                 head_smoothing: self.head_smoothing,
+                head_refit: self.head_refit,
                 ..StagesConfig::default()
             },
             // Planar bones bake Euclidean distances, whose default has no anchoring: they anchor
@@ -822,6 +831,18 @@ fn print_text(s: &BakeSummary) {
                 None => String::new(),
             }
         );
+        outln!(
+            out,
+            "  head refit    {}",
+            match st.head_refit {
+                Some(c) => format!(
+                    "over the face's markers, each weighted by how still it held (cutoff {:.2} mm; the head markers stray {:.2} mm from a rigid head)",
+                    c * 1000.0,
+                    st.head_residual * 1000.0
+                ),
+                None => "off (the head markers' fit alone)".to_string(),
+            }
+        );
         if !st.virtual_markers.is_empty() {
             outln!(
                 out,
@@ -967,6 +988,21 @@ fn parse_frames(s: &str) -> Result<Range<usize>, String> {
                 .ok_or_else(|| format!("{s}: frame number too large"))?;
             Ok(n..end)
         }
+    }
+}
+
+/// Parse `--head-refit`: `auto`, `off` or a cutoff in millimetres (finite, above 0).
+pub fn parse_head_refit(s: &str) -> Result<facebake::stages::RefitUse, String> {
+    use facebake::stages::RefitUse;
+    match s.trim() {
+        "auto" => Ok(RefitUse::Auto),
+        "off" => Ok(RefitUse::Off),
+        mm => match mm.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(RefitUse::Cutoff(v / 1000.0)),
+            _ => Err(format!(
+                "{s:?} is not `auto`, `off` or a cutoff in mm above 0"
+            )),
+        },
     }
 }
 
