@@ -174,6 +174,15 @@ fn every_stages_error_is_distinct() {
             StagesLoadError::BadMaxStep
         );
     }
+    // The head refit's cutoff: 0 (none) or within [2^-12, 1] actor unit.
+    assert!(s.refit_cutoff > 0, "the default bake refits");
+    for bad in [-1, 1, (1 << 12) - 1, (1 << 24) + 1, i32::MIN] {
+        assert_eq!(
+            with(&|d| d.stages.as_mut().unwrap().refit_cutoff = bad),
+            StagesLoadError::BadRefitCutoff,
+            "{bad}"
+        );
+    }
     let smoothing = s.smoothing.expect("the rig smooths");
     use facebake_runtime::stages::smoothing::{MAX_CUTOFF, MAX_SPEED_GAIN};
     for bad in [0, MAX_CUTOFF + 1] {

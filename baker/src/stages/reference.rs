@@ -40,7 +40,8 @@ pub struct StagesF64 {
     pub map: RetargetMap,
     /// Proportional retargeting, used instead of `map` when present.
     pub proportional: Option<Proportional>,
-    /// The head refit over the face ([`Self::refit`]): its cutoff, actor units (0: none).
+    /// The head refit over the face (the runtime's `facebake_runtime::stages::refit`): its
+    /// cutoff, actor units (0: none).
     pub refit_cutoff: f64,
 }
 

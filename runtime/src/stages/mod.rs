@@ -66,6 +66,7 @@ use crate::space::Space;
 use crate::stages::compensate::{
     FitFailure, HeadPairs, RigidFit, MAX_HEAD_MARKERS, MIN_HEAD_MARKERS,
 };
+use crate::stages::refit::{Biweight, WeightedPairs, FULL_WEIGHT, HEAD_WEIGHT_FLOOR, REFIT_MARKERS};
 use crate::stages::report::{FrameReport, MarkerSet, RigidStatus};
 use crate::stages::retarget::{Retarget, NEUTRAL_LIMIT};
 use crate::fixed::POS_FRAC_BITS;
@@ -545,6 +546,66 @@ impl<'a> Stages<'a> {
         true
     }
 
+    /// The head fit `fit` (from the head markers `pairs`, `which`: each pair's marker) done
+    /// again over the face (see the module docs): each head pair weighted by the biweight of
+    /// its marker's kept residual (at least [`HEAD_WEIGHT_FLOOR`]; [`FULL_WEIGHT`] before
+    /// residuals are known), and each of the first [`REFIT_MARKERS`] other markers that is
+    /// present now and was measured last frame by the biweight of its last displacement and of
+    /// half how far `fit` puts it from there, together: a marker that moved on its own in the last
+    /// frame, or since, weighs little or nothing (a jump, a ghost, the first frame of a blink,
+    /// or a take whose frames are not consecutive). `None` without a refit cutoff, or when the
+    /// fit fails (the head markers' fit stands).
+    fn refit(
+        &self,
+        state: &PlayState,
+        actor: &[Option<[i32; 3]>],
+        present: &MarkerSet,
+        pairs: &HeadPairs,
+        which: &[usize; MAX_HEAD_MARKERS],
+        fit: &RigidFit,
+    ) -> Option<RigidFit> {
+        if self.refit_cutoff == 0 {
+            return None;
+        }
+        let biweight = Biweight::new(self.refit_cutoff);
+        let mut weighted = WeightedPairs::new();
+        for (i, &h) in which.iter().enumerate().take(pairs.len()) {
+            let w = match self.head_slot(h) {
+                Some(k) if state.head_residuals_known => {
+                    biweight.weight(state.head_residuals[k], [0; 3]).max(HEAD_WEIGHT_FLOOR)
+                }
+                _ => FULL_WEIGHT,
+            };
+            weighted.push(pairs.neutral(i), pairs.current(i), w);
+        }
+        let mut head = MarkerSet::EMPTY;
+        for &h in self.head_markers.0 {
+            head.insert(usize::from(h));
+        }
+        let face = (0..self.marker_count().min(actor.len()))
+            .filter(|&j| !head.contains(j))
+            .take(REFIT_MARKERS);
+        for j in face {
+            let measured_last = state.seen.contains(j) && state.gap[j] == 0;
+            let (true, true, Some(Some(q)), Some(u)) =
+                (present.contains(j), measured_last, actor.get(j), self.neutral(j))
+            else {
+                continue;
+            };
+            let last = state.last[j];
+            if last.iter().any(|c| c.unsigned_abs() >= biweight.cut) {
+                continue;
+            }
+            // Where the head markers' fit puts it against where it was last frame, halved
+            // (saturated: beyond the cutoff either way). Halved: the motion between two frames
+            // carries the jitter twice, and the head markers' fit's own error once more.
+            let a = fit.compensate(*q);
+            let moved = [0, 1, 2].map(|c| a[c].saturating_sub(u[c]).saturating_sub(last[c]) >> 1);
+            weighted.push(u, *q, biweight.weight(last, moved));
+        }
+        weighted.fit()
+    }
+
     /// With fewer than three head markers present the head's pose cannot be fitted from them,
     /// but every marker present in this frame and the last one says where the head went since:
     /// between two frames a face changes little and the head may turn a lot. So `pairs` (the
@@ -595,7 +656,7 @@ impl<'a> Stages<'a> {
     }
 
     /// Marker `h`'s place among the head markers (the index of its residual), if it is one.
-    pub(crate) fn head_slot(&self, h: usize) -> Option<usize> {
+    fn head_slot(&self, h: usize) -> Option<usize> {
         self.head_markers.0.iter().position(|&m| usize::from(m) == h)
     }
 
@@ -690,7 +751,7 @@ pub const HEAD_FRAME_POINTS: [[i32; 3]; 4] = [
 
 /// Whether the vector `d` is longer than `limit` (at most 2³⁰). The squares are only formed
 /// once every |dᵢ| ≤ limit: below 2⁶² in all.
-pub(crate) fn beyond(d: [i64; 3], limit: i64) -> bool {
+fn beyond(d: [i64; 3], limit: i64) -> bool {
     if d.iter().any(|v| v.abs() > limit) {
         return true;
     }

@@ -13,10 +13,8 @@
 //! [`HEAD_WEIGHT_FLOOR`], so the fit never rests on the face alone.
 
 use crate::stages::compensate::{
-    dominant_quaternion, rotation_from, HeadPairs, RigidFit, CENTRED_LIMIT, MAX_HEAD_MARKERS,
+    dominant_quaternion, rotation_from, RigidFit, CENTRED_LIMIT, MAX_HEAD_MARKERS,
 };
-use crate::stages::report::MarkerSet;
-use crate::stages::{PlayState, Stages};
 
 /// Most face markers (not head markers) the refit pairs: the first ones in marker order,
 /// whether present or not, so the set does not change with dropouts.
@@ -50,7 +48,8 @@ pub const MAX_REFIT_CUTOFF: i32 = 1 << 24;
 /// Q0.24.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Biweight {
-    cut: u32,
+    /// The cutoff, Q8.24 actor units.
+    pub(crate) cut: u32,
     /// cut² >> 8, in [2¹⁶, 2⁴⁰].
     cut2: u64,
     /// ⌊2⁶² / cut2⌋, in [2²², 2⁴⁶].
@@ -180,68 +179,6 @@ impl WeightedPairs {
             neutral_centroid: cn,
             current_centroid: cq,
         })
-    }
-}
-
-impl Stages<'_> {
-    /// The head fit `fit` (from the head markers `pairs`, `which`: each pair's marker) done
-    /// again over the face (see the module docs): each head pair weighted by the biweight of
-    /// its marker's kept residual (at least [`HEAD_WEIGHT_FLOOR`]; [`FULL_WEIGHT`] before
-    /// residuals are known), and each of the first [`REFIT_MARKERS`] other markers that is
-    /// present now and was measured last frame by the biweight of its last displacement and of
-    /// half how far `fit` puts it from there, together: a marker that moved on its own in the last
-    /// frame, or since, weighs little or nothing (a jump, a ghost, the first frame of a blink,
-    /// or a take whose frames are not consecutive). `None` without a refit cutoff, or when the
-    /// fit fails (the head markers' fit stands).
-    pub(crate) fn refit(
-        &self,
-        state: &PlayState,
-        actor: &[Option<[i32; 3]>],
-        present: &MarkerSet,
-        pairs: &HeadPairs,
-        which: &[usize; MAX_HEAD_MARKERS],
-        fit: &RigidFit,
-    ) -> Option<RigidFit> {
-        if self.refit_cutoff == 0 {
-            return None;
-        }
-        let biweight = Biweight::new(self.refit_cutoff);
-        let mut weighted = WeightedPairs::new();
-        for (i, &h) in which.iter().enumerate().take(pairs.len()) {
-            let w = match self.head_slot(h) {
-                Some(k) if state.head_residuals_known => {
-                    biweight.weight(state.head_residuals[k], [0; 3]).max(HEAD_WEIGHT_FLOOR)
-                }
-                _ => FULL_WEIGHT,
-            };
-            weighted.push(pairs.neutral(i), pairs.current(i), w);
-        }
-        let mut head = MarkerSet::EMPTY;
-        for &h in self.head_markers.0 {
-            head.insert(usize::from(h));
-        }
-        let face = (0..self.marker_count().min(actor.len()))
-            .filter(|&j| !head.contains(j))
-            .take(REFIT_MARKERS);
-        for j in face {
-            let measured_last = state.seen.contains(j) && state.gap[j] == 0;
-            let (true, true, Some(Some(q)), Some(u)) =
-                (present.contains(j), measured_last, actor.get(j), self.neutral(j))
-            else {
-                continue;
-            };
-            let last = state.last[j];
-            if last.iter().any(|c| c.unsigned_abs() >= biweight.cut) {
-                continue;
-            }
-            // Where the head markers' fit puts it against where it was last frame, halved
-            // (saturated: beyond the cutoff either way). Halved: the motion between two frames
-            // carries the jitter twice, and the head markers' fit's own error once more.
-            let a = fit.compensate(*q);
-            let moved = [0, 1, 2].map(|c| a[c].saturating_sub(u[c]).saturating_sub(last[c]) >> 1);
-            weighted.push(u, *q, biweight.weight(last, moved));
-        }
-        weighted.fit()
     }
 }
 

@@ -1112,6 +1112,17 @@ mod tests {
     }
 
     #[test]
+    fn head_refit_is_auto_off_or_a_cutoff_in_mm() {
+        use facebake::stages::RefitUse;
+        assert_eq!(super::parse_head_refit("auto"), Ok(RefitUse::Auto));
+        assert_eq!(super::parse_head_refit(" off "), Ok(RefitUse::Off));
+        assert_eq!(super::parse_head_refit("1.5"), Ok(RefitUse::Cutoff(0.0015)));
+        for bad in ["0", "-1", "nan", "inf", "x", ""] {
+            assert!(super::parse_head_refit(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
     fn neutral_frame_numbers_never_overflow() {
         assert!(super::parse_frames("18446744073709551615").is_err());
         assert_eq!(super::parse_frames("7"), Ok(7..8));
