@@ -12,12 +12,13 @@
 //!    least-squares rigid motion of the rest from the neutral frame (Horn's quaternion method in
 //!    fixed point); the head marker furthest from the fit, if further than `head_tolerance`, is
 //!    rejected and the fit done once more. Then, when the rig carries a refit cutoff, the fit
-//!    is done again over the face ([`refit`]): every marker weighted by how still it held in
-//!    the last frame (Tukey's biweight of its displacement), the head markers among them, so a
-//!    brow raise lifting the forehead's head markers is not read as the head pitching and the
-//!    head markers' jitter is averaged over the still skin. With fewer than three head markers present, the pose
-//!    is tracked from the last frame through the head markers present and every other marker
-//!    present in both frames ([`RigidStatus::Tracked`]). With too few for that, or collinear or
+//!    is done again over the face ([`refit`]): every marker weighted by how still it held
+//!    (Tukey's biweight of its displacement in the last frame and half its motion since), the
+//!    head markers among them, so a brow raise lifting the forehead's head markers is not read
+//!    as the head pitching and the head markers' jitter is averaged over the still skin. With
+//!    fewer than three head markers present, the pose is tracked from the last frame through
+//!    the head markers present and every other marker present in both frames
+//!    ([`RigidStatus::Tracked`]). With too few for that, or collinear or
 //!    coincident head markers (in the neutral frame or in this one), the last good fit is held
 //!    and the report says why ([`RigidStatus::Held`]).
 //! 3. **Plausibility.** A compensated marker further than `max_displacement` from its neutral
@@ -788,7 +789,8 @@ pub struct StagesCost {
     /// Markers checked against `max_step` (one squared distance each).
     pub step_checks: usize,
     /// Face markers weighed into the refit over the face ([`refit`]): one compensation, one
-    /// weight (a 64-bit division) and nine weighted products each; 0 without a refit.
+    /// weight (a 64-bit multiplication by the cutoff's reciprocal) and nine weighted products
+    /// each; 0 without a refit.
     pub refit_markers: usize,
     /// Markers and head points smoothed (one integer square root and two divisions each; 0
     /// without smoothing).

@@ -5,12 +5,14 @@
 //! (ICT-FaceKit's surprise: the chin 3 mm off). A fit from a few markers also passes their
 //! jitter, magnified by the lever arm, to the whole face. The rest of the face mostly holds
 //! still in the head's frame, so once the head markers' fit is known it is done again over
-//! every marker, each weighted by how still it was ([`Biweight`] of its displacement in the
-//! last frame, Tukey's biweight): what moved on its own (a jaw, a smile, a brow) weighs little
-//! or nothing, and the still markers pull the head back and average their jitter. The weights
-//! are smooth in the displacement, so a marker that drops out or comes back moves the fit only
-//! by what it pulled, never by a switch; the head markers keep at least
-//! [`HEAD_WEIGHT_FLOOR`], so the fit never rests on the face alone.
+//! every marker, each weighted by how still it was ([`Biweight`], Tukey's biweight, of its
+//! displacement in the last frame and half its motion since, together): what moved on its own
+//! (a jaw, a smile, a brow, a jump) weighs little or nothing, and the still markers pull the
+//! head back and average their jitter. The weights are smooth, so a marker that drops out or
+//! comes back moves the fit only by what it pulled, never by a switch; the head markers keep at
+//! least [`HEAD_WEIGHT_FLOOR`], so the fit never rests on the face alone. The stages call it
+//! from `Stages::refit` (in the stages' module, with the other head-fit steps); this module
+//! holds the weight and the weighted fit.
 
 use crate::stages::compensate::{
     dominant_quaternion, rotation_from, RigidFit, CENTRED_LIMIT, MAX_HEAD_MARKERS,
