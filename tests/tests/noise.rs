@@ -169,9 +169,9 @@ fn every_deformer_stays_within_the_jitter_bar() {
 }
 
 /// The smoothing's effect: under 0.7 of the unsmoothed 99th percentile, for a lag of 3 frames
-/// when still. Measured 2026-12-04 with the head refit over the face, whose weights carry some
-/// of the jitter (a marker's motion since the last frame counts in its weight): linear 0.53
-/// of 0.81 mm, planar 0.54 of 0.90 mm. Measured 2026-12-03 with the filter tuned against the truth (3 Hz,
+/// when still. Measured 2026-12-04 with the head refit over the face, which averages much of
+/// the jitter before the filter sees it: linear 0.53 of 0.81 mm, planar 0.54 of 0.90 mm (the
+/// ratio is higher than before because the unsmoothed face gained more). Measured 2026-12-03 with the filter tuned against the truth (3 Hz,
 /// 2 Hz, the speed gain scaled to this take's noise, β 200): linear 0.68 of 1.18 mm, planar
 /// 0.67 of 1.21 mm, the lag on the clean take p99 0.41 mm. With β 50, 0.55 of 1.18 for a lag
 /// of p99 0.78 mm; the filter before, 1 Hz, β 10, 1 Hz, took two thirds, 0.34 of 1.18 and 0.35
