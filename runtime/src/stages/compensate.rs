@@ -49,7 +49,7 @@ pub(crate) fn validate(head_markers: Bytes<'_>, markers: usize) -> Result<(), St
 /// exponent. (32 until 2026-12-04: each squaring costs a Cortex-M4 about 250 instructions.)
 pub const SQUARINGS: usize = 16;
 /// Centred coordinates are clamped to this magnitude (16 actor units in Q8.24) before products.
-pub(crate) const CENTRED_LIMIT: i64 = 1 << 28;
+const CENTRED_LIMIT: i64 = 1 << 28;
 /// Output positions are clamped to this magnitude (64 actor units), the input limit.
 const POSITION_LIMIT: i64 = 1 << 30;
 
@@ -231,10 +231,11 @@ impl HeadPairs {
     /// Whether the current points are (nearly) collinear or coincident (see [`Self::fit`]).
     pub fn current_collinear(&self) -> bool {
         let cq = centroid(&self.current[..self.len]);
-        collinear(self.current[..self.len].iter().map(|&q| {
-            [0, 1, 2]
-                .map(|k| (i64::from(q[k]) - i64::from(cq[k])).clamp(-CENTRED_LIMIT, CENTRED_LIMIT))
-        }))
+        collinear(
+            self.current[..self.len]
+                .iter()
+                .map(|&q| centred(q, cq).map(i64::from)),
+        )
     }
 
     /// Which pairs keep the shape of the neutral head: pair `i` is kept unless the distances
@@ -299,12 +300,7 @@ impl HeadPairs {
         }
         let cn = centroid(&self.neutral[..n]);
         let cq = centroid(&self.current[..n]);
-        // Saturated then clamped: the same as the exact difference clamped, in 32 bits, so
-        // each product below is one 32 × 32 → 64-bit multiply-add.
-        let limit = CENTRED_LIMIT as i32;
-        let centred = |p: [i32; 3], c: [i32; 3]| {
-            [0, 1, 2].map(|k| p[k].saturating_sub(c[k]).clamp(-limit, limit))
-        };
+        // `centred` keeps 32 bits, so each product below is one 32 × 32 → 64-bit multiply-add.
         let wide = |p: [i32; 3]| p.map(i64::from);
         if collinear(self.neutral[..n].iter().map(|&p| wide(centred(p, cn))))
             || collinear(self.current[..n].iter().map(|&q| wide(centred(q, cq))))
@@ -329,6 +325,13 @@ impl HeadPairs {
             current_centroid: cq,
         })
     }
+}
+
+/// `p − c`, each coordinate clamped to ±[`CENTRED_LIMIT`] (16 actor units): saturated in 32
+/// bits, then clamped, which is the exact difference clamped.
+pub(crate) fn centred(p: [i32; 3], c: [i32; 3]) -> [i32; 3] {
+    let limit = CENTRED_LIMIT as i32;
+    [0, 1, 2].map(|k| p[k].saturating_sub(c[k]).clamp(-limit, limit))
 }
 
 /// ⌊‖a − b‖⌋ for positions within the `i32` range: each squared difference is below 2⁶², their

@@ -15,7 +15,7 @@
 //! holds the weight and the weighted fit.
 
 use crate::stages::compensate::{
-    dominant_quaternion, rotation_from, RigidFit, CENTRED_LIMIT, MAX_HEAD_MARKERS,
+    centred, dominant_quaternion, rotation_from, RigidFit, MAX_HEAD_MARKERS,
 };
 
 /// Most face markers (not head markers) the refit pairs: the first ones in marker order,
@@ -157,11 +157,6 @@ impl WeightedPairs {
             })
         };
         let (cn, cq) = (centroid(&self.neutral), centroid(&self.current));
-        // Saturated then clamped: the same as the exact difference clamped, in 32 bits.
-        let limit = CENTRED_LIMIT as i32;
-        let centred = |p: [i32; 3], c: [i32; 3]| {
-            [0, 1, 2].map(|k| p[k].saturating_sub(c[k]).clamp(-limit, limit))
-        };
         let mut s = [[0i64; 3]; 3];
         for i in 0..n {
             let w = i64::from(self.weight[i] as i32);
