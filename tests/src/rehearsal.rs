@@ -113,20 +113,64 @@ impl Rehearsal {
     /// Play the take through `blob` and score every `every`-th frame past the rest ([`REST_FRAMES`]) against
     /// the truth where the take has it (frame by frame: nothing but the errors is kept).
     pub fn score(&self, scene: &Benchmark, blob: &[u8], every: usize) -> Score {
-        let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
-        let (space, actor) = (rig.space(), rig.actor_space().expect("capture stages"));
         let regions =
             Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
+        let (mut errors, mut metrics) = (Vec::new(), Vec::<FrameMetrics>::new());
+        self.play(
+            scene,
+            blob,
+            |i| i % every == 0,
+            |played, truth, skin| {
+                metrics.push(regions.measure(played, Some(truth), false));
+                errors.extend(skin);
+            },
+        );
+        let mean_mm = errors.iter().sum::<f64>() / errors.len() as f64;
+        errors.sort_by(f64::total_cmp);
+        Score {
+            mean_mm,
+            p99_mm: errors[(errors.len() - 1) * 99 / 100],
+            take: TakeMetrics::of(&metrics),
+        }
+    }
+
+    /// Play the take through `blob` and score the last held frame of each expression (where a
+    /// face holds it, after the smoothing has caught up): the skin's mean error against the
+    /// truth per expression, in the truth's order, and over them all, mm.
+    pub fn score_held(&self, scene: &Benchmark, blob: &[u8]) -> (f64, Vec<f64>) {
+        let last_held = |i: usize| {
+            matches!(self.keys[i], (Some(_), t) if t == 1.0)
+                && self.keys.get(i + 1) != Some(&self.keys[i])
+        };
+        let (mut all, mut each) = (Vec::new(), Vec::new());
+        self.play(scene, blob, last_held, |_, _, skin| {
+            let before = all.len();
+            all.extend(skin);
+            each.push(all[before..].iter().sum::<f64>() / (all.len() - before) as f64);
+        });
+        (all.iter().sum::<f64>() / all.len() as f64, each)
+    }
+
+    /// Play the take through `blob`; on each frame past the rest that `keep` takes, call
+    /// `visit` with the played positions, the truth's and the skin's errors (mm).
+    fn play(
+        &self,
+        scene: &Benchmark,
+        blob: &[u8],
+        keep: impl Fn(usize) -> bool,
+        mut visit: impl FnMut(&[[f64; 3]], &[[f64; 3]], Vec<f64>),
+    ) {
+        let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
+        let (space, actor) = (rig.space(), rig.actor_space().expect("capture stages"));
         let mut state = PlayState::new();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
-        let (mut errors, mut metrics) = (Vec::new(), Vec::<FrameMetrics>::new());
         for (i, frame) in self.capture.frames.iter().enumerate() {
             let markers: Vec<Option<[i32; 3]>> = frame
                 .iter()
                 .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
                 .collect();
             rig.play(&mut state, &markers, &mut out).expect("plays");
-            if i < REST_FRAMES || i % every != 0 {
+            if i < REST_FRAMES || !keep(i) {
                 continue;
             }
             let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
@@ -135,19 +179,11 @@ impl Rehearsal {
                 (None, _) => rest.clone(),
                 (Some(f), t) => lerp(rest, &scene.truth.positions(f), t),
             };
-            metrics.push(regions.measure(&played, Some(&truth), false));
-            errors.extend(
-                (0..played.len())
-                    .filter(|&v| scene.truth.skin[v])
-                    .map(|v| 1000.0 * facebake::mesh::distance(&played[v], &truth[v])),
-            );
-        }
-        let mean_mm = errors.iter().sum::<f64>() / errors.len() as f64;
-        errors.sort_by(f64::total_cmp);
-        Score {
-            mean_mm,
-            p99_mm: errors[(errors.len() - 1) * 99 / 100],
-            take: TakeMetrics::of(&metrics),
+            let skin = (0..played.len())
+                .filter(|&v| scene.truth.skin[v])
+                .map(|v| 1000.0 * facebake::mesh::distance(&played[v], &truth[v]))
+                .collect();
+            visit(&played, &truth, skin);
         }
     }
 }
