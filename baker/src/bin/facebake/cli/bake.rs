@@ -202,7 +202,7 @@ pub struct BakeArgs {
     /// it held (Tukey's biweight of its displacement in the last frame and half its motion since,
     /// zero from the cutoff on), so a brow raise (which lifts the forehead's head markers) is
     /// not read as the head pitching and the head markers' jitter is averaged away: `auto`
-    /// (0.5 mm, or 3 × the capture's noise or the head markers' residual from a rigid head,
+    /// (1 mm, or 3 × the capture's noise or the head markers' residual from a rigid head,
     /// the largest), `off` (the head markers' fit alone), or the cutoff in mm.
     #[arg(long, value_name = "MM", default_value = "auto", value_parser = parse_head_refit, requires = "capture")]
     pub head_refit: facebake::stages::RefitUse,
