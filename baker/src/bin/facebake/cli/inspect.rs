@@ -173,6 +173,8 @@ pub struct CaptureSummary {
     pub max_step_m: f64,
     /// The smoothing's lag when still, frames; `None` without smoothing.
     pub smoothing_lag_frames: Option<u32>,
+    /// The head refit's cutoff, metres; `None` without a refit (the head markers' fit alone).
+    pub head_refit_m: Option<f64>,
     /// Per-frame work.
     pub cost: String,
 }
@@ -288,14 +290,19 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
                 max_step_m: f64::from(st.max_step) / f64::from(1u32 << 24)
                     * f64::from(st.actor_space.half_extent),
                 smoothing_lag_frames: st.smoothing.map(|f| f.still_lag_frames()),
+                head_refit_m: (st.refit_cutoff > 0).then(|| {
+                    f64::from(st.refit_cutoff) / f64::from(1u32 << 24)
+                        * f64::from(st.actor_space.half_extent)
+                }),
                 cost: format!(
-                    "{} markers: {} head-marker distance checks, at most {} rigid fits of {} head markers ({} 4×4 squarings), {} step checks, {} fill terms, {} smoothed markers, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
+                    "{} markers: {} head-marker distance checks, at most {} rigid fits of {} head markers ({} 4×4 squarings), {} step checks, {} markers weighed by the head refit, {} fill terms, {} smoothed markers, {} retargeting ({} inverse-multiquadric kernels, {} multiply-adds)",
                     c.markers,
                     c.head_distance_checks,
                     c.rigid_fits,
                     c.head_markers,
                     c.horn_squarings,
                     c.step_checks,
+                    c.refit_markers,
                     c.fill_terms,
                     c.smoothed_markers,
                     match st.retarget {
@@ -468,11 +475,13 @@ fn print_text(s: &InspectSummary) {
         );
         outln!(
             out,
-            "  checks        head-marker distances within {:.2} mm; steps over {:.2} mm per frame rejected; smoothing {}",
+            "  checks        head-marker distances within {:.2} mm; steps over {:.2} mm per frame rejected; smoothing {}; head refit {}",
             c.head_tolerance_m * 1000.0,
             c.max_step_m * 1000.0,
             c.smoothing_lag_frames
-                .map_or("off".to_string(), |l| format!("one-euro, lag when still {l} frames"))
+                .map_or("off".to_string(), |l| format!("one-euro, lag when still {l} frames")),
+            c.head_refit_m
+                .map_or("off".to_string(), |m| format!("over the face, cutoff {:.2} mm", m * 1000.0))
         );
         outln!(out, "  per frame     + capture stages: {}", c.cost);
     }
