@@ -792,7 +792,7 @@ pub struct StagesCost {
     /// weight (a 64-bit multiplication by the cutoff's reciprocal) and nine weighted products
     /// each; 0 without a refit.
     pub refit_markers: usize,
-    /// Markers and head points smoothed (one integer square root and two divisions each; 0
+    /// Markers and head points smoothed (one integer square root and four 32-bit divisions each; 0
     /// without smoothing).
     pub smoothed_markers: usize,
 }

