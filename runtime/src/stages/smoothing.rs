@@ -206,7 +206,6 @@ mod tests {
         (value + a(c).max(1.0 / f64::from(n)) * v, speed)
     }
 
-    /// On one axis the fixed-point filter follows the f64 one to a few LSB over a noisy wave.
     /// Every cutoff from 0 to [`MAX_CUTOFF`] (and one past it, clamped) gives the 64-bit
     /// quotient ⌊c·2³⁰ / (c + 2¹⁶)⌋ exactly.
     #[test]
@@ -218,6 +217,7 @@ mod tests {
         }
     }
 
+    /// On one axis the fixed-point filter follows the f64 one to a few LSB over a noisy wave.
     #[test]
     fn matches_the_f64_filter() {
         let p = params(0.1, 40.0, 0.1);
