@@ -246,7 +246,8 @@ pub struct BakeOptions {
     pub masks: bool,
     /// Geodesics, hybrid region, mask fade, PBW blend, ridge.
     pub surface: SurfaceOptions,
-    /// The capture stages, baked when the scene has a capture.
+    /// The capture stages, baked from the scene's capture, or at rest without one
+    /// ([`StagesConfig::at_rest`]).
     pub stages: StagesConfig,
     /// Static anchoring (the linear deformer, on any method, and planar bones): the skin beyond
     /// the markers' hull above the mouth follows the skull markers, fading in over this
@@ -275,7 +276,11 @@ impl Default for BakeOptions {
             planar_radius: crate::planar::DEFAULT_RADIUS_FACTOR,
             masks: false,
             surface: SurfaceOptions::default(),
-            stages: StagesConfig::default(),
+            // The papers bake no stages without a capture.
+            stages: StagesConfig {
+                at_rest: false,
+                ..StagesConfig::default()
+            },
             anchoring: None,
         }
     }
@@ -332,6 +337,8 @@ impl BakeOptions {
                 },
                 ..SurfaceOptions::default()
             },
+            // Stages at rest without a capture (`bake::at_rest`), which the papers lack.
+            stages: StagesConfig::default(),
             ..Self::default()
         }
     }

@@ -389,15 +389,17 @@ fn play_reproduces_the_runtime() {
     assert_eq!(played["frames"], frames.len());
     assert_eq!(played["glb_frames"], serde_json::json!([0, 2, 5]));
 
-    // The runtime, called directly on the same markers.
+    // The runtime, called directly on the same markers: through the stages the rig baked at
+    // rest (it has no capture).
     let blob = std::fs::read(&rig_path).unwrap();
     let rig = Rig::from_bytes(&blob).unwrap();
-    let space = rig.space();
+    let (space, actor) = (rig.space(), rig.actor_space().expect("stages at rest"));
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
     let mut expected = Vec::new();
+    let mut state = facebake_runtime::PlayState::new();
     for m in &frames {
-        let q: Vec<[i32; 3]> = m.iter().map(|p| space.to_rig_f64(*p).unwrap()).collect();
-        rig.deform(&q, &mut out).unwrap();
+        let q: Vec<Option<[i32; 3]>> = m.iter().map(|p| actor.to_rig_f64(*p).ok()).collect();
+        rig.play(&mut state, &q, &mut out).unwrap();
         expected.extend(
             out.iter()
                 .flat_map(|p| space.to_asset_f64(*p))
@@ -458,14 +460,18 @@ fn a_missing_sample_is_bad_input_naming_frame_and_marker() {
     lines[row] = cells.join(",");
     let csv = dir.join("gap.csv");
     std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
-    let out = facebake(&[
-        "play",
-        s(&demo_dir.join("facecap.fbk")),
-        "--markers",
-        s(&csv),
-        "-o",
-        s(&dir.join("x.npy")),
-    ]);
+    let (rig, npy) = (demo_dir.join("facecap.fbk"), dir.join("x.npy"));
+    let play = |more: &[&str]| {
+        let mut args = vec!["play", s(&rig), "--markers", s(&csv), "-o", s(&npy)];
+        args.extend_from_slice(more);
+        facebake(&args)
+    };
+    // The rig's stages at rest fill the gap from the marker's neighbours.
+    let filled = play(&["--json"]);
+    assert_eq!(filled.status.code(), Some(0), "{}", stderr(&filled));
+    assert_eq!(json_ok(&filled)["stages"]["missing_samples"], 1);
+    // The deformer alone takes every marker.
+    let out = play(&["--deform-only"]);
     assert_eq!(out.status.code(), Some(2));
     let err = stderr(&out);
     assert!(

@@ -151,8 +151,10 @@ impl Rehearsal {
         (all.iter().sum::<f64>() / all.len() as f64, each)
     }
 
-    /// Play the take through `blob`; on each frame past the rest that `keep` takes, call
-    /// `visit` with the played positions, the truth's and the skin's errors (mm).
+    /// Play the take through `blob` (its capture stages; a rig without them deformed by the
+    /// take's markers as they are, a missing one at rest); on each frame past the rest that
+    /// `keep` takes, call `visit` with the played positions, the truth's and the skin's errors
+    /// (mm).
     fn play(
         &self,
         scene: &Benchmark,
@@ -161,15 +163,30 @@ impl Rehearsal {
         mut visit: impl FnMut(&[[f64; 3]], &[[f64; 3]], Vec<f64>),
     ) {
         let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
-        let (space, actor) = (rig.space(), rig.actor_space().expect("capture stages"));
+        let space = rig.space();
         let mut state = PlayState::new();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
         for (i, frame) in self.capture.frames.iter().enumerate() {
-            let markers: Vec<Option<[i32; 3]>> = frame
-                .iter()
-                .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
-                .collect();
-            rig.play(&mut state, &markers, &mut out).expect("plays");
+            match rig.actor_space() {
+                Some(actor) => {
+                    let markers: Vec<Option<[i32; 3]>> = frame
+                        .iter()
+                        .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
+                        .collect();
+                    rig.play(&mut state, &markers, &mut out).expect("plays");
+                }
+                None => {
+                    let markers: Vec<[i32; 3]> = frame
+                        .iter()
+                        .enumerate()
+                        .map(|(m, p)| match p {
+                            Some(p) => space.to_rig_f64(*p).expect("in the rig's space"),
+                            None => rig.marker_rest(m).expect("a marker of the rig"),
+                        })
+                        .collect();
+                    rig.deform(&markers, &mut out).expect("deforms");
+                }
+            }
             if i < REST_FRAMES || !keep(i) {
                 continue;
             }

@@ -3,9 +3,10 @@
 //! [`bake()`] checks the options against each other once, then the distance strategy gives each
 //! vertex its dense weights (Euclidean: `euclidean`; geodesic, hybrid, PBW and masks:
 //! [`crate::surface`]) and the deformer ([`crate::deformer`]) keeps, re-fits and quantises K of
-//! them; with a capture, the stages ([`crate::stages`]) are baked in the same rig space; then the
-//! blob is written with everything in it.
+//! them; with a capture, the stages ([`crate::stages`]) are baked in the same rig space (without
+//! one, from the markers at rest: `at_rest`); then the blob is written with everything in it.
 
+mod at_rest;
 mod euclidean;
 pub mod mouth_share;
 mod playback;
@@ -190,7 +191,7 @@ pub struct BakeReport {
     /// Surface-aware methods and masks: spectrum, ridge, openings, masks.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub surface: Option<SurfaceFigures>,
-    /// The capture stages, when the scene has a capture.
+    /// The capture stages, from the scene's capture or at rest ([`StagesReport::at_rest`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stages: Option<StagesReport>,
     /// With a capture and the mouth's corners reshaped: the share of their crack profile kept
@@ -289,7 +290,7 @@ impl DenseWeights {
 pub struct Reference {
     /// The deformer's.
     pub deformer: DeformerReference,
-    /// The capture stages', when the scene has a capture.
+    /// The capture stages', when the rig has them.
     pub stages: Option<StagesF64>,
 }
 
@@ -319,8 +320,8 @@ struct DeformerBake {
     surface_markers: Option<(Vec<Vec<f64>>, Vec<String>)>,
 }
 
-/// Bake `scene` with `options` into a sealed rig: deformer, and capture stages when the scene
-/// has a capture.
+/// Bake `scene` with `options` into a sealed rig: deformer, and capture stages, from the
+/// scene's capture or, without one, from the markers at rest (`at_rest`).
 pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError> {
     let auto;
     let mut unmasked = Vec::new();
@@ -336,38 +337,25 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let rest = scene.marker_rest();
     let space = crate::space::space_for(&scene.mesh.positions);
     let mut d = bake_deformer(scene, options, &rest, &space, None, None)?;
+    let mut at_rest_warning = None;
     let stages = match scene.capture {
         Some(capture) => {
-            // Fill neighbours along the skin (lip markers across a closed mouth are millimetres
-            // apart in space) and head markers among the skull markers and the inner eye
-            // corners, unless given.
-            let (distances, candidates) = match &d.surface_markers {
-                Some(m) => m.clone(),
-                None => {
-                    let (distances, candidates) =
-                        crate::surface::skin_markers(&scene.surface_input(), &options.surface)?;
-                    (
-                        distances,
-                        candidates.iter().map(|&i| names[i].clone()).collect(),
-                    )
-                }
-            };
-            let mut config = options.stages.clone();
-            config.marker_distances.get_or_insert(distances);
-            config.head_candidates.get_or_insert(candidates);
-            config
-                .face_axes
-                .get_or_insert_with(|| crate::frame::FaceFrame::of(scene.mesh));
-            if config.retarget == crate::stages::RetargetKind::Geodesic {
-                config.character_surface.get_or_insert_with(|| {
-                    crate::stages::geodesic_retarget::CharacterSurface {
-                        positions: scene.mesh.welded_positions.clone(),
-                        triangles: scene.mesh.welded_triangles.clone(),
-                        sources: scene.markers.iter().map(|m| m.source).collect(),
-                    }
-                });
-            }
+            let config = stages_config(scene, options, &d, &names)?;
             Some(bake_stages(capture, &names, &rest, &space, &config)?)
+        }
+        None if options.stages.at_rest => {
+            let stages = stages_config(scene, options, &d, &names)
+                .map_err(|e| {
+                    format!("no capture stages: the rig plays through Rig::deform only ({e})")
+                })
+                .and_then(|config| at_rest::stages(&names, &rest, &space, &config));
+            match stages {
+                Ok(stages) => Some(stages),
+                Err(why) => {
+                    at_rest_warning = Some(why);
+                    None
+                }
+            }
         }
         None => None,
     };
@@ -375,7 +363,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     // took the head candidates, which the stages pick all of unless there are more of them
     // than they keep or the user named others: then the deformer is baked again.
     let mut held = None;
-    if let Some(st) = &stages {
+    if let (Some(st), Some(_)) = (&stages, scene.capture) {
         let markers: Vec<usize> = st
             .report
             .head_markers
@@ -495,6 +483,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     warnings.extend(scene.capture.and_then(Capture::units_warning));
     warnings.extend(d.warnings);
     warnings.extend(unmasked);
+    warnings.extend(at_rest_warning);
     if let Some(st) = &stages {
         for name in &st.report.unsampled_markers {
             warnings.push(format!(
@@ -560,6 +549,44 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             stages: stages.map(|s| s.reference),
         },
     })
+}
+
+/// The stages' configuration for `scene`: the options' own, with fill neighbours along the skin
+/// (lip markers across a closed mouth are millimetres apart in space), head markers among the
+/// skull markers and the inner eye corners and the face's axes, unless given.
+fn stages_config(
+    scene: &Scene<'_>,
+    options: &BakeOptions,
+    d: &DeformerBake,
+    names: &[String],
+) -> Result<crate::stages::StagesConfig, BakeError> {
+    let (distances, candidates) = match &d.surface_markers {
+        Some(m) => m.clone(),
+        None => {
+            let (distances, candidates) =
+                crate::surface::skin_markers(&scene.surface_input(), &options.surface)?;
+            (
+                distances,
+                candidates.iter().map(|&i| names[i].clone()).collect(),
+            )
+        }
+    };
+    let mut config = options.stages.clone();
+    config.marker_distances.get_or_insert(distances);
+    config.head_candidates.get_or_insert(candidates);
+    config
+        .face_axes
+        .get_or_insert_with(|| crate::frame::FaceFrame::of(scene.mesh));
+    if config.retarget == crate::stages::RetargetKind::Geodesic {
+        config.character_surface.get_or_insert_with(|| {
+            crate::stages::geodesic_retarget::CharacterSurface {
+                positions: scene.mesh.welded_positions.clone(),
+                triangles: scene.mesh.welded_triangles.clone(),
+                sources: scene.markers.iter().map(|m| m.source).collect(),
+            }
+        });
+    }
+    Ok(config)
 }
 
 /// The mean share of radial mass the RBF deformer may drop by keeping K before the bake warns

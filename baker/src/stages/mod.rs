@@ -166,6 +166,11 @@ pub struct StagesConfig {
     /// The character face's own axes, for [`RetargetKind::Proportional`]'s per-axis scales;
     /// [`crate::bake()`] fills them from the mesh's openings; `None`: the file's axes.
     pub face_axes: Option<crate::frame::FaceFrame>,
+    /// Without a capture, bake the stages from the markers at rest (the actor is the
+    /// character; `crate::bake::at_rest`), so that `Rig::play` takes the character's own
+    /// takes, head motion and gaps included. On here and in every configuration `bake` makes;
+    /// off in the papers' ([`crate::BakeOptions::default`]).
+    pub at_rest: bool,
 }
 
 impl Default for StagesConfig {
@@ -186,6 +191,7 @@ impl Default for StagesConfig {
             head_refit: RefitUse::Auto,
             character_surface: None,
             face_axes: None,
+            at_rest: true,
         }
     }
 }
@@ -288,6 +294,9 @@ pub enum StagesError {
 /// What was baked, for reports.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct StagesReport {
+    /// Whether they were baked without a capture, from the markers at rest
+    /// (`crate::bake::at_rest`): the actor is the character.
+    pub at_rest: bool,
     /// Head markers used for compensation, by name.
     pub head_markers: Vec<String>,
     /// Whether the baker picked them (most rigid subset).
@@ -778,6 +787,7 @@ pub fn bake_stages(
         .map(|s| s.encode(capture.rate_hz, half_extent))
         .transpose()?;
     let report = StagesReport {
+        at_rest: false,
         head_markers: head.iter().map(|&h| marker_names[h].clone()).collect(),
         head_markers_picked: picked,
         head_spread,

@@ -763,23 +763,37 @@ fn print_text(s: &BakeSummary) {
         r.sizes.other_bytes_per_vertex
     );
     if let Some(st) = &r.stages {
+        if st.at_rest {
+            outln!(
+                out,
+                "  stages        no capture: the markers at rest are the neutral pose, so `play` takes takes in the character's own space (head motion removed, gaps filled; `bake --capture` retargets an actor and smooths)"
+            );
+        } else {
+            outln!(
+                out,
+                "  capture       neutral frames {:?}, actor half extent {:.1} mm (capture in {})",
+                st.neutral_frames,
+                st.actor_half_extent * 1000.0,
+                st.units
+            );
+        }
+        let how = if st.at_rest {
+            "the skull markers and the inner eye corners unless named".to_string()
+        } else if st.head_markers_picked {
+            format!(
+                "the most rigid, picked by the baker; their distances vary by {:.3} mm",
+                st.head_spread * 1000.0
+            )
+        } else {
+            format!(
+                "as named; their distances vary by {:.3} mm",
+                st.head_spread * 1000.0
+            )
+        };
         outln!(
             out,
-            "  capture       neutral frames {:?}, actor half extent {:.1} mm (capture in {})",
-            st.neutral_frames,
-            st.actor_half_extent * 1000.0,
-            st.units
-        );
-        outln!(
-            out,
-            "  head markers  {} ({}; their distances vary by {:.3} mm)",
-            st.head_markers.join(", "),
-            if st.head_markers_picked {
-                "the most rigid, picked by the baker"
-            } else {
-                "as named"
-            },
-            st.head_spread * 1000.0
+            "  head markers  {} ({how})",
+            st.head_markers.join(", ")
         );
         outln!(
             out,
@@ -809,7 +823,10 @@ fn print_text(s: &BakeSummary) {
             ),
             None => "off".to_string(),
         };
-        outln!(
+        if st.at_rest {
+            outln!(out, "  smoothing     off (no capture to measure noise on)");
+        } else {
+            outln!(
             out,
             "  smoothing     the capture's noise {:.3} mm{} (markers smoothed by default over {:.2} mm); markers {}{}; head pose {}{}",
             st.capture_noise * 1000.0,
@@ -831,6 +848,7 @@ fn print_text(s: &BakeSummary) {
                 None => String::new(),
             }
         );
+        }
         outln!(
             out,
             "  head refit    {}",

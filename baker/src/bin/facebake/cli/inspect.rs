@@ -161,6 +161,9 @@ pub struct InspectSummary {
 /// The capture stages of a rig, for `inspect`.
 #[derive(Debug, Serialize)]
 pub struct CaptureSummary {
+    /// Whether the stages were baked without a capture, from the rig's own markers at rest
+    /// (`facebake::bake::at_rest`; known by their neutral pose, `play::stages_at_rest`).
+    pub at_rest: bool,
     /// Head markers, by name (empty: no compensation).
     pub head_markers: Vec<String>,
     /// The actor's half extent, metres.
@@ -276,6 +279,7 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         capture: rig.stages().map(|st| {
             let c = st.cost();
             CaptureSummary {
+                at_rest: super::play::stages_at_rest(rig),
                 head_markers: st
                     .head_markers()
                     .iter()
@@ -467,7 +471,8 @@ fn print_text(s: &InspectSummary) {
     if let Some(c) = &s.capture {
         outln!(
             out,
-            "  capture       head markers {}; actor half extent {:.1} mm; rejects displacements over {:.1} mm; stages {} bytes",
+            "  {}       head markers {}; actor half extent {:.1} mm; rejects displacements over {:.1} mm; stages {} bytes",
+            if c.at_rest { "at rest" } else { "capture" },
             if c.head_markers.is_empty() { "none".to_string() } else { facebake::io::escape_control(&c.head_markers.join(", ")).into_owned() },
             c.actor_half_extent_m * 1000.0,
             c.max_displacement_m * 1000.0,

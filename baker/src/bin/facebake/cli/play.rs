@@ -28,10 +28,16 @@ pub struct PlayArgs {
     /// The marker capture (.csv, .trc, .c3d, or a packed take from `facebake pack`, known by
     /// its magic). Its markers are matched to the rig's by name.
     /// A rig baked with a capture (`bake --capture`) takes the actor's raw capture: head motion,
-    /// missing samples and retargeting are solved per frame by the runtime. A rig without
-    /// stages takes markers already in the character's space, with none missing.
+    /// missing samples and retargeting are solved per frame by the runtime. A rig baked without
+    /// one takes markers in the character's own space, its stages at rest taking out head
+    /// motion and filling gaps; a rig without stages (or `--deform-only`) takes markers
+    /// already in the character's space, with none missing.
     #[arg(long, value_name = "CAPTURE")]
     pub markers: PathBuf,
+    /// Play the markers through the deformer alone, as `Rig::deform` does, skipping the rig's
+    /// capture stages: markers in the character's space and the head's frame, none missing.
+    #[arg(long)]
+    pub deform_only: bool,
     /// Units of the capture's numbers, overriding what the file says (needed for a CSV
     /// without a `# units=` line).
     #[arg(long, value_name = "UNITS", value_parser = parse_units)]
@@ -80,10 +86,11 @@ pub struct PlayArgs {
     pub json: bool,
 }
 
-/// A raw take is refused on a rig without capture stages when its markers sit, at the median
-/// frame, further than this fraction of the rig's marker extent (bounding-box diagonal) from the
-/// rig's rest markers after the best rigid fit, or the best fit turns them by more than
-/// [`RAW_TAKE_TURN_DEGREES`].
+/// A raw take is refused on a rig without capture stages (or played `--deform-only`) when its
+/// markers sit, at the median frame, further than this fraction of the rig's marker extent
+/// (bounding-box diagonal) from the rig's rest markers after the best rigid fit, or the best fit
+/// turns them by more than [`RAW_TAKE_TURN_DEGREES`]; on a rig with stages at rest, which take
+/// the head's motion out, by the first alone.
 pub const RAW_TAKE_RESIDUAL_FRACTION: f64 = 0.03;
 /// See [`RAW_TAKE_RESIDUAL_FRACTION`].
 pub const RAW_TAKE_TURN_DEGREES: f64 = 3.0;
@@ -144,12 +151,14 @@ pub fn nearest_names(name: &str, candidates: &[&str]) -> String {
         .join(", ")
 }
 
-/// Refuses a take that looks like an actor's raw capture (head motion, another face) on a rig
-/// without capture stages, which plays character-space markers as they are.
+/// Refuses a take that looks like an actor's raw capture (another face; head motion too unless
+/// `turned`, for stages at rest) on a rig that plays character-space markers: without capture
+/// stages, or with stages at rest.
 fn check_character_space(
     rig: &facebake_runtime::Rig<'_>,
     path: &Path,
     frames: &[Vec<[f64; 3]>],
+    turned: bool,
 ) -> Result<(), CliError> {
     let space = rig.space();
     let rest: Vec<[f64; 3]> = (0..rig.marker_count())
@@ -178,21 +187,52 @@ fn check_character_space(
     let residual = fits[fits.len() / 2].0;
     fits.sort_by(|a, b| a.1.total_cmp(&b.1));
     let turn = fits[fits.len() / 2].1;
-    if residual > RAW_TAKE_RESIDUAL_FRACTION || turn > RAW_TAKE_TURN_DEGREES {
+    if residual > RAW_TAKE_RESIDUAL_FRACTION || (!turned && turn > RAW_TAKE_TURN_DEGREES) {
+        let rig_kind = if turned {
+            "A rig baked without a capture plays markers in the character's own space (its \
+             stages take the head's motion out)"
+        } else {
+            "A rig without capture stages plays markers already in the character's space"
+        };
         return Err(CliError::input(
             path,
             format!(
                 "the markers do not look like the character's: at the median frame they are {:.1}% \
                  of the rig's marker extent off its rest markers after the best rigid fit, turned by \
-                 {turn:.1}°. A rig without capture stages plays markers already in the character's \
-                 space; for an actor's raw take bake the rig with `bake --capture <a take of this \
-                 actor>` (or check --capture-units / --units)",
+                 {turn:.1}°. {rig_kind}; for an actor's raw take bake the rig with `bake --capture \
+                 <a take of this actor>` (or check --capture-units / --units)",
                 100.0 * residual
             ),
         ));
     }
     Ok(())
 }
+
+/// Whether `rig`'s capture stages were baked without a capture, from its own markers at rest
+/// (`facebake::bake::at_rest`): the actor's neutral pose is then the rig's rest markers, to
+/// within [`AT_REST_TOLERANCE`] of their extent.
+pub fn stages_at_rest(rig: &facebake_runtime::Rig<'_>) -> bool {
+    let Some(stages) = rig.stages() else {
+        return false;
+    };
+    let (space, actor) = (rig.space(), stages.actor_space);
+    let rest: Vec<[f64; 3]> = (0..rig.marker_count())
+        .filter_map(|i| rig.marker_rest(i))
+        .map(|q| space.to_asset_f64(q))
+        .collect();
+    let (lo, hi) = facebake::model::bounds(rest.iter().copied());
+    let extent = facebake::mesh::distance(&lo, &hi);
+    rest.len() == rig.marker_count()
+        && rest.iter().enumerate().all(|(i, r)| {
+            stages.neutral(i).is_some_and(|n| {
+                facebake::mesh::distance(r, &actor.to_asset_f64(n)) <= AT_REST_TOLERANCE * extent
+            })
+        })
+}
+
+/// See [`stages_at_rest`]: a capture's neutral pose is an actor's, centimetres from the
+/// character's markers; stages at rest hold the rig's own, rounded to Q8.24 actor units.
+pub const AT_REST_TOLERANCE: f64 = 1e-5;
 
 /// What `play` reports.
 #[derive(Debug, Serialize)]
@@ -467,6 +507,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     if let Some(w) = full.units_warning() {
         eprintln!("warning: {w}");
     }
+    let stages_used = rig.stages().filter(|_| !args.deform_only);
     // A rig with capture stages rebuilds markers the capture lacks (virtual markers); without
     // stages every rig marker must be in the capture.
     let absent: Vec<&str> = name_refs
@@ -474,7 +515,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         .copied()
         .filter(|n| full.marker_index(n).is_none())
         .collect();
-    if let Some(stages) = rig.stages() {
+    if let Some(stages) = stages_used {
         let never = never_captured(stages, name_refs.len());
         let unexpected: Vec<&str> = absent
             .iter()
@@ -520,7 +561,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
             ));
         }
     }
-    let capture = if rig.stages().is_some() && absent.len() < name_refs.len() {
+    let capture = if stages_used.is_some() && absent.len() < name_refs.len() {
         let present: Vec<&str> = name_refs
             .iter()
             .copied()
@@ -542,11 +583,21 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         full.select(&name_refs)?
     };
     let raw = capture.in_metres().frames;
-    let frames = match rig.stages() {
+    let frames = match stages_used {
         Some(_) => Vec::new(),
         None => capture_frames(&capture, args.units)?,
     };
-    check_character_space(&rig, &args.markers, &frames)?;
+    if stages_used.is_some() && stages_at_rest(&rig) {
+        // Stages baked without a capture take the character's own takes, turned or not: the
+        // frames that have every marker decide.
+        let complete: Vec<Vec<[f64; 3]>> = raw
+            .iter()
+            .filter_map(|f| f.iter().copied().collect::<Option<Vec<_>>>())
+            .collect();
+        check_character_space(&rig, &args.markers, &complete, true)?;
+    } else {
+        check_character_space(&rig, &args.markers, &frames, false)?;
+    }
     let frame_count = capture.frame_count();
     let n = rig.vertex_count();
     // Check everything the .glb needs before the long part.
@@ -578,7 +629,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
     let bar = progress(frame_count, "playing", args.json);
     let mut out = vec![[0i32; 3]; n];
     let mut data: Vec<f32> = Vec::with_capacity(frame_count * n * 3);
-    let stages = if rig.stages().is_some() {
+    let stages = if stages_used.is_some() {
         let summary = play_stages(&rig, &args.rig, &raw, |_, positions| {
             data.extend(positions.iter().flatten().map(|&x| x as f32));
             bar.inc(1);
