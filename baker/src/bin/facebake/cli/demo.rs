@@ -111,6 +111,10 @@ pub struct DemoSummary {
     pub runtime_vs_truth: ErrorStats,
     /// Dense f64 reference vs ground truth over skin vertices.
     pub dense_vs_truth: ErrorStats,
+    /// The sequence through the rig's stages at rest (`Rig::play`, each frame held
+    /// [`PLAY_HOLD`] frames): skin error and the worst static drift, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub through_play: Option<(ErrorStats, f64)>,
     /// Indicative speed.
     pub speed: Speed,
     /// Files written.
@@ -220,6 +224,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         played.push(got);
     }
     let diagonal = truth.mesh.diagonal();
+    let through_play = play_truth(&rig, &truth, &markers, &truths, &rest);
 
     // Speed: whole passes over the sequence.
     let reps = args.repetitions as usize;
@@ -328,6 +333,7 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode, CliError> {
         runtime_vs_f64_passed: max_error / diagonal <= TOLERANCE_FRACTION,
         runtime_vs_truth: stats(&mut e_runtime, 1.0),
         dense_vs_truth: stats(&mut e_dense, 1.0),
+        through_play,
         speed,
         files,
         structure,
@@ -388,6 +394,12 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
     );
     outln!(out, "    sparse runtime   {}", s.runtime_vs_truth);
     outln!(out, "    dense f64 RBF    {}", s.dense_vs_truth);
+    if let Some((e, drift)) = &s.through_play {
+        outln!(
+            out,
+            "    through `play`   {e}; static drift {drift:.2} mm (the stages at rest)"
+        );
+    }
     out.push_str(&super::render::structure_text(&s.structure, false));
     outln!(out, "  .glb            {}", s.glb.text());
     let sp = &s.speed;
@@ -447,4 +459,36 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
         );
     }
     emit(&out);
+}
+
+/// Frames each truth frame is held when the sequence is played through the stages: a face
+/// holds an expression, and the head refit weighs a marker by its motion since the last frame.
+pub const PLAY_HOLD: usize = 3;
+
+/// The sequence's `markers` (metres) through `rig`'s stages, each frame held [`PLAY_HOLD`]
+/// frames: the skin's error against `truths` and the worst static drift (mm); `None` for a rig
+/// without stages.
+fn play_truth(
+    rig: &facebake_runtime::Rig<'_>,
+    truth: &GroundTruth,
+    markers: &[Vec<[f64; 3]>],
+    truths: &[Vec<[f64; 3]>],
+    rest: &[[f64; 3]],
+) -> Option<(ErrorStats, f64)> {
+    let (space, actor) = (rig.space(), rig.actor_space()?);
+    let regions = facebake::metrics::Regions::for_mesh(&truth.mesh, rest, &[]).ok()?;
+    let mut state = facebake_runtime::PlayState::new();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    let (mut errors, mut played) = (Vec::new(), Vec::new());
+    for (m, t) in markers.iter().zip(truths) {
+        let q: Vec<Option<[i32; 3]>> = m.iter().map(|p| actor.to_rig_f64(*p).ok()).collect();
+        for _ in 0..PLAY_HOLD {
+            rig.play(&mut state, &q, &mut out).ok()?;
+        }
+        let got: Vec<[f64; 3]> = out.iter().map(|p| space.to_asset_f64(*p)).collect();
+        truth.skin_errors(&got, t, &mut errors);
+        played.push(got);
+    }
+    let (_, take) = regions.measure_take(&played, Some(truths), false);
+    Some((stats(&mut errors, 1.0), take.static_drift_mm.0))
 }
