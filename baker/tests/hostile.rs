@@ -516,7 +516,9 @@ fn play_with_a_misspelt_marker_is_an_error() {
 }
 
 #[test]
-fn raw_take_on_a_rig_without_stages_is_an_error() {
+fn an_actors_raw_take_on_a_rig_baked_without_a_capture_is_an_error() {
+    // The rig's stages at rest take takes in the character's own space: JawMoCap's actor is
+    // another face, which they would play as expressions.
     let dir = TempDir::new("raw");
     let baked = bake(&dir, &fixture("FaceCapHeadGeneric.glb"), &[]);
     let rig = dir.join("out.fbk");
