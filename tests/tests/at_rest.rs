@@ -1,6 +1,6 @@
 //! A bake without a capture bakes capture stages from the layout's markers at rest
 //! (`facebake::bake::at_rest`): `Rig::deform` plays the rig as before, bit for bit, and
-//! `Rig::play` takes the character's own takes, head motion and gaps included, bringing them
+//! `Rig::play` plays the character's own takes, head motion and gaps included, bringing them
 //! into the head's frame first.
 //!
 //! `cargo test --release -p facebake-tests --test at_rest -- --nocapture` prints the figures.

@@ -167,7 +167,7 @@ pub struct StagesConfig {
     /// [`crate::bake()`] fills them from the mesh's openings; `None`: the file's axes.
     pub face_axes: Option<crate::frame::FaceFrame>,
     /// Without a capture, bake the stages from the markers at rest (the actor is the
-    /// character; `crate::bake::at_rest`), so that `Rig::play` takes the character's own
+    /// character; `crate::bake::at_rest`), so that `Rig::play` plays the character's own
     /// takes, head motion and gaps included. On here and in every configuration `bake` makes;
     /// off in the papers' ([`crate::BakeOptions::default`]).
     pub at_rest: bool,

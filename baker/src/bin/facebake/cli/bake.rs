@@ -766,7 +766,7 @@ fn print_text(s: &BakeSummary) {
         if st.at_rest {
             outln!(
                 out,
-                "  stages        no capture: the markers at rest are the neutral pose, so `play` takes takes in the character's own space (head motion removed, gaps filled; `bake --capture` retargets an actor and smooths)"
+                "  stages        no capture: the markers at rest are the neutral pose, so `play` accepts takes in the character's own space (head motion removed, gaps filled; `bake --capture` retargets an actor and smooths)"
             );
         } else {
             outln!(

@@ -588,7 +588,7 @@ pub fn run(args: &PlayArgs) -> Result<ExitCode, CliError> {
         None => capture_frames(&capture, args.units)?,
     };
     if stages_used.is_some() && stages_at_rest(&rig) {
-        // Stages baked without a capture take the character's own takes, turned or not: the
+        // Stages baked without a capture play the character's own takes, turned or not: the
         // frames that have every marker decide.
         let complete: Vec<Vec<[f64; 3]>> = raw
             .iter()
