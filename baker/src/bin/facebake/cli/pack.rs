@@ -32,8 +32,8 @@ pub struct PackArgs {
     /// Predicted frames per block of residual widths (at most the key interval).
     #[arg(long, value_name = "B", default_value_t = 32)]
     pub block_frames: u16,
-    /// Store the samples in this rig's actor space (a rig baked with `--capture`), so the
-    /// runtime plays the decoded integers as they are (the firmware does).
+    /// Store the samples in this rig's actor space (a rig with capture stages, from a capture or
+    /// at rest), so the runtime plays the decoded integers as they are (the firmware does).
     #[arg(long, value_name = "RIG")]
     pub rig: Option<PathBuf>,
     /// Units of the capture's numbers, overriding what the file says.
@@ -112,7 +112,7 @@ pub fn run(args: &PackArgs) -> Result<ExitCode, CliError> {
             Some(rig.actor_space().ok_or_else(|| {
                 CliError::input(
                     path,
-                    "the rig has no capture stages (bake it with --capture) and so no actor space",
+                    "the rig has no capture stages (its bake said why) and so no actor space",
                 )
             })?)
         }
