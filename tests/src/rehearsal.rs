@@ -163,11 +163,11 @@ impl Rehearsal {
         mut visit: impl FnMut(&[[f64; 3]], &[[f64; 3]], Vec<f64>),
     ) {
         let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
-        let space = rig.space();
+        let (space, actor_space) = (rig.space(), rig.actor_space());
         let mut state = PlayState::new();
         let mut out = vec![[0i32; 3]; rig.vertex_count()];
         for (i, frame) in self.capture.frames.iter().enumerate() {
-            match rig.actor_space() {
+            match actor_space {
                 Some(actor) => {
                     let markers: Vec<Option<[i32; 3]>> = frame
                         .iter()

@@ -185,34 +185,18 @@ impl Benchmark {
     }
 
     /// Run a rig through its capture stages on every frame of the sequence, in order, as one
-    /// take (`Rig::play`, its markers where the truth puts them, in the rig's actor space), each
-    /// expression held for `hold` frames as a face holds one (the head refit weighs a marker by
-    /// its motion since the last frame too, and no take jumps from one expression to the next):
-    /// vertex positions per frame, each the last of its hold. `None` for a rig without stages.
+    /// take ([`play_held`], its markers where the truth puts them), each expression held for
+    /// `hold` frames: vertex positions per frame. `None` for a rig without stages.
     ///
     /// # Panics
     /// If `blob` is not a rig of this scene's mesh and markers (a programming error).
     pub fn play_stages(&self, blob: &[u8], hold: usize) -> Option<Vec<Vec<[f64; 3]>>> {
         let rig = facebake_runtime::Rig::from_bytes(blob).expect("a rig this crate baked");
-        let (space, actor) = (rig.space(), rig.actor_space()?);
-        let mut state = facebake_runtime::PlayState::new();
-        let mut out = vec![[0i32; 3]; rig.vertex_count()];
-        Some(
-            (0..self.truth.frames.len())
-                .map(|f| {
-                    let markers: Vec<Option<[i32; 3]>> = self
-                        .markers_of(&self.truth.positions(f))
-                        .iter()
-                        .map(|p| actor.to_rig_f64(*p).ok())
-                        .collect();
-                    for _ in 0..hold.max(1) {
-                        rig.play(&mut state, &markers, &mut out)
-                            .expect("one position per marker");
-                    }
-                    out.iter().map(|p| space.to_asset_f64(*p)).collect()
-                })
-                .collect(),
-        )
+        rig.actor_space()?;
+        let frames: Vec<Vec<[f64; 3]>> = (0..self.truth.frames.len())
+            .map(|f| self.markers_of(&self.truth.positions(f)))
+            .collect();
+        Some(play_held(&rig, &frames, hold).expect("one position per marker"))
     }
 
     /// Score predicted positions, one `Vec` per frame of the sequence.
@@ -278,4 +262,30 @@ pub fn crossed_fraction(
         }
     }
     across as f64 / parted.max(1) as f64
+}
+
+/// Marker frames (metres, rig marker order) through `rig`'s capture stages in order, as one take
+/// (`Rig::play`, in the rig's actor space), each held for `hold` frames as a face holds an
+/// expression (the head refit weighs a marker by its motion since the last frame too, and no
+/// take jumps from one expression to the next): vertex positions (asset units) per frame, each
+/// the last of its hold. `None` for a rig without stages or frames of another marker count.
+pub fn play_held(
+    rig: &facebake_runtime::Rig<'_>,
+    frames: &[Vec<[f64; 3]>],
+    hold: usize,
+) -> Option<Vec<Vec<[f64; 3]>>> {
+    let (space, actor) = (rig.space(), rig.actor_space()?);
+    let mut state = facebake_runtime::PlayState::new();
+    let mut out = vec![[0i32; 3]; rig.vertex_count()];
+    frames
+        .iter()
+        .map(|markers| {
+            let q: Vec<Option<[i32; 3]>> =
+                markers.iter().map(|p| actor.to_rig_f64(*p).ok()).collect();
+            for _ in 0..hold.max(1) {
+                rig.play(&mut state, &q, &mut out).ok()?;
+            }
+            Some(out.iter().map(|p| space.to_asset_f64(*p)).collect())
+        })
+        .collect()
 }

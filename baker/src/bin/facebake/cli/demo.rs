@@ -466,8 +466,8 @@ fn print_text(s: &DemoSummary, rig_path: &Path) {
 pub const PLAY_HOLD: usize = 3;
 
 /// The sequence's `markers` (metres) through `rig`'s stages, each frame held [`PLAY_HOLD`]
-/// frames: the skin's error against `truths` and the worst static drift (mm); `None` for a rig
-/// without stages.
+/// frames (`facebake::surface::evaluate::play_held`): the skin's error against `truths` and the
+/// worst static drift (mm); `None` for a rig without stages.
 fn play_truth(
     rig: &facebake_runtime::Rig<'_>,
     truth: &GroundTruth,
@@ -475,19 +475,11 @@ fn play_truth(
     truths: &[Vec<[f64; 3]>],
     rest: &[[f64; 3]],
 ) -> Option<(ErrorStats, f64)> {
-    let (space, actor) = (rig.space(), rig.actor_space()?);
+    let played = facebake::surface::evaluate::play_held(rig, markers, PLAY_HOLD)?;
     let regions = facebake::metrics::Regions::for_mesh(&truth.mesh, rest, &[]).ok()?;
-    let mut state = facebake_runtime::PlayState::new();
-    let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    let (mut errors, mut played) = (Vec::new(), Vec::new());
-    for (m, t) in markers.iter().zip(truths) {
-        let q: Vec<Option<[i32; 3]>> = m.iter().map(|p| actor.to_rig_f64(*p).ok()).collect();
-        for _ in 0..PLAY_HOLD {
-            rig.play(&mut state, &q, &mut out).ok()?;
-        }
-        let got: Vec<[f64; 3]> = out.iter().map(|p| space.to_asset_f64(*p)).collect();
-        truth.skin_errors(&got, t, &mut errors);
-        played.push(got);
+    let mut errors = Vec::new();
+    for (got, t) in played.iter().zip(truths) {
+        truth.skin_errors(got, t, &mut errors);
     }
     let (_, take) = regions.measure_take(&played, Some(truths), false);
     Some((stats(&mut errors, 1.0), take.static_drift_mm.0))
