@@ -962,7 +962,7 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     assert_eq!(j["report"]["radial"], "exponential");
     assert_eq!(j["report"]["deformer"], "linear");
     // Without a capture the anchored skin follows the inner eye corners and the forehead's
-    // centre (`surface::anchoring::followed_without_fit`).
+    // centre (`surface::anchoring::followed`).
     assert_eq!(
         j["report"]["surface"]["anchoring"]["markers"],
         serde_json::json!(["ForeHead_M", "Leye_Inside", "Reye_Inside"])

@@ -371,7 +371,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             .filter_map(|h| names.iter().position(|n| n == h))
             .collect();
         // The first bake took the head candidates as the markers held still (the anchoring
-        // follows them and their weights are merged, `surface::anchoring::merge_held`).
+        // follows three of them, `surface::anchoring::followed`).
         let candidates = d.surface_markers.as_ref().map(|(_, c)| c);
         if candidates.is_some_and(|c| !same_markers(c, &st.report.head_markers)) {
             d = bake_deformer(scene, options, &rest, &space, Some(&markers), None)?;

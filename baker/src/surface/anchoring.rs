@@ -28,9 +28,8 @@
 //! the head markers still (a head-stabilised take, or a capture whose head fit removed the
 //! motion: a least-squares fit leaves the head markers' mean residual at zero) the anchored
 //! skin stays still. A vertex keeps K weights, so the share `s·h` takes as few of them as will
-//! do: with a capture, the held head markers' weights are summed onto one ([`merge_held`]);
-//! without, the skin follows three markers ([`followed_without_fit`]) whose mean one derived
-//! marker carries (`deformer::linear::FollowedMean`).
+//! do: the skin follows three markers ([`followed`]) whose mean one derived marker carries
+//! (`deformer::linear::FollowedMean`), with a capture or without.
 
 use crate::mesh::distance;
 
@@ -111,20 +110,24 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
     chosen
 }
 
+/// The markers the linear deformer's anchored skin follows: of the `anchors`
+/// ([`anchor_markers`], or a capture's held head markers), each eye's inner corner (the medial
+/// canthi, tied to the bone by their tendons) and the one `skull` marker nearest the face's
+/// middle (the forehead's centre). The anchored share `s·h` is spread over the markers it
+/// follows, one derived marker carries their mean (`deformer::linear::FollowedMean`), and the
+/// other anchors keep their own weights.
+///
 /// Without a head fit (a bake with no capture, whose markers come with the expressions' motion
-/// on every marker), the markers the linear deformer's anchored skin follows: of the `anchors`
-/// ([`anchor_markers`]), each eye's inner corner (the medial canthi, tied to the bone by their
-/// tendons) and the one `skull` marker nearest the face's middle (the forehead's centre).
-/// The anchored share `s·h` is spread over the markers it follows, and a vertex keeps only K
-/// weights: with all five of FaceCap's and ICT-FaceKit's, the share took five of the eight
-/// where the skin hands over from the jaw to the neck, and cut the jaw's markers off in a line
-/// (ICT's jaw open: 6 triangles turned over on the jaw's side). Three leave five for the
-/// markers that move. `anchors` as they are when they hold no inner corner.
-pub fn followed_without_fit(
-    markers: &[[f64; 3]],
-    anchors: &[usize],
-    skull: &[usize],
-) -> Vec<usize> {
+/// on every marker) five followed markers took five of a vertex's eight weights where the skin
+/// hands over from the jaw to the neck, and cut the jaw's markers off in a line (ICT's jaw
+/// open: 6 triangles turned over on the jaw's side). With a head fit the held markers are
+/// still, and until 2026-12-05 their weights were summed onto one instead: the sum kept the
+/// side forehead markers' negative weights under the chin, so the still share there shrank to
+/// 0.21 of the row where the mean keeps 0.46, and a capture whose take has no wide jaw open
+/// left ICT-FaceKit's truth 11 folded triangles under the chin in its jaw open (none
+/// following the three; docs/measurements.md, session 12). `anchors` as they are when they
+/// hold no inner corner.
+pub fn followed(markers: &[[f64; 3]], anchors: &[usize], skull: &[usize]) -> Vec<usize> {
     let corners: Vec<usize> = anchors
         .iter()
         .copied()
@@ -311,26 +314,6 @@ pub const THROAT_REACH: f64 = 2.0;
 /// throat's (see [`THROAT_REACH`]).
 pub const THROAT_BAND: f64 = 5.0;
 
-/// With the rig's own head fit, the markers it holds still (`held`, the capture stages' head
-/// markers) have zero displacement in every frame it plays, so a vertex's weights on them
-/// move nothing wherever they sit: each row's weights on them are summed onto the first. The
-/// row plays the same, and of the K weights a vertex keeps (`sparsify`) one goes to the still
-/// head instead of one per held marker, leaving the rest to the markers that move. Where the
-/// anchored skin hands over to the jaw, five held markers took five of the eight, and the
-/// jaw's markers, each weak there but together up to half the row, were cut off in a line.
-pub fn merge_held(dense: &mut [Vec<f64>], held: &[usize]) {
-    let Some(&first) = held.first() else {
-        return;
-    };
-    for row in dense.iter_mut().filter(|r| first < r.len()) {
-        let len = row.len();
-        for &h in held.iter().filter(|&&h| h != first && h < len) {
-            row[first] += row[h];
-            row[h] = 0.0;
-        }
-    }
-}
-
 /// How far the floor rises near the jaw's markers (within [`JAW_REACH`]), in anchoring
 /// margins. On FaceCap's truth with the JawMoCap layout (`--test structure`, `--test pose`):
 /// face mean / max 0.556 / 9.07 → 0.550 / 8.85 mm upright, max 10.94 → 9.02 mm pitched 8.6°
@@ -499,11 +482,11 @@ fn outside_distance(hull: &[[f64; 2]], p: [f64; 2]) -> f64 {
 mod tests {
     use super::*;
 
-    /// Three forehead markers (skull) and two inner eye corners: without a head fit the skin
+    /// Three forehead markers (skull) and two inner eye corners: the skin
     /// follows the corners and the forehead marker nearest the face's middle; with no corner
     /// among the anchors, all of them.
     #[test]
-    fn without_a_head_fit_the_skin_follows_the_inner_corners_and_the_forehead_centre() {
+    fn the_skin_follows_the_inner_corners_and_the_forehead_centre() {
         let markers = [
             [0.04, 0.10, 0.08],
             [0.001, 0.10, 0.09],
@@ -513,56 +496,8 @@ mod tests {
             [0.0, -0.03, 0.10],
         ];
         let skull = [0, 1, 2];
-        assert_eq!(
-            followed_without_fit(&markers, &[0, 1, 2, 3, 4], &skull),
-            vec![1, 3, 4]
-        );
-        assert_eq!(
-            followed_without_fit(&markers, &[0, 1, 2], &skull),
-            vec![0, 1, 2]
-        );
-    }
-
-    /// Five held markers (still in every frame the rig plays) with a tenth each and seven moving
-    /// ones with the other half: the row plays the same merged, and of the eight largest
-    /// weights seven are the moving markers' instead of three.
-    #[test]
-    fn the_held_markers_share_one_weight_and_leave_the_rest_to_the_moving_ones() {
-        let held = [2, 5, 7, 9, 11];
-        let moving = [0, 1, 3, 4, 6, 8, 10];
-        let mut row = vec![0.0; 12];
-        for &h in &held {
-            row[h] = 0.1;
-        }
-        for (&m, w) in moving
-            .iter()
-            .zip([0.08, 0.08, 0.07, 0.07, 0.07, 0.07, 0.06])
-        {
-            row[m] = w;
-        }
-        let displacement: Vec<f64> = (0..12)
-            .map(|i| {
-                if held.contains(&i) {
-                    0.0
-                } else {
-                    1.0 + i as f64
-                }
-            })
-            .collect();
-        let play = |r: &[f64]| r.iter().zip(&displacement).map(|(w, d)| w * d).sum::<f64>();
-        let mut merged = vec![row.clone()];
-        merge_held(&mut merged, &held);
-        let merged = &merged[0];
-        assert!((play(merged) - play(&row)).abs() < 1e-15);
-        assert!((merged.iter().sum::<f64>() - 1.0).abs() < 1e-12);
-        assert_eq!(merged[2], 0.5);
-        let kept_moving = |r: &[f64]| {
-            crate::sparsify::top_k(r, 8)
-                .iter()
-                .filter(|i| moving.contains(i))
-                .count()
-        };
-        assert_eq!((kept_moving(&row), kept_moving(merged)), (3, 7));
+        assert_eq!(followed(&markers, &[0, 1, 2, 3, 4], &skull), vec![1, 3, 4]);
+        assert_eq!(followed(&markers, &[0, 1, 2], &skull), vec![0, 1, 2]);
     }
 
     #[test]

@@ -192,10 +192,8 @@ pub(crate) struct SurfaceBake {
     pub(crate) head_candidates: Vec<usize>,
     /// The RBF deformer's static anchoring (`None`: unanchored, the system's own map).
     pub(crate) rbf_anchoring: Option<RbfAnchoring>,
-    /// The linear deformer's anchoring without a head fit: the markers whose mean the anchored
-    /// skin follows, carried by one derived mean ([`deformer::linear::FollowedMean`]). `None`
-    /// with a head fit, whose held markers share one weight already
-    /// ([`anchoring::merge_held`]).
+    /// The linear deformer's anchoring: the markers whose mean the anchored skin follows,
+    /// carried by one derived mean ([`deformer::linear::FollowedMean`]; [`anchoring::followed`]).
     pub(crate) followed_mean: Option<Vec<usize>>,
 }
 
@@ -586,12 +584,12 @@ pub(crate) fn dense_weights(
     let mut followed_mean = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
-            // Without a head fit the linear deformer's anchored skin follows fewer of them, so
-            // that its share takes fewer of a vertex's K weights.
-            let followed = if head_fit || config.deformer != crate::DeformerKind::Linear {
-                anchors.clone()
+            // The linear deformer's anchored skin follows three of them, whose mean takes one
+            // of a vertex's K weights, with or without a head fit (`anchoring::followed`).
+            let followed = if config.deformer == crate::DeformerKind::Linear {
+                anchoring::followed(&rest, &anchors, &skull)
             } else {
-                anchoring::followed_without_fit(&rest, &anchors, &skull)
+                anchors.clone()
             };
             let a = anchoring::static_anchoring(
                 &mesh.positions,
@@ -607,7 +605,7 @@ pub(crate) fn dense_weights(
                 map,
                 fade: a.strength.clone(),
             });
-            if !head_fit && config.deformer == crate::DeformerKind::Linear {
+            if config.deformer == crate::DeformerKind::Linear {
                 followed_mean = Some(a.head.clone());
             }
             Some(AnchoringFigures {
@@ -621,11 +619,6 @@ pub(crate) fn dense_weights(
         }
         _ => None,
     };
-    // The markers the head fit holds still move nothing: one of the K weights a vertex keeps
-    // is enough for them all.
-    if head_fit && config.deformer == crate::DeformerKind::Linear {
-        anchoring::merge_held(&mut dense, &anchors);
-    }
     let marker_distances = (0..n)
         .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
         .collect();
