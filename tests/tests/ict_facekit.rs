@@ -352,10 +352,14 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
 fn a_capture_rig_plays_a_jaw_open_its_take_never_showed() {
     let full = placed_scene();
     let mut without = placed_scene();
-    let jaw = (without.truth.mesh.morph_targets.iter())
+    let targets = &without.truth.mesh.morph_targets;
+    let jaw = targets
+        .iter()
         .position(|t| t.name == "jawOpen")
         .expect("a jawOpen shape");
-    (without.truth.frames).retain(|f| f.weights.iter().all(|&(t, w)| t != jaw || w < 0.15));
+    let opens_the_jaw =
+        |f: &facebake::ground_truth::Frame| f.weights.iter().any(|&(t, w)| t == jaw && w >= 0.15);
+    without.truth.frames.retain(|f| !opens_the_jaw(f));
     assert_eq!(without.truth.frames.len(), 23);
     let take = Rehearsal::new(&without, REHEARSAL_PACE);
     let baked = take.bake(&without, &BakeOptions::product_default());
@@ -416,7 +420,9 @@ fn the_bake_relaxes_the_folds_its_take_shows() {
 /// (the refit's cutoff 1 mm, `facebake::stages::HEAD_REFIT_CUTOFF`) 0.674 mm (1.26); with the
 /// cutoff at 0.5 mm 0.706 (1.53); without the refit (`--head-refit off`) 0.775 (1.53); session
 /// 8's f64 oracle (five rounds of reweighting each frame) 0.686 (1.17); the bake without a
-/// capture, played the truth's markers where they are, 0.695 (1.19).
+/// capture, played the truth's markers where they are, 0.695 (1.19). Since the anchored skin
+/// follows three head markers' mean with a capture too (`surface::anchoring::followed`, session
+/// 12): 0.675 mm (1.27).
 #[test]
 fn its_held_expressions_through_a_capture_bake() {
     let scene = placed_scene();

@@ -26,8 +26,8 @@
 //! An anchored vertex's dense weights become `(1 − s)·w + s·h`, with `h` the mean of the head
 //! markers it follows: the weights still sum to one (uniform translation stays exact) and with
 //! the head markers still (a head-stabilised take, or a capture whose head fit removed the
-//! motion: a least-squares fit leaves the head markers' mean residual at zero) the anchored
-//! skin stays still. A vertex keeps K weights, so the share `s·h` takes as few of them as will
+//! motion, leaving the followed markers their residual: JawMoCap's static skin within 0.01 mm)
+//! the anchored skin stays still. A vertex keeps K weights, so the share `s·h` takes as few of them as will
 //! do: the skin follows three markers ([`followed`]) whose mean one derived marker carries
 //! (`deformer::linear::FollowedMean`), with a capture or without.
 
@@ -111,9 +111,9 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
 }
 
 /// The markers the linear deformer's anchored skin follows: of the `anchors`
-/// ([`anchor_markers`], or a capture's held head markers), each eye's inner corner (the medial
-/// canthi, tied to the bone by their tendons) and the one `skull` marker nearest the face's
-/// middle (the forehead's centre). The anchored share `s·h` is spread over the markers it
+/// ([`anchor_markers`], or a capture's held head markers), those off the `skull` (of the head
+/// candidates, each eye's inner corner: the medial canthi, tied to the bone by their tendons)
+/// and the one `skull` marker nearest the face's middle (the forehead's centre). The anchored share `s·h` is spread over the markers it
 /// follows, one derived marker carries their mean (`deformer::linear::FollowedMean`), and the
 /// other anchors keep their own weights.
 ///
@@ -125,8 +125,8 @@ pub fn skull_markers(markers: &[[f64; 3]], rims: &[Vec<[f64; 3]>], spacing: f64)
 /// side forehead markers' negative weights under the chin, so the still share there shrank to
 /// 0.21 of the row where the mean keeps 0.46, and a capture whose take has no wide jaw open
 /// left ICT-FaceKit's truth 11 folded triangles under the chin in its jaw open (none
-/// following the three; docs/measurements.md, session 12). `anchors` as they are when they
-/// hold no inner corner.
+/// following the three; docs/measurements.md, session 12). `anchors` as they are when none is
+/// off the skull.
 pub fn followed(markers: &[[f64; 3]], anchors: &[usize], skull: &[usize]) -> Vec<usize> {
     let corners: Vec<usize> = anchors
         .iter()
