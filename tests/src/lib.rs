@@ -584,6 +584,22 @@ pub const DEFAULT_ON_JAWMOCAP: Pinned = Pinned {
     flipped: 0,
 };
 
+/// The skin's mean error (mm) of `frames` (one per truth frame of `scene`) against the truth,
+/// and their structure metrics against it.
+pub fn against_truth(
+    scene: &Benchmark,
+    frames: &[Vec<[f64; 3]>],
+) -> (f64, facebake::metrics::TakeMetrics) {
+    let truths: Vec<Vec<[f64; 3]>> = (0..scene.truth.frames.len())
+        .map(|f| scene.truth.positions(f))
+        .collect();
+    let regions =
+        facebake::metrics::Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[])
+            .expect("regions");
+    let mean = scene.score_positions(frames).whole.mean_mm;
+    (mean, regions.measure_take(frames, Some(&truths), false).1)
+}
+
 /// Print `t` and assert no figure is worse than pinned (1 % and 0.05 mm of slack for platform
 /// rounding).
 pub fn guard(label: &str, t: &facebake::metrics::TakeMetrics, p: &Pinned) {

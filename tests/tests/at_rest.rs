@@ -5,11 +5,12 @@
 //!
 //! `cargo test --release -p facebake-tests --test at_rest -- --nocapture` prints the figures.
 
-use facebake::metrics::Regions;
 use facebake::surface::evaluate::Benchmark;
 use facebake::BakeOptions;
 use facebake_tests::rehearsal::{Pace, Rehearsal};
-use facebake_tests::{bake_scene, guard, layout_benchmark, Pinned, DEFAULT_ON_TRUTH};
+use facebake_tests::{
+    against_truth, bake_scene, guard, layout_benchmark, Pinned, DEFAULT_ON_TRUTH,
+};
 
 /// Frames each expression of a truth is held when played as a take (`Benchmark::play_stages`).
 const HOLD: usize = 3;
@@ -73,16 +74,7 @@ fn figures(
     (f64, facebake::metrics::TakeMetrics),
     (f64, facebake::metrics::TakeMetrics),
 ) {
-    let truths: Vec<Vec<[f64; 3]>> = (0..scene.truth.frames.len())
-        .map(|f| scene.truth.positions(f))
-        .collect();
-    let regions =
-        Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
-    let measure = |p: &[Vec<[f64; 3]>]| {
-        let mean = scene.score_positions(p).whole.mean_mm;
-        (mean, regions.measure_take(p, Some(&truths), false).1)
-    };
-    let (deform, play) = (measure(deformed), measure(played));
+    let (deform, play) = (against_truth(scene, deformed), against_truth(scene, played));
     println!(
         "through deform: skin mean {:.3} mm, {}\nthrough play: skin mean {:.3} mm, {}",
         deform.0, deform.1, play.0, play.1

@@ -18,7 +18,7 @@ use facebake::openings::{find_openings, mouth_and_eyes, seen_topology, skin_open
 use facebake::surface::evaluate::Benchmark;
 use facebake::BakeOptions;
 use facebake_tests::rehearsal::{Pace, Rehearsal};
-use facebake_tests::{bake_scene, fixture, guard, jawmocap_neutral, Pinned};
+use facebake_tests::{against_truth, bake_scene, fixture, guard, jawmocap_neutral, Pinned};
 
 fn head() -> FaceMesh {
     facebake::io::gltf_mesh::load_mesh(&fixture("ict_facekit/ICTFaceKitSkin.glb"), None, None)
@@ -229,13 +229,7 @@ fn its_truth_through_the_stages_of_a_bake_without_a_capture() {
     let baked = bake_scene(&scene, &BakeOptions::product_default());
     assert!(baked.report.stages.as_ref().is_some_and(|s| s.at_rest));
     let played = scene.play_stages(&baked.blob, 3).expect("stages at rest");
-    let truths: Vec<Vec<[f64; 3]>> = (0..scene.truth.frames.len())
-        .map(|f| scene.truth.positions(f))
-        .collect();
-    let regions =
-        Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
-    let (_, take) = regions.measure_take(&played, Some(&truths), false);
-    let mean = scene.score_positions(&played).whole.mean_mm;
+    let (mean, take) = against_truth(&scene, &played);
     println!("ICT-FaceKit's truth through `play`: skin mean {mean:.3} mm");
     guard(
         "ICT-FaceKit's truth through the stages of a bake without a capture",
@@ -364,13 +358,7 @@ fn a_capture_rig_plays_a_jaw_open_its_take_never_showed() {
     let take = Rehearsal::new(&without, REHEARSAL_PACE);
     let baked = take.bake(&without, &BakeOptions::product_default());
     let played = full.play_stages(&baked.blob, 3).expect("capture stages");
-    let truths: Vec<Vec<[f64; 3]>> = (0..full.truth.frames.len())
-        .map(|f| full.truth.positions(f))
-        .collect();
-    let regions =
-        Regions::for_mesh(&full.truth.mesh, &full.truth.marker_rest(), &[]).expect("regions");
-    let (_, metrics) = regions.measure_take(&played, Some(&truths), false);
-    let mean = full.score_positions(&played).whole.mean_mm;
+    let (mean, metrics) = against_truth(&full, &played);
     println!("ICT-FaceKit's truth through a capture rig whose take has no jaw open: skin mean {mean:.3} mm");
     guard(
         "ICT-FaceKit's truth through a capture rig whose take has no jaw open",
