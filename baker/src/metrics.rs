@@ -8,13 +8,19 @@
 //! * **eyelid closure**: the same across each eye opening;
 //! * **edge stretch**: the largest ratio of an edge's deformed length to its rest length (with a
 //!   truth: to the larger of its rest and true lengths) over the skin's edges, and how many
-//!   edges are stretched beyond 2×;
+//!   edges are stretched beyond 2×. Without a truth, on a mesh with morph targets, beside it:
+//!   the largest ratio to the longest the mesh's own targets (each at full weight) or its rest
+//!   make the edge, which says whether a stretch is one the asset itself makes;
 //! * **flipped triangles**: skin triangles whose normal turned against its rest normal (with a
 //!   truth: and whose true normal did not); degenerate triangles (zero area at rest) have no
 //!   normal to turn and are left out.
 //!
 //! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
-//! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. The skin is the largest
+//! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. Without one, the second
+//! stretch figure says the same of the asset's shapes: ICT-FaceKit's `jawOpen` stretches a
+//! 0.066 mm edge at each mouth corner 34×; JawMoCap placed on that head stretches it 5.06×, and
+//! no edge beyond 1.60× of the longest the head's own shapes make it. The bars count the first
+//! figure. The skin is the largest
 //! connected piece; other pieces (FaceCap's mouth bag, teeth and tongue, hidden behind the
 //! lips) are not measured, nor is a mouth bag joined to the lips (`openings::closed_mouth`).
 //!
@@ -126,6 +132,9 @@ pub struct Regions {
     /// Millimetres per mesh unit (1000 for metres).
     pub mm_per_unit: f64,
     rest: Vec<[f64; 3]>,
+    /// Per edge of [`Regions::edges`], the longest the mesh's own shapes make it: its rest
+    /// length, or its length in a morph target at full weight if longer (`None`: no targets).
+    longest: Option<Vec<f64>>,
 }
 
 /// One opening's aperture in a frame.
@@ -160,6 +169,9 @@ pub struct FrameMetrics {
     pub eyelids: Option<Aperture>,
     /// Largest deformed / rest edge length.
     pub max_stretch: f64,
+    /// Without a truth, on a mesh with morph targets: the largest deformed length over the
+    /// longest the mesh's own targets (or its rest) make the edge.
+    pub beyond_shapes: Option<f64>,
     /// Edges stretched beyond [`STRETCH_LIMIT`].
     pub edges_over_limit: usize,
     /// Triangles whose normal turned against the rest normal.
@@ -184,6 +196,9 @@ pub struct TakeMetrics {
     pub eyelids_mm: Option<(f64, usize)>,
     /// Largest stretch and its frame.
     pub max_stretch: (f64, usize),
+    /// Largest stretch beyond the mesh's own shapes and its frame (see
+    /// [`FrameMetrics::beyond_shapes`]).
+    pub beyond_shapes: Option<(f64, usize)>,
     /// Most edges over the limit in one frame, and that frame.
     pub edges_over_limit: (usize, usize),
     /// Frames with some edge over the limit.
@@ -215,6 +230,9 @@ impl TakeMetrics {
                 }
             }
             worse(&mut t.max_stretch, m.max_stretch, f);
+            if let Some(b) = m.beyond_shapes {
+                worse(t.beyond_shapes.get_or_insert((0.0, f)), b, f);
+            }
             worse(&mut t.edges_over_limit, m.edges_over_limit, f);
             worse(&mut t.flipped, m.flipped, f);
             t.frames_over_limit += usize::from(m.edges_over_limit > 0);
@@ -245,7 +263,7 @@ impl std::fmt::Display for FrameMetrics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{}, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×), {} flipped",
+            "{}, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×{}), {} flipped",
             if self.static_measured {
                 format!("static drift {:.2} mm", self.static_drift_mm)
             } else {
@@ -255,6 +273,9 @@ impl std::fmt::Display for FrameMetrics {
             aperture_text("eyelids", self.eyelids),
             self.max_stretch,
             self.edges_over_limit,
+            self.beyond_shapes.map_or(String::new(), |b| format!(
+                "; {b:.2}× its own shapes' longest"
+            )),
             self.flipped
         )
     }
@@ -291,9 +312,12 @@ impl std::fmt::Display for TakeMetrics {
         } else {
             NO_STATIC_REGION.to_string()
         };
+        let shapes = self.beyond_shapes.map_or(String::new(), |(x, fr)| {
+            format!("; {x:.2}× its own shapes' longest, frame {fr}")
+        });
         write!(
             f,
-            "{drift}, lips {}, eyelids {}, stretch {:.2}× (frame {}), {edges}, {flips}",
+            "{drift}, lips {}, eyelids {}, stretch {:.2}× (frame {}{shapes}), {edges}, {flips}",
             opening(self.lips_mm),
             opening(self.eyelids_mm),
             self.max_stretch.0,
@@ -431,7 +455,7 @@ impl Regions {
             .map(|e| to_input(rim_pairs(&e.vertices, &welded)))
             .collect();
         let on_skin = |w: u32| topology.components.vertex_component[w as usize] == 0;
-        let edges = topology
+        let edges: Vec<[u32; 2]> = topology
             .edges
             .iter()
             .filter(|e| on_skin(e.a))
@@ -452,6 +476,7 @@ impl Regions {
             triangles,
             mm_per_unit: 1000.0,
             rest: rest.to_vec(),
+            longest: None,
         })
     }
 
@@ -503,7 +528,26 @@ impl Regions {
                 .collect();
             (still, StaticRule::MorphTargets)
         };
-        Self::new(&mesh.positions, &mesh.triangles, static_vertices, rule)
+        let mut regions = Self::new(&mesh.positions, &mesh.triangles, static_vertices, rule)?;
+        if !mesh.morph_targets.is_empty() {
+            let rest = &mesh.positions;
+            let mut longest: Vec<f64> = regions
+                .edges
+                .iter()
+                .map(|&[a, b]| distance(&rest[a as usize], &rest[b as usize]))
+                .collect();
+            for target in &mesh.morph_targets {
+                let shaped = |v: u32| {
+                    let (p, d) = (rest[v as usize], target.deltas[v as usize]);
+                    [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+                };
+                for (l, &[a, b]) in longest.iter_mut().zip(&regions.edges) {
+                    *l = l.max(distance(&shaped(a), &shaped(b)));
+                }
+            }
+            regions.longest = Some(longest);
+        }
+        Ok(regions)
     }
 
     /// The rest positions.
@@ -577,6 +621,14 @@ impl Regions {
             })
         };
         let (mut max_stretch, mut edges_over_limit) = (0.0f64, 0);
+        let shapes = self.longest.as_deref().filter(|_| truth.is_none());
+        let beyond_shapes = shapes.map(|longest| {
+            let edges = self.edges.iter().zip(longest);
+            edges
+                .filter(|(_, &l)| l > 0.0)
+                .map(|(&[a, b], &l)| distance(&got[a as usize], &got[b as usize]) / l)
+                .fold(0.0, f64::max)
+        });
         for &[a, b] in &self.edges {
             let length = |p: &[[f64; 3]]| distance(&p[a as usize], &p[b as usize]);
             let allowed = truth.as_deref().map_or(0.0, length).max(length(&self.rest));
@@ -598,6 +650,7 @@ impl Regions {
             lips: aperture(&[&self.lips]),
             eyelids: aperture(&self.eyes.iter().collect::<Vec<_>>()),
             max_stretch,
+            beyond_shapes,
             edges_over_limit,
             flipped,
         }
@@ -834,6 +887,44 @@ mod tests {
         assert_eq!(r.measure(&q, Some(&q), false).flipped, 0);
         assert!(r.measure(&q, Some(r.rest()), false).flipped > 0);
         assert_eq!(r.measure(r.rest(), Some(&q), false).flipped, 0);
+    }
+
+    #[test]
+    fn what_the_meshs_own_shapes_do_is_not_a_fault() {
+        let (p, t) = slit();
+        let mut mesh = FaceMesh::from_triangles("slit", p, t);
+        let mut pulled = mesh.positions.clone();
+        pulled[0][0] -= 0.02;
+        let plain = Regions::for_mesh(&mesh, &[], &[]).unwrap();
+        assert!((plain.measure(&pulled, None, false).max_stretch - 3.0).abs() < 1e-9);
+        // A target that pulls vertex 0 out 1 cm lets edge 0–1 be 2 cm long (3 cm is 1.5×) and
+        // edge 0–7 √2 cm (√5 cm is the worst, 1.58×).
+        let mut deltas = vec![[0.0; 3]; mesh.positions.len()];
+        deltas[0][0] = -0.01;
+        mesh.morph_targets.push(crate::model::MorphTarget {
+            name: "pull".into(),
+            deltas,
+        });
+        let shaped = Regions::for_mesh(&mesh, &[], &[]).unwrap();
+        let m = shaped.measure(&pulled, None, false);
+        let worst = (5.0f64 / 2.0).sqrt();
+        let beyond = m.beyond_shapes.expect("a mesh with targets");
+        assert!((beyond - worst).abs() < 1e-9, "{m:?}");
+        // The stretch the bars count is still from rest.
+        assert!((m.max_stretch - 3.0).abs() < 1e-9, "{}", m.max_stretch);
+        assert_eq!(m.edges_over_limit, 3);
+        assert_eq!(plain.measure(&pulled, None, false).beyond_shapes, None);
+        let (_, take) = shaped.measure_take(&[mesh.positions.clone(), pulled.clone()], None, false);
+        assert_eq!(take.beyond_shapes, Some((beyond, 1)));
+        assert!(
+            take.to_string()
+                .contains("stretch 3.00× (frame 1; 1.58× its own shapes' longest, frame 1)"),
+            "{take}"
+        );
+        // With a truth, the truth is the measure.
+        let truth = shaped.rest().to_vec();
+        let m = shaped.measure(&pulled, Some(&truth), false);
+        assert_eq!(m.beyond_shapes, None);
     }
 
     #[test]

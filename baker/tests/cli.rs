@@ -1615,12 +1615,21 @@ fn bake_with_a_capture_measures_the_rig_on_it() {
     assert!(t["static_drift_mm"][0].as_f64().unwrap() <= 0.5, "{t}");
     assert_eq!(t["flipped"][0], 0, "{t}");
     assert!(t["lips_mm"][0].as_f64().unwrap() > 30.0, "{t}");
-    // Unmasked planar bones keep the lips shut and stretch the corners: the bake says so.
+    // FaceCap's own shapes stretch the lips' edges further than this take does (1.89× from
+    // rest, 1.30× of the longest its morph targets make an edge).
+    assert!(t["beyond_shapes"][0].as_f64().unwrap() < 1.5, "{t}");
+    // Unmasked planar bones keep the lips shut and stretch the corners: the bake says so, and
+    // that no shape of the face stretches them as far (2.80×).
     let j = run("bare_planar.fbk", &["--deformer", "planar", "--no-masks"]);
     assert!(j["on_capture"]["lips_mm"][0].as_f64().unwrap() < 2.0);
+    assert!(j["on_capture"]["beyond_shapes"][0].as_f64().unwrap() > 2.0);
     let warnings = j["report"]["warnings"].to_string();
     assert!(
         warnings.contains("frames stretch an edge past twice its rest length"),
+        "{warnings}"
+    );
+    assert!(
+        warnings.contains("beyond the longest the mesh's own morph targets make it"),
         "{warnings}"
     );
     // Without a capture there is nothing to play.

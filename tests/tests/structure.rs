@@ -80,6 +80,18 @@ fn facecap_regions_and_the_truth_measured_against_itself() {
         .collect();
     assert_eq!(from_rest.iter().filter(|&&e| e > 0).count(), 28);
     assert_eq!(from_rest.iter().max(), Some(&49));
+    // Against the longest the face's own shapes (each target at full weight) make each edge,
+    // the jaw open is one of them, and the truth's blends of several stay within 1.27×: what
+    // goes beyond 2× of it is no stretch the asset makes.
+    assert!(
+        (jaw.beyond_shapes.expect("shapes") - 1.0).abs() < 1e-9,
+        "{jaw}"
+    );
+    let beyond = all
+        .iter()
+        .map(|t| r.measure(t, None, false).beyond_shapes.expect("shapes"))
+        .fold(0.0, f64::max);
+    assert!((beyond - 1.27).abs() < 0.01, "{beyond}");
     let blink = r.measure(&all[frame(truth, "blink")], None, false);
     // FaceCap's lips are closed at rest, 47 mm apart with the jaw open; the eyes 9.5 mm open
     // at rest and 1 mm in the blink.

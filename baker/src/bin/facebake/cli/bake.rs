@@ -562,7 +562,8 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
 /// Play `capture` (the take the rig was baked from) through the rig in `blob`, frame by frame,
 /// and measure each frame as it comes (nothing per frame is kept but its metrics), so the bake
 /// says what the rig does to this actor's own take: a tear, a flip or a drifting skull shows
-/// here rather than in the engine. Stretch is against rest, as for any take without a truth.
+/// here rather than in the engine. Stretch is against rest, as for any take without a truth,
+/// and beside it against the longest the mesh's own morph targets make each edge.
 fn measure_on_capture(
     blob: &[u8],
     mesh: &FaceMesh,
@@ -948,7 +949,8 @@ fn print_text(s: &BakeSummary) {
 
 /// What the capture played through the rig shows that a face should not do: skin beyond the
 /// markers that moves more than 0.5 mm, triangles turned over, edges stretched past twice their
-/// rest length (against rest: a face's own jaw open can, so this one is a note, not a fault).
+/// rest length (a face's own jaw open can, so the note says whether the mesh's own morph targets
+/// stretch them as far).
 fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
     let Some(t) = t else {
         return Vec::new();
@@ -967,8 +969,17 @@ fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
         ));
     }
     if t.frames_over_limit > 0 {
+        let verdict = match t.beyond_shapes {
+            Some((b, _)) if b <= facebake::metrics::STRETCH_LIMIT => format!(
+                "no edge goes beyond {b:.2}x of the longest the mesh's own morph targets make it, so the asset stretches it as far itself"
+            ),
+            Some((b, frame)) => format!(
+                "an edge goes {b:.2}x beyond the longest the mesh's own morph targets make it (frame {frame}): look at that frame (facebake render)"
+            ),
+            None => "a face's own jaw open stretches the skin at the mouth's corners as far, so look at that frame (facebake render) before calling it a tear".to_string(),
+        };
         out.push(format!(
-            "on the capture, {} of {} frames stretch an edge past twice its rest length (worst {:.2}x, frame {}); a face's own jaw open stretches the skin at the mouth's corners as far, so look at that frame (facebake render) before calling it a tear",
+            "on the capture, {} of {} frames stretch an edge past twice its rest length (worst {:.2}x, frame {}); {verdict}",
             t.frames_over_limit, t.frames, t.max_stretch.0, t.max_stretch.1
         ));
     }
