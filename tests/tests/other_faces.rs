@@ -226,7 +226,7 @@ fn other_proportions_bake_as_well_as_facecap() {
             Pinned {
                 drift_mm: 0.32,
                 lips_mm: 6.7,
-                eyelids_mm: 0.8,
+                eyelids_mm: 1.0,
                 stretch: 1.83,
                 over_2x: 0,
                 flipped: 0,
@@ -471,7 +471,7 @@ fn placement_finds_the_markers_on_other_faces() {
             Pinned {
                 drift_mm: 0.36,
                 lips_mm: 6.5,
-                eyelids_mm: 0.8,
+                eyelids_mm: 1.0,
                 stretch: 1.83,
                 over_2x: 0,
                 flipped: 0,

@@ -421,7 +421,7 @@ fn facecap_layout_surface_aware() {
 /// The mouth's corners keep K less their 2 derived vertical influences
 /// (`deformer::linear::bake`), so the kept set changed where the corrections begin: twice
 /// subdivided, 2.72× (49 edges) there. The skin beside them now gives way over a ring
-/// (`surface::corners::MOUTH_RING`, `sparsify::sparsify_row_giving_way`) and keeps the rig's
+/// (`surface::corners::RING`, `sparsify::sparsify_row_giving_way`) and keeps the rig's
 /// uniform influence count (which the Cortex-M4's unrolled kernel needs); keeping all K markers
 /// besides the corrections gave the same 2.37× but broke that count (the capture rig's frame
 /// 241k → 386k instructions). The blinks folded the last millimetres before the inner corners
@@ -474,7 +474,7 @@ fn denser_faces_keep_their_skull_still_with_shrunk_weights() {
         &Pinned {
             drift_mm: 0.34,
             lips_mm: 6.7,
-            eyelids_mm: 0.8,
+            eyelids_mm: 0.9,
             stretch: 1.99,
             over_2x: 0,
             flipped: 0,
@@ -487,7 +487,7 @@ fn denser_faces_keep_their_skull_still_with_shrunk_weights() {
         &Pinned {
             drift_mm: 0.35,
             lips_mm: 6.6,
-            eyelids_mm: 0.8,
+            eyelids_mm: 1.0,
             stretch: 2.03,
             over_2x: 1,
             flipped: 2,

@@ -177,11 +177,11 @@ pub(crate) struct SurfaceBake {
     /// reference the sparse rig approximates.
     pub(crate) dense: Vec<Vec<f64>>,
     /// Per glTF vertex, weights on the markers' vertical displacements alone, summing to zero
-    /// (the mouth's corners, [`corners`]; empty elsewhere).
+    /// (the mouth's corners and the eyes' lower lids, [`corners`]; empty elsewhere).
     pub(crate) vertical: Vec<Vec<(usize, f64)>>,
     /// The face's vertical in file coordinates ([`FaceFrame`]), along which `vertical` acts.
     pub(crate) up: [f64; 3],
-    /// Per glTF vertex, how far its two weakest kept markers give way to the mouth's
+    /// Per glTF vertex, how far its two weakest kept markers give way to the vertical
     /// corrections (1 where it has them, fading to 0 over a ring outside; [`corners`]).
     pub(crate) give_way: Vec<f64>,
     pub(crate) warnings: Vec<String>,
@@ -522,15 +522,16 @@ pub(crate) fn dense_weights(
                 rest: &rest,
                 names: &names,
             };
-            // The mouth's corrections take an influence pair of the K.
-            let corrections = mouth.map(|opening| corners::Mouth {
+            let mouth_corners = mouth.map(|opening| corners::Mouth {
                 opening,
                 share: config.surface.mouth_share,
-                vertical: (config.k >= corners::MOUTH_MIN_K).then_some(corners::Corrections {
+            });
+            // The vertical corrections take an influence pair of the K.
+            let corrections =
+                (config.k >= corners::VERTICAL_MIN_K).then_some(corners::Corrections {
                     vertical: vertical.as_mut_slice(),
                     give_way: give_way.as_mut_slice(),
-                }),
-            });
+                });
             let (welded, positions) = (&mesh.welded_positions, &mesh.positions);
             let mut figures = corners::reshape(
                 &mut dense,
@@ -538,6 +539,7 @@ pub(crate) fn dense_weights(
                 welded,
                 positions,
                 &markers,
+                mouth_corners,
                 corrections,
             );
             // The skin past the mouth's corners, balanced between the lips' markers.
