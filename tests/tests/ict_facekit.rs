@@ -459,9 +459,9 @@ fn frame_named(scene: &Benchmark, name: &str) -> usize {
 /// bake keeps the default 0.7 and relaxes nothing; the skull stays still and no triangle turns
 /// over, but a 0.066 mm edge just outside each mouth's corner stretches 5.06× (143 frames with
 /// an edge over 2×): the head's own `jawOpen` stretches it 34×, and no edge goes beyond 1.60×
-/// of the longest the head's own shapes make it (`metrics`, measured 2026-12-05). Before, with the eye corners' markers placed on the lids' lining, it tore
-/// the mouth's corner profile at 0.7 where the linear profile did not (280 of 1590 frames:
-/// 3.20×, 5 flips), kept 0.5 (143 frames; 2.63×, 2 flips) and folded 279 triangle-frames
+/// of the longest the head's own shapes make it (`metrics`, measured 2026-12-05). Before,
+/// with the eye corners' markers placed on the lids' lining, it tore the mouth's corner
+/// profile at 0.7 where the linear profile did not (280 of 1590 frames: 3.20×, 5 flips), kept 0.5 (143 frames; 2.63×, 2 flips) and folded 279 triangle-frames
 /// (`facebake::bake::mouth_share`, `facebake::bake::relax`).
 #[test]
 fn jawmocap_on_this_head_bakes_the_mouth_corners_it_does_not_tear() {
