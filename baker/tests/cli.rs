@@ -125,8 +125,11 @@ fn demo_writes_its_files() {
         "facecap_demo.glb",
         "facecap_truth.npy",
         "facecap_sheet.png",
+        "facecap_mouth_sheet.png",
+        "facecap_eyes_sheet.png",
         "facecap_markers.png",
         "jawmocap_sheet.png",
+        "jawmocap_mouth_sheet.png",
         "jawmocap_markers.png",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
@@ -157,7 +160,7 @@ fn demo_writes_its_files() {
     // The rig loads and the text output names every file.
     let blob = std::fs::read(dir.join("facecap.fbk")).unwrap();
     assert_eq!(Rig::from_bytes(&blob).unwrap().vertex_count(), VERTICES);
-    assert_eq!(summary["files"].as_array().unwrap().len(), 8);
+    assert_eq!(summary["files"].as_array().unwrap().len(), 10);
     // The structure metrics of the ground truth: the lips part, still 7.4 mm short of the truth
     // at worst (jaw open; 12.5 before the corner reshaping), the eyelids within 1.5 mm.
     let take = &summary["structure"]["take"];
@@ -220,20 +223,7 @@ fn render_draws_the_demo_frames_and_measures_them() {
     let drift = take["static_drift_mm"][0].as_f64().unwrap();
     assert!((drift - 0.29).abs() < 0.01, "{take}");
     // Without a truth: result and displacement only.
-    let out = facebake(&[
-        "render",
-        s(&demo_dir.join("jawmocap_frames.npy")),
-        "--mesh",
-        s(&mesh_path()),
-        "--frames",
-        "388",
-        "--panel",
-        "128",
-        "-o",
-        s(&sheet),
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    assert_eq!(png_size(&sheet).0, 4 * 128 + 120);
+    draw_mouth_open(&sheet, "head");
     // A frame the file does not have is bad input, named.
     let out = facebake(&[
         "render",
@@ -250,6 +240,90 @@ fn render_draws_the_demo_frames_and_measures_them() {
         stderr(&out).contains("--frames 99: the take has"),
         "{}",
         stderr(&out)
+    );
+}
+
+/// Pixels of a PNG file (RGB), row by row, and its width.
+fn png_pixels(path: &Path) -> (Vec<[u8; 3]>, usize) {
+    let file = std::fs::File::open(path).expect("the PNG opens");
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let mut data = vec![0; reader.output_buffer_size().expect("a size")];
+    let info = reader.next_frame(&mut data).expect("a frame");
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let pixels = data[..info.buffer_size()]
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    (pixels, info.width as usize)
+}
+
+/// Draw the demo's JawMoCap frame 388 (the mouth open, no truth) in 128-pixel panels framing
+/// `focus` into `sheet`: result and displacement, front and side.
+fn draw_mouth_open(sheet: &Path, focus: &str) {
+    let (demo_dir, _) = demo();
+    let out = facebake(&[
+        "render",
+        s(&demo_dir.join("jawmocap_frames.npy")),
+        "--mesh",
+        s(&mesh_path()),
+        "--frames",
+        "388",
+        "--panel",
+        "128",
+        "--focus",
+        focus,
+        "-o",
+        s(sheet),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(png_size(sheet).0, 4 * 128 + 120);
+}
+
+/// `render --focus mouth` frames the lips wherever the frames take them: in the mouth-open frame
+/// the face fills the close-up's result panel, where the whole head's leaves the paper round
+/// it; a close-up of an opening the mesh does not have is bad input, named.
+#[test]
+fn render_frames_the_mouth_close_up() {
+    let dir = temp_dir("render_focus");
+    let paper_in_first_panel = |focus: &str| {
+        let sheet = dir.join(format!("{focus}.png"));
+        draw_mouth_open(&sheet, focus);
+        // The result's front panel: the first 128 columns under the title and label strips.
+        let (pixels, width) = png_pixels(&sheet);
+        let rows = pixels.len() / width;
+        let panel = (rows - 128 - 6..rows - 6).flat_map(|y| (1..127).map(move |x| (x, y)));
+        let paper = panel.filter(|&(x, y)| pixels[y * width + x] == [236, 236, 232]);
+        paper.count() as f64 / (126.0 * 128.0)
+    };
+    let (head, mouth) = (paper_in_first_panel("head"), paper_in_first_panel("mouth"));
+    assert!(
+        head > 0.3 && mouth < 0.02,
+        "paper: head {head:.3}, mouth {mouth:.3}"
+    );
+    // The canonical face has no mouth opening to frame.
+    let disk = fixture("mediapipe_canonical_face_model.glb");
+    let mesh = load_mesh(&disk, None, None).expect("loads");
+    let npy = dir.join("disk.npy");
+    let flat: Vec<f32> = mesh.positions.iter().flatten().map(|&x| x as f32).collect();
+    let shape = [1, mesh.positions.len(), 3];
+    facebake::io::npy::write_npy_f32(&npy, &shape, &flat).expect("writes");
+    let out = facebake(&[
+        "render",
+        s(&npy),
+        "--mesh",
+        s(&disk),
+        "--focus",
+        "mouth",
+        "-o",
+        s(&dir.join("disk.png")),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("mediapipe_canonical_face_model.glb") && err.contains("--focus"),
+        "{err}"
     );
 }
 

@@ -12,6 +12,9 @@
 //!   up to the largest displacement, or for errors up to their
 //!   [`ERROR_SCALE_PERCENTILE`]th percentile, larger errors drawn in the top colour (a few
 //!   badly placed mouth-interior vertices would otherwise paint the whole skin dark).
+//!   A sheet may frame a few vertices close up instead of the whole head ([`Sheet::focus`]):
+//!   the lips' rims, say, wherever its frames take them, where the faults people see live and
+//!   the whole head gives them a few pixels.
 //! * [`MarkerSheet`]: the rest mesh with the markers as numbered dots and a legend of names, so
 //!   a misplaced marker is seen.
 
@@ -46,6 +49,10 @@ const STRIP: usize = 2 * GLYPH_HEIGHT + 10;
 pub const GROWTH: f64 = 0.05;
 /// Default panel size, pixels.
 pub const PANEL: usize = 320;
+/// A close-up's framed box (see [`Sheet::focus`]) is widened on each side by this fraction of
+/// its largest extent, so that the skin round the framed rims shows: round FaceCap's mouth about
+/// 16 mm each side of the jaw open's 44 × 53 mm box, the corners' folds and the chin's top.
+pub const FOCUS_MARGIN: f64 = 0.3;
 
 /// A PNG could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -169,6 +176,24 @@ impl Framing {
             })
         };
         Self::new(&[corner(dlo, lo, -1.0), corner(dhi, hi, 1.0)], size)
+    }
+
+    /// Frame `focus` (vertex ids) close up: the box of their `rest` positions and of their
+    /// positions in each of `drawn` (lists over every vertex; ids a list lacks are left out),
+    /// widened by [`FOCUS_MARGIN`] of its largest extent on each side. With no focus vertex,
+    /// the whole rest box ([`Framing::new`]).
+    pub fn focused(rest: &[[f64; 3]], drawn: &[&[[f64; 3]]], focus: &[u32], size: usize) -> Self {
+        let points: Vec<[f64; 3]> = std::iter::once(rest)
+            .chain(drawn.iter().copied())
+            .flat_map(|frame| focus.iter().filter_map(|&v| frame.get(v as usize).copied()))
+            .filter(|p| p.iter().all(|x| x.is_finite()))
+            .collect();
+        if points.is_empty() {
+            return Self::new(rest, size);
+        }
+        let (lo, hi) = crate::model::bounds(points.iter().copied());
+        let widen = FOCUS_MARGIN * (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        Self::new(&[lo.map(|x| x - widen), hi.map(|x| x + widen)], size)
     }
 
     /// A world point in pixel space of `view`: x right, y down, depth larger nearer.
@@ -300,6 +325,12 @@ pub struct Sheet {
     pub frames: Vec<SheetFrame>,
     /// Panel size, pixels.
     pub panel: usize,
+    /// Vertices to frame close up ([`Framing::focused`]: the lips' or the lids' rims, say);
+    /// empty frames the whole head.
+    pub focus: Vec<u32>,
+    /// The top of the colour scale, mm, to share one with another sheet (a close-up with its
+    /// whole-head sheet); `None`: the drawn frames' own ([`Sheet::scale`]).
+    pub scale_mm: Option<f64>,
 }
 
 /// Per-vertex distances between two position lists, millimetres (from metres).
@@ -329,11 +360,26 @@ impl Sheet {
         }
     }
 
+    /// The top of the sheet's colour scale, mm, and whether some drawn value lies above it:
+    /// [`Sheet::scale_mm`] if given, else [`heat_scale`] of the drawn frames.
+    pub fn scale(&self) -> (f64, bool) {
+        let heats: Vec<Vec<f64>> = self.frames.iter().map(|f| self.heat(f)).collect();
+        self.scale_of(&heats)
+    }
+
+    /// [`Sheet::scale`] of the frames' `heats`.
+    fn scale_of(&self, heats: &[Vec<f64>]) -> (f64, bool) {
+        match self.scale_mm {
+            Some(top) => (top, heats.iter().flatten().any(|&x| x > top)),
+            None => heat_scale(heats, self.has_truth()),
+        }
+    }
+
     /// Draw the sheet.
     pub fn render(&self) -> Image {
         let truth = self.has_truth();
         let heats: Vec<Vec<f64>> = self.frames.iter().map(|f| self.heat(f)).collect();
-        let (max_mm, clipped) = heat_scale(&heats, truth);
+        let (max_mm, clipped) = self.scale_of(&heats);
         let heat_name = if truth { "ERROR" } else { "DISPLACEMENT" };
         let mut columns: Vec<(View, &str)> = Vec::new();
         for view in [View::Front, View::Side] {
@@ -348,7 +394,16 @@ impl Sheet {
             .frames
             .iter()
             .flat_map(|f| f.positions.iter().chain(f.truth.iter().flatten()));
-        let framing = Framing::around(&self.rest, drawn, panel);
+        let framing = if self.focus.is_empty() {
+            Framing::around(&self.rest, drawn, panel)
+        } else {
+            let drawn: Vec<&[[f64; 3]]> = self
+                .frames
+                .iter()
+                .flat_map(|f| std::iter::once(f.positions.as_slice()).chain(f.truth.as_deref()))
+                .collect();
+            Framing::focused(&self.rest, &drawn, &self.focus, panel)
+        };
         let bar_space = BAR_WIDTH + 30;
         let width = columns.len() * panel + bar_space;
         let top = STRIP + STRIP;
@@ -572,6 +627,31 @@ mod tests {
     }
 
     #[test]
+    fn a_close_up_frames_its_vertices_where_they_go_with_a_margin() {
+        let (p, _) = quad();
+        // Vertices 0 and 1 (the bottom edge, 10 cm wide); vertex 1 drops 4 cm in a frame.
+        let mut dropped = p.clone();
+        dropped[1][1] -= 0.04;
+        let f = Framing::focused(&p, &[&dropped], &[0, 1], 100);
+        // The box is 10 × 4 cm, widened by 3 cm each side: 16 cm across.
+        assert!((f.scale - 90.0 / 0.16).abs() < 1e-9, "{}", f.scale);
+        let c = f.to_pixel(View::Front, &[0.0, -0.07, 0.0]);
+        assert!(
+            (c[0] - 50.0).abs() < 1e-9 && (c[1] - 50.0).abs() < 1e-9,
+            "{c:?}"
+        );
+        // Ids a frame lacks are left out; no focus frames the rest box.
+        assert_eq!(
+            Framing::focused(&p, &[&p[..1]], &[0, 1], 100),
+            Framing::focused(&p, &[], &[0, 1], 100)
+        );
+        assert_eq!(
+            Framing::focused(&p, &[&dropped], &[], 100),
+            Framing::new(&p, 100)
+        );
+    }
+
+    #[test]
     fn a_facing_quad_fills_the_framed_box_and_an_edge_on_one_nothing() {
         let (p, t) = quad();
         let f = Framing::new(&p, 100);
@@ -634,11 +714,17 @@ mod tests {
             triangles: t.clone(),
             frames: vec![frame.clone(), frame],
             panel: 80,
+            focus: Vec::new(),
+            scale_mm: None,
         };
         assert!(sheet.has_truth());
         let img = sheet.render();
         assert_eq!(img.width, 6 * 80 + BAR_WIDTH + 30);
         assert_eq!(img.height, 2 * STRIP + 2 * (STRIP + 80) + 6);
+        // The error here is 2 mm everywhere: its own scale tops at 2, a shared one where given.
+        assert_eq!(sheet.scale(), (2.0, false));
+        sheet.scale_mm = Some(1.0);
+        assert_eq!(sheet.scale(), (1.0, true));
         sheet.frames[1].truth = None;
         assert!(!sheet.has_truth());
         assert_eq!(sheet.render().width, 4 * 80 + BAR_WIDTH + 30);

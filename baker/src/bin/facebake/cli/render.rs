@@ -19,6 +19,10 @@ use facebake::render::{write_png, MarkerSheet, Sheet, SheetFrame, PANEL};
 /// One frame's positions (vertices or markers).
 pub type Positions = Vec<[f64; 3]>;
 
+/// The demo's ground-truth frames drawn in its close-up of the eyes; its other frames go to the
+/// close-up of the mouth.
+pub const CLOSE_UP_EYES: [&str; 2] = ["blink", "surprise"];
+
 /// Rows of a sheet when `--frames` is not given: this many, evenly spaced.
 pub const DEFAULT_ROWS: usize = 6;
 
@@ -53,6 +57,10 @@ pub(crate) struct RenderArgs {
     /// Also write the rest mesh with the rig's markers here (PNG; needs --rig).
     #[arg(long, value_name = "PNG", requires = "rig")]
     pub marker_sheet: Option<PathBuf>,
+    /// What the panels frame: the whole head, or close up the mouth (its lips' rims wherever
+    /// the frames take them) or the eyes (both lids' rims).
+    #[arg(long, value_enum, default_value_t = Focus::Head)]
+    pub focus: Focus,
     /// Panel size in pixels.
     #[arg(long, value_name = "PX", default_value_t = PANEL as u32, value_parser = clap::value_parser!(u32).range(64..=2048))]
     pub panel: u32,
@@ -63,6 +71,51 @@ pub(crate) struct RenderArgs {
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// What a sheet's panels frame (`render --focus`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Focus {
+    /// The whole head.
+    Head,
+    /// The mouth, close up.
+    Mouth,
+    /// Both eyes, close up.
+    Eyes,
+}
+
+impl Focus {
+    /// Its name in titles.
+    fn title(self) -> &'static str {
+        match self {
+            Self::Head => "",
+            Self::Mouth => ", MOUTH",
+            Self::Eyes => ", EYES",
+        }
+    }
+
+    /// The vertices a close-up frames: the rims' vertices of the mouth or of the eyes that
+    /// `regions` found on `mesh` (empty for the whole head). A close-up of an opening the mesh
+    /// does not have is an error naming it.
+    fn vertices(self, regions: &Regions, mesh: &Path) -> Result<Vec<u32>, CliError> {
+        let pairs: Vec<&[u32; 2]> = match self {
+            Self::Head => return Ok(Vec::new()),
+            Self::Mouth => regions.lips.iter().collect(),
+            Self::Eyes => regions.eyes.iter().flatten().collect(),
+        };
+        if pairs.is_empty() {
+            let what = if self == Self::Mouth {
+                "a mouth"
+            } else {
+                "eyes"
+            };
+            return Err(CliError::input(
+                mesh,
+                format!("--focus: no rim pairs across {what} were found on this mesh's skin (its openings: see `facebake place`)"),
+            ));
+        }
+        Ok(pairs.into_iter().flatten().copied().collect())
+    }
 }
 
 /// Structure metrics of a take: per frame, and the worst over it.
@@ -217,15 +270,22 @@ pub(crate) fn structure_text(s: &Structure, per_frame: bool) -> String {
     out
 }
 
-/// Draw a sheet of `rows` (frame indices) of `frames` over `mesh`, with `truth` if given.
-fn sheet(
+/// The played frames a sheet draws from: the frames, the true ones and the markers (per
+/// frame), the last two if known.
+type Played<'a> = (
+    &'a [Vec<[f64; 3]>],
+    Option<&'a [Vec<[f64; 3]>]>,
+    Option<&'a [Vec<[f64; 3]>]>,
+);
+
+/// A sheet of `rows` (label, frame index) of the `played` frames over `mesh`, the truth beside
+/// them if given, in `panel`-pixel panels framing `focus` ([`Sheet::focus`]).
+fn sheet_of(
     title: String,
     mesh: &FaceMesh,
-    frames: &[Vec<[f64; 3]>],
-    truth: Option<&[Vec<[f64; 3]>]>,
-    markers: Option<&[Vec<[f64; 3]>]>,
+    (frames, truth, markers): Played<'_>,
     rows: &[(String, usize)],
-    panel: usize,
+    (panel, focus): (usize, Vec<u32>),
 ) -> Sheet {
     Sheet {
         title,
@@ -242,6 +302,8 @@ fn sheet(
             })
             .collect(),
         panel,
+        focus,
+        scale_mm: None,
     }
 }
 
@@ -313,20 +375,14 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
     };
     let rows: Vec<(String, usize)> = chosen.iter().map(|&f| (format!("FRAME {f}"), f)).collect();
     let title = format!(
-        "{} ON {}",
+        "{} ON {}{}",
         file_name(&args.frames_npy),
-        file_name(&args.mesh)
+        file_name(&args.mesh),
+        args.focus.title()
     );
-    let image = sheet(
-        title,
-        &mesh,
-        &frames,
-        truth.as_deref(),
-        None,
-        &rows,
-        args.panel as usize,
-    )
-    .render();
+    let focus = args.focus.vertices(&regions, &args.mesh)?;
+    let played = (frames.as_slice(), truth.as_deref(), None);
+    let image = sheet_of(title, &mesh, played, &rows, (args.panel as usize, focus)).render();
     write_sheet(&args.output, &image)?;
     let mut files = vec![args.output.clone()];
     if let (Some(path), Some(rig)) = (&args.marker_sheet, &rig) {
@@ -399,23 +455,39 @@ pub(crate) fn demo_ground_truth(
     let shape = [truths.len(), mesh.positions.len(), 3];
     facebake::io::npy::write_npy_f32(&truth_path, &shape, &flat)
         .map_err(|e| CliError::io(&truth_path, e))?;
+    let regions = regions(mesh, &truth.marker_rest(), &[])?;
+    let draw = |rows: &[(String, usize)], focus: Focus| -> Result<Sheet, CliError> {
+        let title = format!(
+            "FACECAP GROUND TRUTH{}, DEFAULT BAKE: TRUTH / RESULT / ERROR",
+            focus.title()
+        );
+        let focus = focus.vertices(&regions, &mesh.source)?;
+        let played = (played, Some(truths.as_slice()), Some(markers));
+        Ok(sheet_of(title, mesh, played, rows, (PANEL, focus)))
+    };
     let sheet_path = dir.join("facecap_sheet.png");
-    let title = "FACECAP GROUND TRUTH, DEFAULT BAKE: TRUTH / RESULT / ERROR".to_string();
-    let image = sheet(
-        title,
-        mesh,
-        played,
-        Some(&truths),
-        Some(markers),
-        &rows,
-        PANEL,
-    )
-    .render();
-    write_sheet(&sheet_path, &image)?;
+    let whole = draw(&rows, Focus::Head)?;
+    write_sheet(&sheet_path, &whole.render())?;
+    // Close-ups where the eye goes: the mouth in the frames that move it, the eyes in the rest.
+    let at_eyes = |(name, _): &&(String, usize)| CLOSE_UP_EYES.contains(&name.as_str());
+    let (eye_rows, mouth_rows): (Vec<_>, Vec<_>) = rows.iter().partition(at_eyes);
+    let mut close_ups = Vec::new();
+    for (file, part, rows) in [
+        ("facecap_mouth_sheet.png", Focus::Mouth, mouth_rows),
+        ("facecap_eyes_sheet.png", Focus::Eyes, eye_rows),
+    ] {
+        let rows: Vec<(String, usize)> = rows.into_iter().cloned().collect();
+        let path = dir.join(file);
+        let close_up = Sheet {
+            scale_mm: Some(whole.scale().0),
+            ..draw(&rows, part)?
+        };
+        write_sheet(&path, &close_up.render())?;
+        close_ups.push(path);
+    }
     let marker_path = dir.join("facecap_markers.png");
     let title = format!("FACECAP: {} LAYOUT MARKERS", rest.len());
     write_marker_sheet(&marker_path, title, mesh, names, rest)?;
-    let regions = regions(mesh, &truth.marker_rest(), &[])?;
     let s = structure(
         &regions,
         played,
@@ -428,6 +500,14 @@ pub(crate) fn demo_ground_truth(
         vec![
             (truth_path, "the true frames, for `render --truth`".into()),
             (sheet_path, "ground truth: truth, result, error".into()),
+            (
+                close_ups[0].clone(),
+                "the same, the mouth close up (jaw open, funnel, smile, blend)".into(),
+            ),
+            (
+                close_ups[1].clone(),
+                "the same, the eyes close up (blink, surprise)".into(),
+            ),
             (
                 marker_path,
                 "the ground truth's markers on the rest mesh".into(),
@@ -449,19 +529,44 @@ pub(crate) fn demo_capture(
     head: &[usize],
 ) -> Result<(Structure, Vec<(PathBuf, String)>), CliError> {
     let rows: Vec<(String, usize)> = rows.iter().map(|(l, f)| (l.to_uppercase(), *f)).collect();
-    let sheet_path = dir.join("jawmocap_sheet.png");
-    let title = "JAWMOCAP ON FACECAP, DEFAULT BAKE: RESULT / DISPLACEMENT".to_string();
-    let image = sheet(title, mesh, played, None, Some(markers), &rows, PANEL).render();
-    write_sheet(&sheet_path, &image)?;
+    let regions = regions(mesh, rest, head)?;
+    let mut paths = Vec::new();
+    let mut scale_mm = None;
+    for (file, focus) in [
+        ("jawmocap_sheet.png", Focus::Head),
+        ("jawmocap_mouth_sheet.png", Focus::Mouth),
+    ] {
+        let title = format!(
+            "JAWMOCAP ON FACECAP{}, DEFAULT BAKE: RESULT / DISPLACEMENT",
+            focus.title()
+        );
+        let focus = focus.vertices(&regions, &mesh.source)?;
+        let sheet = Sheet {
+            scale_mm,
+            ..sheet_of(
+                title,
+                mesh,
+                (played, None, Some(markers)),
+                &rows,
+                (PANEL, focus),
+            )
+        };
+        // The close-up shares the whole head's scale.
+        scale_mm = scale_mm.or(Some(sheet.scale().0));
+        let path = dir.join(file);
+        write_sheet(&path, &sheet.render())?;
+        paths.push(path);
+    }
+    let sheet_path = paths[0].clone();
     let marker_path = dir.join("jawmocap_markers.png");
     let title = format!("JAWMOCAP LAYOUT ON FACECAP: {} MARKERS", names.len());
     write_marker_sheet(&marker_path, title, mesh, names, rest)?;
-    let regions = regions(mesh, rest, head)?;
     let s = structure(&regions, played, None, |f| format!("frame {f}"), false);
     Ok((
         s,
         vec![
             (sheet_path, "capture: result and displacement".into()),
+            (paths[1].clone(), "the same, the mouth close up".into()),
             (marker_path, "the capture's markers on the rest mesh".into()),
         ],
     ))
