@@ -390,18 +390,15 @@ impl Sheet {
             columns.push((view, heat_name));
         }
         let panel = self.panel.max(64);
-        let drawn = self
+        // Every drawn position list: each frame's result and its truth.
+        let drawn: Vec<&[[f64; 3]]> = self
             .frames
             .iter()
-            .flat_map(|f| f.positions.iter().chain(f.truth.iter().flatten()));
+            .flat_map(|f| std::iter::once(f.positions.as_slice()).chain(f.truth.as_deref()))
+            .collect();
         let framing = if self.focus.is_empty() {
-            Framing::around(&self.rest, drawn, panel)
+            Framing::around(&self.rest, drawn.iter().copied().flatten(), panel)
         } else {
-            let drawn: Vec<&[[f64; 3]]> = self
-                .frames
-                .iter()
-                .flat_map(|f| std::iter::once(f.positions.as_slice()).chain(f.truth.as_deref()))
-                .collect();
             Framing::focused(&self.rest, &drawn, &self.focus, panel)
         };
         let bar_space = BAR_WIDTH + 30;
