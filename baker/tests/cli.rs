@@ -222,8 +222,8 @@ fn render_draws_the_demo_frames_and_measures_them() {
     // `tests/tests/structure.rs`.
     let drift = take["static_drift_mm"][0].as_f64().unwrap();
     assert!((drift - 0.29).abs() < 0.01, "{take}");
-    // Without a truth: result and displacement only.
-    draw_mouth_open(&sheet, "head");
+    // Without a truth: result and displacement only, four square panels and the colour bar.
+    assert_eq!(draw_mouth_open(&sheet, "head"), 4 * 128 + 120);
     // A frame the file does not have is bad input, named.
     let out = facebake(&[
         "render",
@@ -261,7 +261,7 @@ fn png_pixels(path: &Path) -> (Vec<[u8; 3]>, usize) {
 
 /// Draw the demo's JawMoCap frame 388 (the mouth open, no truth) in 128-pixel panels framing
 /// `focus` into `sheet`: result and displacement, front and side.
-fn draw_mouth_open(sheet: &Path, focus: &str) {
+fn draw_mouth_open(sheet: &Path, focus: &str) -> u32 {
     let (demo_dir, _) = demo();
     let out = facebake(&[
         "render",
@@ -278,18 +278,30 @@ fn draw_mouth_open(sheet: &Path, focus: &str) {
         s(sheet),
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    assert_eq!(png_size(sheet).0, 4 * 128 + 120);
+    png_size(sheet).0
 }
 
 /// `render --focus mouth` frames the lips wherever the frames take them: in the mouth-open frame
 /// the face fills the close-up's result panel, where the whole head's leaves the paper round
-/// it; a close-up of an opening the mesh does not have is bad input, named.
+/// it; `--focus eyes` frames both eyes in panels wider than tall; a close-up of an opening the mesh does not have is bad input, named.
 #[test]
 fn render_frames_the_mouth_close_up() {
     let dir = temp_dir("render_focus");
     let paper_in_first_panel = |focus: &str| {
         let sheet = dir.join(format!("{focus}.png"));
-        draw_mouth_open(&sheet, focus);
+        let width = draw_mouth_open(&sheet, focus);
+        // Four panels (result and displacement, front and side) and the colour bar: square
+        // for the whole head, as wide as a close-up's box needs, twice as wide as tall at
+        // most; both eyes' front panels are the widest.
+        let squares = 4 * 128 + 120;
+        match focus {
+            "head" => assert_eq!(width, squares),
+            "eyes" => assert!(
+                width > squares + 2 * 64 && width <= squares + 4 * 128,
+                "{width}"
+            ),
+            _ => assert!((squares..squares + 2 * 64).contains(&width), "{width}"),
+        }
         // The result's front panel: the first 128 columns under the title and label strips.
         let (pixels, width) = png_pixels(&sheet);
         let rows = pixels.len() / width;
@@ -302,6 +314,7 @@ fn render_frames_the_mouth_close_up() {
         head > 0.3 && mouth < 0.02,
         "paper: head {head:.3}, mouth {mouth:.3}"
     );
+    paper_in_first_panel("eyes");
     // The canonical face has no mouth opening to frame.
     let disk = fixture("mediapipe_canonical_face_model.glb");
     let mesh = load_mesh(&disk, None, None).expect("loads");

@@ -53,6 +53,11 @@ pub const PANEL: usize = 320;
 /// its largest extent, so that the skin round the framed rims shows: round FaceCap's mouth about
 /// 16 mm each side of the jaw open's 44 × 53 mm box, the corners' folds and the chin's top.
 pub const FOCUS_MARGIN: f64 = 0.3;
+/// A close-up's panel is at most this many times as wide as it is tall. The demo's close-up of
+/// FaceCap's eyes (blink and surprise; a box 149 mm across with the margin) draws them at 3.9
+/// pixels a millimetre in 640 × 320 front panels, where square panels drew 1.9 (the whole head
+/// 1.2): the lids' slit in the blink was a few pixels.
+pub const FOCUS_ASPECT_MAX: f64 = 2.0;
 
 /// A PNG could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -116,14 +121,17 @@ impl View {
     }
 }
 
-/// How a box of the world maps onto a square panel: the same scale in both views.
+/// How a box of the world maps onto a panel: the same scale in both views. Panels are square
+/// unless a close-up's box is wider than it is tall ([`Framing::focused`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Framing {
     centre: [f64; 3],
     /// Pixels per metre.
     pub scale: f64,
-    /// Panel size, pixels.
+    /// Panel height, pixels (and width, unless [`Framing::widths`] says otherwise).
     pub size: usize,
+    /// Panel widths in the front and the side view, pixels.
+    pub widths: [usize; 2],
 }
 
 impl Framing {
@@ -150,6 +158,15 @@ impl Framing {
             centre,
             scale,
             size,
+            widths: [size; 2],
+        }
+    }
+
+    /// The width of `view`'s panel, pixels.
+    pub fn width(&self, view: View) -> usize {
+        match view {
+            View::Front => self.widths[0],
+            View::Side => self.widths[1],
         }
     }
 
@@ -180,8 +197,10 @@ impl Framing {
 
     /// Frame `focus` (vertex ids) close up: the box of their `rest` positions and of their
     /// positions in each of `drawn` (lists over every vertex; ids a list lacks are left out),
-    /// widened by [`FOCUS_MARGIN`] of its largest extent on each side. With no focus vertex,
-    /// the whole rest box ([`Framing::new`]).
+    /// widened by [`FOCUS_MARGIN`] of its largest extent on each side. A view whose box is
+    /// wider than tall gets a panel that much wider than `size` (up to [`FOCUS_ASPECT_MAX`]), so
+    /// a wide box (both eyes) is framed by its height rather than shrunk to a strip. With no
+    /// focus vertex, the whole rest box ([`Framing::new`]).
     pub fn focused(rest: &[[f64; 3]], drawn: &[&[[f64; 3]]], focus: &[u32], size: usize) -> Self {
         let points: Vec<[f64; 3]> = std::iter::once(rest)
             .chain(drawn.iter().copied())
@@ -193,17 +212,37 @@ impl Framing {
         }
         let (lo, hi) = crate::model::bounds(points.iter().copied());
         let widen = FOCUS_MARGIN * (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
-        Self::new(&[lo.map(|x| x - widen), hi.map(|x| x + widen)], size)
+        let (lo, hi) = (lo.map(|x| x - widen), hi.map(|x| x + widen));
+        let square = Self::new(&[lo, hi], size);
+        let [across, tall, deep] = [0, 1, 2].map(|c| hi[c] - lo[c]);
+        if !(tall > 0.0 && tall.is_finite()) || across.max(deep) <= tall {
+            return square;
+        }
+        // Each view as wide as its box needs at the height's scale, then one scale that fits
+        // every side of both panels.
+        let widths = [across, deep]
+            .map(|w| (size as f64 * (w / tall).clamp(1.0, FOCUS_ASPECT_MAX)).round() as usize);
+        let fill = 1.0 - 2.0 * MARGIN;
+        let scale = [(size, tall), (widths[0], across), (widths[1], deep)]
+            .iter()
+            .map(|&(pixels, extent)| pixels as f64 * fill / extent)
+            .fold(f64::INFINITY, f64::min);
+        Self {
+            scale,
+            widths,
+            ..square
+        }
     }
 
     /// A world point in pixel space of `view`: x right, y down, depth larger nearer.
     pub fn to_pixel(&self, view: View, p: &[f64; 3]) -> [f64; 3] {
         let q = view.project(p);
         let c = view.project(&self.centre);
-        let half = self.size as f64 / 2.0;
+        let half_width = self.width(view) as f64 / 2.0;
+        let half_height = self.size as f64 / 2.0;
         [
-            half + (q[0] - c[0]) * self.scale,
-            half - (q[1] - c[1]) * self.scale,
+            half_width + (q[0] - c[0]) * self.scale,
+            half_height - (q[1] - c[1]) * self.scale,
             q[2] - c[2],
         ]
     }
@@ -232,7 +271,7 @@ pub fn draw_mesh(
     triangles: &[[u32; 3]],
     paint: Paint<'_>,
 ) -> (Image, DepthBuffer) {
-    let mut image = Image::new(framing.size, framing.size, PAPER);
+    let mut image = Image::new(framing.width(view), framing.size, PAPER);
     let mut depth = DepthBuffer::for_image(&image);
     let light = view.light();
     for t in triangles {
@@ -401,16 +440,26 @@ impl Sheet {
         } else {
             Framing::focused(&self.rest, &drawn, &self.focus, panel)
         };
+        // Each column's left edge, and the panels' right edge.
+        let lefts: Vec<usize> = columns
+            .iter()
+            .scan(0, |x, (view, _)| {
+                let left = *x;
+                *x += framing.width(*view);
+                Some(left)
+            })
+            .collect();
+        let panels_width: usize = columns.iter().map(|(v, _)| framing.width(*v)).sum();
         let bar_space = BAR_WIDTH + 30;
-        let width = columns.len() * panel + bar_space;
+        let width = panels_width + bar_space;
         let top = STRIP + STRIP;
         let row_height = STRIP + panel;
         let height = top + self.frames.len().max(1) * row_height + 6;
         let mut sheet = Image::new(width, height, PAPER);
         sheet.text(8, 6, &self.title, 2, INK);
-        for (c, (view, what)) in columns.iter().enumerate() {
+        for ((view, what), &left) in columns.iter().zip(&lefts) {
             let text = format!("{what} {}", view.name());
-            sheet.text((c * panel + 8) as i64, (STRIP + 6) as i64, &text, 2, INK);
+            sheet.text((left + 8) as i64, (STRIP + 6) as i64, &text, 2, INK);
         }
         for (r, frame) in self.frames.iter().enumerate() {
             let y0 = top + r * row_height;
@@ -421,9 +470,9 @@ impl Sheet {
                 heat_name,
                 mm_text_precise(worst)
             );
-            sheet.fill_rect(0, y0 as i64, columns.len() * panel, 1, [180; 3]);
+            sheet.fill_rect(0, y0 as i64, panels_width, 1, [180; 3]);
             sheet.text(8, (y0 + 6) as i64, &label, 2, INK);
-            for (c, (view, what)) in columns.iter().enumerate() {
+            for ((view, what), &left) in columns.iter().zip(&lefts) {
                 let (positions, paint) = match *what {
                     "TRUTH" => (
                         frame.truth.as_deref().unwrap_or(&frame.positions),
@@ -443,17 +492,14 @@ impl Sheet {
                 if *what == "RESULT" && !frame.markers.is_empty() {
                     draw_markers(&mut img, &depth, *view, &framing, &frame.markers, 2.0);
                 }
-                sheet.blit(&img, c * panel, y0 + STRIP);
-                sheet.fill_rect((c * panel) as i64, (y0 + STRIP) as i64, 1, panel, [180; 3]);
+                sheet.blit(&img, left, y0 + STRIP);
+                sheet.fill_rect(left as i64, (y0 + STRIP) as i64, 1, panel, [180; 3]);
             }
         }
         let bar_height = (panel * self.frames.len().clamp(1, 2)).saturating_sub(60);
         colour_bar(
             &mut sheet,
-            (
-                (columns.len() * panel + 16) as i64,
-                (top + STRIP + 40) as i64,
-            ),
+            ((panels_width + 16) as i64, (top + STRIP + 40) as i64),
             bar_height,
             max_mm,
             clipped,
@@ -630,12 +676,28 @@ mod tests {
         let mut dropped = p.clone();
         dropped[1][1] -= 0.04;
         let f = Framing::focused(&p, &[&dropped], &[0, 1], 100);
-        // The box is 10 × 4 cm, widened by 3 cm each side: 16 cm across.
-        assert!((f.scale - 90.0 / 0.16).abs() < 1e-9, "{}", f.scale);
+        // The box is 10 × 4 cm, widened by 3 cm each side: 16 cm across, 10 cm tall, 6 cm
+        // deep. The front panel is 1.6 times as wide as tall and frames it at 900 pixels a
+        // metre, as the height does; the side's box is taller than deep, a square panel.
+        assert_eq!((f.size, f.widths), (100, [160, 100]));
+        assert!((f.scale - 90.0 / 0.10).abs() < 1e-9, "{}", f.scale);
         let c = f.to_pixel(View::Front, &[0.0, -0.07, 0.0]);
         assert!(
-            (c[0] - 50.0).abs() < 1e-9 && (c[1] - 50.0).abs() < 1e-9,
+            (c[0] - 80.0).abs() < 1e-9 && (c[1] - 50.0).abs() < 1e-9,
             "{c:?}"
+        );
+        assert!((f.to_pixel(View::Side, &[0.0, -0.07, 0.0])[0] - 50.0).abs() < 1e-9);
+        // A strip (the edge alone, 16 × 6 × 6 cm with the margin): panels at most twice as
+        // wide as tall, the scale then set by the width.
+        let strip = Framing::focused(&p, &[], &[0, 1], 100);
+        assert_eq!(strip.widths, [200, 100]);
+        assert!((strip.scale - 180.0 / 0.16).abs() < 1e-9, "{}", strip.scale);
+        // A box as tall as wide keeps square panels, framed as the whole box would be.
+        let all = Framing::focused(&p, &[], &[0, 1, 2, 3], 100);
+        assert_eq!(all.widths, [100, 100]);
+        assert_eq!(
+            all,
+            Framing::new(&[[-0.08, -0.08, -0.03], [0.08, 0.08, 0.03]], 100)
         );
         // Ids a frame lacks are left out; no focus frames the rest box.
         assert_eq!(
@@ -722,6 +784,14 @@ mod tests {
         assert_eq!(sheet.scale(), (2.0, false));
         sheet.scale_mm = Some(1.0);
         assert_eq!(sheet.scale(), (1.0, true));
+        // A close-up of the bottom edge, a strip: each column as wide as its view's panel.
+        sheet.focus = vec![0, 1];
+        let f = Framing::focused(&p, &[&moved, &p], &[0, 1], 80);
+        assert!(f.widths[0] > f.widths[1] && f.widths[1] >= 80, "{f:?}");
+        let img = sheet.render();
+        assert_eq!(img.width, 3 * (f.widths[0] + f.widths[1]) + BAR_WIDTH + 30);
+        assert_eq!(img.height, 2 * STRIP + 2 * (STRIP + 80) + 6);
+        sheet.focus.clear();
         sheet.frames[1].truth = None;
         assert!(!sheet.has_truth());
         assert_eq!(sheet.render().width, 4 * 80 + BAR_WIDTH + 30);
