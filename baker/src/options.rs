@@ -67,6 +67,10 @@ pub struct SurfaceOptions {
     /// Reshape the weights near the openings' corners so that lips and lids part as a crack
     /// opens ([`crate::surface::corners`]; linear deformer).
     pub corners: bool,
+    /// Correct the weights beside the mouth's rim so that each lip curves through its markers
+    /// rather than running straight between them ([`crate::surface::lip_curve`]; with the
+    /// masks and the corners, linear deformer).
+    pub lip_curve: bool,
     /// Across a lip or lid, between the opening's rim and a marker worn on it, distances count
     /// this fraction of their length, so that the rim moves with the marker in front of it
     /// ([`crate::surface::distances::shorten_across_rims`]; 1 leaves distances as measured;
@@ -117,6 +121,7 @@ impl Default for SurfaceOptions {
             pbw_alpha: PBW_ALPHA,
             ridge: None,
             corners: true,
+            lip_curve: true,
             rim_across: RIM_ACROSS,
             past_corner_reach: PAST_CORNER_REACH,
             mouth_share: MOUTH_SHARE,

@@ -25,6 +25,7 @@ pub mod evaluate;
 pub mod geometry;
 pub(crate) mod interior;
 pub mod lids;
+pub mod lip_curve;
 pub mod masks;
 pub mod pbw;
 
@@ -145,6 +146,8 @@ pub struct SurfaceFigures {
     /// The lids' reshaping, when applied ([`lids`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lids: Option<lids::LidFigures>,
+    /// glTF vertices whose weights the lips' curve corrected ([`lip_curve`]).
+    pub lip_curve_vertices: usize,
 }
 
 /// What static anchoring did.
@@ -463,8 +466,12 @@ pub(crate) fn dense_weights(
         (crate::DeformerKind::Rbf, Some(_)) => Some(system.anchored_coefficient_map(&anchors)?),
         _ => None,
     };
-    let (dense, masked_vertices) = if masked {
-        let sides = sides_of(input, &config.surface, &geometry, &rest, spacing)?;
+    let sides = if masked {
+        Some(sides_of(input, &config.surface, &geometry, &rest, spacing)?)
+    } else {
+        None
+    };
+    let (dense, masked_vertices) = if let Some(sides) = &sides {
         masks::masked_weights(
             &masks::MaskedSolve {
                 full: &system,
@@ -474,7 +481,7 @@ pub(crate) fn dense_weights(
                 stiffness: &stiffness,
                 ridge,
             },
-            &sides,
+            sides,
             &rows,
             &points,
         )?
@@ -513,6 +520,35 @@ pub(crate) fn dense_weights(
     // The lips' markers found from the openings, as masks without a layout's groups find them:
     // the corners' balance and the jaw's lower lip.
     let (upper_lip, lower_lip) = masks::lips_from_openings(mesh, &rest);
+    // The lips curve through their markers (with the masks' sides, where the corners are
+    // reshaped).
+    let mouth_sides = sides
+        .iter()
+        .flatten()
+        .find(|s| mouth.is_some_and(|m| s.openings.contains(&m)));
+    let rounded = match (mouth, mouth_sides) {
+        (Some(opening), Some(mouth_sides))
+            if config.surface.lip_curve
+                && config.surface.corners
+                && config.deformer == crate::DeformerKind::Linear =>
+        {
+            lip_curve::round(
+                &mut dense,
+                &lip_curve::MouthRim {
+                    opening: &geometry.openings[opening],
+                    from_rim: &geometry.opening_distance[opening],
+                    sides: &mouth_sides.side,
+                },
+                &geometry.weld,
+                &mesh.welded_positions,
+                &mesh.positions,
+                &rest,
+                [&upper_lip, &lower_lip],
+                spacing,
+            )
+        }
+        _ => 0,
+    };
     let mut vertical = vec![Vec::new(); dense.len()];
     let mut give_way = vec![0.0; dense.len()];
     let names: Vec<&str> = input.markers.iter().map(|m| m.name.as_str()).collect();
@@ -640,6 +676,7 @@ pub(crate) fn dense_weights(
         anchoring,
         corners,
         lids,
+        lip_curve_vertices: rounded,
     };
     Ok(SurfaceBake {
         between,

@@ -695,6 +695,13 @@ fn print_text(s: &BakeSummary) {
                 l.reshaped_vertices
             );
         }
+        if f.lip_curve_vertices > 0 {
+            outln!(
+                out,
+                "  lip curve     the lips curve through their markers: {} vertices beside the mouth",
+                f.lip_curve_vertices
+            );
+        }
     }
     for g in &s.mask_groups {
         outln!(
