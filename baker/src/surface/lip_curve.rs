@@ -3,7 +3,7 @@
 //! The exponential kernel's interpolant is only continuous at its markers and, with a width
 //! about twice the lip markers' spacing, nearly straight between them: in a jaw open the lower
 //! lip hangs in a V from its middle marker and the upper lip rises to a tent at its own
-//! (docs/design.md, "The lips kink at their middle markers"). A lip through the same markers
+//! (docs/design.md, "The lips curve through their markers"). A lip through the same markers
 //! with a continuous slope is rounder: FaceCap's truth is flat for 4 mm each side of the middle.
 //!
 //! So each lip's rim, and the skin beside it, takes a correction between its middle markers:
