@@ -359,6 +359,22 @@ fn bake_inspect_verify_round_trip() {
         std::fs::read(&rig).unwrap(),
         std::fs::read(demo_dir.join("facecap.fbk")).unwrap()
     );
+    // The lips curve through their markers unless told not to; the report says over how many
+    // vertices.
+    let curved = baked["report"]["surface"]["lip_curve_vertices"].as_u64();
+    assert!(curved.is_some_and(|n| n > 20), "{curved:?}");
+    let straight_rig = dir.join("straight.fbk");
+    let straight = json_ok(&bake(
+        &mesh_path(),
+        &layout,
+        &straight_rig,
+        &["--mesh-name", "head", "--no-lip-curve", "--json"],
+    ));
+    assert_eq!(straight["report"]["surface"]["lip_curve_vertices"], 0);
+    assert_ne!(
+        std::fs::read(&straight_rig).unwrap(),
+        std::fs::read(&rig).unwrap()
+    );
 
     let info = json_ok(&facebake(&["inspect", s(&rig), "--json"]));
     assert_eq!(info["vertices"], VERTICES);

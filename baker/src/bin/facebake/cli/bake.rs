@@ -71,6 +71,11 @@ pub struct BakeArgs {
     /// needs K ≥ 6.
     #[arg(long)]
     pub no_corners: bool,
+    /// Leave each lip straight between its markers: by default the skin beside the mouth's rim
+    /// takes a correction so that a lip curves through its markers (no V hanging from the
+    /// middle marker in a jaw open). With the masks and the corners; linear deformer.
+    #[arg(long)]
+    pub no_lip_curve: bool,
     /// Leave the weights as the method makes them where the capture folds the skin: by default
     /// a bake with a capture plays it through the rig, and where a frame turns a skin triangle
     /// over, the weights of a patch of skin round it are relaxed (each vertex the mean of its
@@ -305,6 +310,7 @@ impl BakeArgs {
             },
             surface: facebake::SurfaceOptions {
                 corners: d.surface.corners && !self.no_corners,
+                lip_curve: d.surface.lip_curve && !self.no_lip_curve,
                 rim_across: self.rim_across.unwrap_or(d.surface.rim_across),
                 relax: d.surface.relax && !self.no_relax,
                 ..d.surface
