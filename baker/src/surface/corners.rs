@@ -167,17 +167,9 @@ pub fn reshape(
         };
         let width = rim.width;
         for (corner, axis) in rim.corners() {
-            let Some((marker, reach)) = rest
-                .iter()
-                .map(|m| crate::mesh::distance(m, &corner))
-                .enumerate()
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-            else {
+            let Some(marker) = rim.corner_marker(&corner, rest) else {
                 continue;
             };
-            if reach > CORNER_REACH * width {
-                continue;
-            }
             figures.corners += 1;
             figures.markers.push(markers.names[marker].to_string());
             let other = rim.ends[usize::from(corner == rim.ends[0])];
@@ -304,6 +296,17 @@ impl RimEnds {
         let ends = [low, high].map(|i| welded_positions[opening.vertices[i] as usize]);
         let width = crate::mesh::distance(&ends[0], &ends[1]);
         (width > 0.0).then_some(Self { ends, width })
+    }
+
+    /// The marker of `rest` nearest `end` (one of [`RimEnds::ends`]), if it is within
+    /// [`CORNER_REACH`] of the width: that corner's marker.
+    pub(crate) fn corner_marker(&self, end: &[f64; 3], rest: &[[f64; 3]]) -> Option<usize> {
+        rest.iter()
+            .map(|m| crate::mesh::distance(m, end))
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|&(_, d)| d <= CORNER_REACH * self.width)
+            .map(|(i, _)| i)
     }
 
     /// Each end with the direction to the other one.

@@ -27,7 +27,7 @@
 //! 1.3 and 1.8 mm, the face mean 0.544 → 0.543 mm, every structure figure unchanged.
 
 use super::anchoring::smoothstep;
-use super::corners::{RimEnds, CORNER_REACH};
+use super::corners::RimEnds;
 use crate::model::Side;
 use crate::openings::Opening;
 
@@ -197,15 +197,7 @@ pub(crate) fn round(
             .fold(f64::INFINITY, f64::min)
     };
     let on_rim = |i: usize| from_rim(&rest[i]) <= ON_THE_RIM * spacing;
-    // A corner's marker: the marker nearest the rim's end, within the corners' reach.
-    let corner = |end: &[f64; 3]| {
-        rest.iter()
-            .map(|m| crate::mesh::distance(m, end))
-            .enumerate()
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .filter(|&(_, d)| d <= CORNER_REACH * rim.width)
-            .map(|(i, _)| (i, along(&rest[i])))
-    };
+    let corner = |end: &[f64; 3]| rim.corner_marker(end, rest).map(|i| (i, along(&rest[i])));
     let corners = [corner(&low), corner(&high)];
     let is_corner = |i: usize| corners.iter().flatten().any(|c| c.0 == i);
     let mut corrected = 0;
