@@ -260,7 +260,7 @@ fn png_pixels(path: &Path) -> (Vec<[u8; 3]>, usize) {
 }
 
 /// Draw the demo's JawMoCap frame 388 (the mouth open, no truth) in 128-pixel panels framing
-/// `focus` into `sheet`: result and displacement, front and side.
+/// `focus` into `sheet`: result and displacement, front and side. Returns the sheet's width.
 fn draw_mouth_open(sheet: &Path, focus: &str) -> u32 {
     let (demo_dir, _) = demo();
     let out = facebake(&[

@@ -63,7 +63,7 @@ impl Chain {
         corners: [Option<(usize, f64)>; 2],
     ) -> Option<Self> {
         lip.sort_by(|a, b| a.1.total_cmp(&b.1));
-        if lip.len() < 2 || lip.windows(2).any(|w| w[1].1 <= w[0].1) {
+        if lip.len() < 2 {
             return None;
         }
         let first = usize::from(corners[0].is_some());
@@ -72,6 +72,7 @@ impl Chain {
             .chain(lip.iter().copied())
             .chain(corners[1])
             .collect();
+        // Two markers at one place (or a corner inside the lip) leave no segment to curve.
         if nodes.windows(2).any(|w| w[1].1 <= w[0].1) {
             return None;
         }
