@@ -70,6 +70,16 @@ impl Anchoring {
     }
 }
 
+/// The weights (over `n` markers) of fully anchored skin, which follows the mean of `head`:
+/// [`Anchoring::apply`] at strength 1.
+pub fn still_row(head: &[usize], n: usize) -> Vec<f64> {
+    let mut row = vec![0.0; n];
+    for &h in head {
+        row[h] += 1.0 / head.len() as f64;
+    }
+    row
+}
+
 /// Markers that ride the skull, found from the face's openings: those above the openings'
 /// highest centre whose distance from every point of every opening's rim (mouth, eyes) is at
 /// least [`SKULL_CLEARANCE`] × `spacing` and [`SKULL_SHARE`] × the largest such distance, so

@@ -617,9 +617,10 @@ pub(crate) fn dense_weights(
     });
     let hung = interior::hanging(mesh, &pieces);
     let mut dense = interior::ride_beside(dense, &pieces, &mesh.positions, jaw.as_ref());
-    interior::stretch_bags(&mut dense, mesh, &hung);
     let mut rbf_anchoring = None;
     let mut followed_mean = None;
+    // The weights of fully anchored skin, which a mouth bag's back takes.
+    let mut still = None;
     let anchoring = match (config.anchoring, config.deformer) {
         (Some(factor), crate::DeformerKind::Linear | crate::DeformerKind::Rbf) => {
             // The linear deformer's anchored skin follows three of them, whose mean takes one
@@ -639,6 +640,7 @@ pub(crate) fn dense_weights(
             // The RBF deformer's affine part is the anchor markers' mean translation, so fading
             // its radial terms by the strength is this same blend (its dense reference).
             a.apply(&mut dense);
+            still = (!followed.is_empty()).then(|| anchoring::still_row(&followed, n));
             rbf_anchoring = anchored_map.map(|map| RbfAnchoring {
                 map,
                 fade: a.strength.clone(),
@@ -657,6 +659,13 @@ pub(crate) fn dense_weights(
         }
         _ => None,
     };
+    // After the anchoring, so the bags' rows are the membrane's alone: the anchoring's strength,
+    // from where a vertex lies round the head, means nothing inside the mouth.
+    let back = still.as_deref().map(|still| interior::BagBack {
+        still,
+        jaw: jaw.as_ref(),
+    });
+    interior::stretch_bags(&mut dense, mesh, &hung, back.as_ref());
     let marker_distances = (0..n)
         .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
         .collect();
