@@ -45,16 +45,16 @@ pub struct Anchoring {
 impl Anchoring {
     /// Blend each vertex's dense weights towards the head markers' mean by its strength.
     pub fn apply(&self, dense: &mut [Vec<f64>]) {
-        let share = 1.0 / self.head.len().max(1) as f64;
+        let Some(n) = dense.first().map(Vec::len) else {
+            return;
+        };
+        let still = still_row(&self.head, n);
         for (w, &s) in dense.iter_mut().zip(&self.strength) {
             if s <= 0.0 {
                 continue;
             }
-            for x in w.iter_mut() {
-                *x *= 1.0 - s;
-            }
-            for &h in &self.head {
-                w[h] += s * share;
+            for (x, t) in w.iter_mut().zip(&still) {
+                *x = *x * (1.0 - s) + s * t;
             }
         }
     }
@@ -71,7 +71,7 @@ impl Anchoring {
 }
 
 /// The weights (over `n` markers) of fully anchored skin, which follows the mean of `head`:
-/// [`Anchoring::apply`] at strength 1.
+/// what [`Anchoring::apply`] blends towards.
 pub fn still_row(head: &[usize], n: usize) -> Vec<f64> {
     let mut row = vec![0.0; n];
     for &h in head {
