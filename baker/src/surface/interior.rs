@@ -419,9 +419,8 @@ pub(crate) fn stretch_bags(
     let mut rows: Vec<Vec<f64>> = (0..n)
         .map(|w| dense[original[w] as usize].clone())
         .collect();
-    for (v, h) in hung.iter().enumerate() {
+    for (w, h) in in_bag.iter().enumerate() {
         if let Some(h) = h {
-            let w = mesh.weld[v] as usize;
             match back {
                 Some(back) if held(h) => {
                     rows[w] = back.row(&mesh.welded_positions[w], wall[h.bag]);
