@@ -380,8 +380,18 @@ impl BagBack<'_> {
 /// `back`, each bag deeper than [`BAG_SEAM`] of its deepest vertex is held to
 /// [`BagBack::row`]: a membrane between the lips alone sets its back at half the jaw's travel,
 /// and ICT-FaceKit's palate hung 18 mm into its open mouth.
+///
+/// By its seam a bag vertex also takes the `vertical` corrections of the skin vertex it hangs
+/// from (the mouth corners' profile, `surface::corners`), fading out by a smoothstep over the
+/// seam ([`BAG_SEAM`] of the bag's depth), and that vertex's `give_way`, so it keeps the same
+/// markers. Without them the bag's first ring, under a millimetre behind the lower lip's rim,
+/// lagged the rim by the correction (3 mm in ICT-FaceKit's jaw open) and the lip's inner roll
+/// crumpled: 130 of the bag's triangles turned over in the jaw open, 24 with both (48 with the
+/// give-way alone; a fade over half the seam or less sheared the bag against its rows, 112+).
 pub(crate) fn stretch_bags(
     dense: &mut [Vec<f64>],
+    vertical: &mut [Vec<(usize, f64)>],
+    give_way: &mut [f64],
     mesh: &crate::model::FaceMesh,
     hung: &[Option<Hang>],
     back: Option<&BagBack<'_>>,
@@ -432,8 +442,19 @@ pub(crate) fn stretch_bags(
     let neighbours = mesh.welded_topology().neighbours;
     crate::mesh::harmonic_sweeps(&mut rows, &neighbours, &free, BAG_SWEEPS);
     for (v, &w) in mesh.weld.iter().enumerate() {
-        if in_bag[w as usize].is_some() {
+        if let Some(h) = in_bag[w as usize] {
             dense[v].clone_from(&rows[w as usize]);
+            // The skin's corrections, fading out over the seam, and its give-way.
+            let fade = 1.0 - smoothstep(h.depth / (BAG_SEAM * deepest[h.bag]));
+            if fade > 0.0 {
+                let skin = h.skin as usize;
+                if let Some(corrections) = vertical.get(skin) {
+                    vertical[v] = corrections.iter().map(|&(m, d)| (m, d * fade)).collect();
+                }
+                if let Some(&g) = give_way.get(skin) {
+                    give_way[v] = g;
+                }
+            }
         }
     }
 }
@@ -560,7 +581,7 @@ mod tests {
             })
             .collect();
         dense = ride_beside(dense, &pieces, &positions, None);
-        stretch_bags(&mut dense, &mesh, &hung, None);
+        stretch_bags(&mut dense, &mut [], &mut [], &mesh, &hung, None);
         // Convex, rising from one side to the other, and the same seen from either side (the
         // strip is the same turned half round: vertex v and 11 − v).
         for v in 2..10usize {
@@ -602,7 +623,7 @@ mod tests {
             still: &still,
             jaw: None,
         };
-        stretch_bags(&mut dense, &mesh, &hung, Some(&back));
+        stretch_bags(&mut dense, &mut [], &mut [], &mesh, &hung, Some(&back));
         for (v, row) in dense.iter().enumerate().take(20).skip(4) {
             assert_eq!(row, &still, "vertex {v}");
         }
@@ -612,6 +633,67 @@ mod tests {
             assert!(row[lip] > 0.2 && row[2] > 0.2, "vertex {v}: {row:?}");
             assert!(row[1 - lip] < 1e-9, "vertex {v}: {row:?}");
         }
+    }
+
+    /// A long strip whose inner columns are a bag joined to skin columns at both ends, the
+    /// first skin column with a vertical correction and give-way (a mouth corner's): the bag's
+    /// columns by that seam carry them, faded by a smoothstep over [`BAG_SEAM`] of the bag's
+    /// depth, each as the skin vertex it hangs from; the rest of the bag and the other side,
+    /// whose skin has none, carry nothing.
+    #[test]
+    fn a_bag_by_its_seam_carries_its_skins_corrections() {
+        let (mesh, positions) = strip(24);
+        let bag: Vec<u32> = (2..46).collect();
+        let pieces = [(1u32, bag)];
+        let pieces = Piece::all(&pieces, &positions, 100.0);
+        let hung = hanging(&mesh, &pieces);
+        let mut dense: Vec<Vec<f64>> = (0..48)
+            .map(|v| match v {
+                0 | 1 => vec![1.0, 0.0, 0.0],
+                46 | 47 => vec![0.0, 1.0, 0.0],
+                _ => vec![0.5, 0.5, 0.0],
+            })
+            .collect();
+        let mut vertical = vec![Vec::new(); 48];
+        let mut give_way = vec![0.0; 48];
+        for v in [0, 1] {
+            vertical[v] = vec![(0, 0.3), (1, -0.3)];
+            give_way[v] = 1.0;
+        }
+        let still = [0.0, 0.0, 1.0];
+        let back = BagBack {
+            still: &still,
+            jaw: None,
+        };
+        stretch_bags(
+            &mut dense,
+            &mut vertical,
+            &mut give_way,
+            &mesh,
+            &hung,
+            Some(&back),
+        );
+        let deepest = hung.iter().flatten().map(|h| h.depth).fold(0.0, f64::max);
+        let mut carried = 0;
+        for (v, h) in hung.iter().enumerate() {
+            let Some(h) = h else { continue };
+            let fade = 1.0 - smoothstep(h.depth / (BAG_SEAM * deepest));
+            if h.skin < 2 && fade > 0.0 {
+                assert_eq!(
+                    vertical[v],
+                    [(0, 0.3 * fade), (1, -0.3 * fade)],
+                    "vertex {v}"
+                );
+                assert_eq!(give_way[v], 1.0, "vertex {v}");
+                carried += 1;
+            } else {
+                assert!(vertical[v].is_empty(), "vertex {v}: {:?}", vertical[v]);
+                assert_eq!(give_way[v], 0.0, "vertex {v}");
+            }
+        }
+        // The two columns by the seam, fading: nearly whole beside the skin.
+        assert_eq!(carried, 4);
+        assert!(vertical[2][0].1 > 0.15 && vertical[4][0].1 < vertical[2][0].1);
     }
 
     /// An arch of six teeth centres rising 0.2 to the back, its front 4 below the mouth at 0.

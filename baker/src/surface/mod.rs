@@ -665,7 +665,14 @@ pub(crate) fn dense_weights(
         still,
         jaw: jaw.as_ref(),
     });
-    interior::stretch_bags(&mut dense, mesh, &hung, back.as_ref());
+    interior::stretch_bags(
+        &mut dense,
+        &mut vertical,
+        &mut give_way,
+        mesh,
+        &hung,
+        back.as_ref(),
+    );
     let marker_distances = (0..n)
         .map(|i| (0..n).map(|j| d.between[(i, j)]).collect())
         .collect();
