@@ -11,7 +11,7 @@
 //! figures.
 
 use facebake::ground_truth::GroundTruth;
-use facebake::mesh::{distance, sub};
+use facebake::mesh::distance;
 use facebake::metrics::Regions;
 use facebake::model::FaceMesh;
 use facebake::openings::{find_openings, mouth_and_eyes, seen_topology, skin_openings};
@@ -306,24 +306,8 @@ fn its_mouth_bag_keeps_its_palate_and_hinges_its_floor() {
         .copied()
         .filter(|t| t.iter().any(|&v| in_bag.contains(&(v as usize))))
         .collect();
-    let normal = |p: &[[f64; 3]], t: &[u32; 3]| {
-        let [a, b, c] = t.map(|v| p[v as usize]);
-        let (u, w) = (sub(&b, &a), sub(&c, &a));
-        [
-            u[1] * w[2] - u[2] * w[1],
-            u[2] * w[0] - u[0] * w[2],
-            u[0] * w[1] - u[1] * w[0],
-        ]
-    };
-    let turned = |got: &[[f64; 3]]| {
-        triangles
-            .iter()
-            .filter(|t| {
-                let (n0, n) = (normal(rest, t), normal(got, t));
-                n0[0] * n[0] + n0[1] * n[1] + n0[2] * n[2] < 0.0
-            })
-            .count()
-    };
+    let regions = Regions::for_mesh(mesh, &scene.truth.marker_rest(), &[]).expect("regions");
+    let turned = |got: &[[f64; 3]]| triangles.iter().filter(|t| regions.turned(got, t)).count();
     let folds: Vec<usize> = played.iter().map(|got| turned(got)).collect();
     for (f, got) in played.iter().enumerate() {
         let truth = scene.truth.positions(f);
