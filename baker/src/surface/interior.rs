@@ -600,24 +600,32 @@ mod tests {
         assert!(rising.windows(2).all(|w| w[1] > w[0] + 0.05), "{rising:?}");
     }
 
+    /// A strip of `columns` columns whose inner ones are a bag joined to the skin columns at
+    /// both ends, weighted on markers 0 and 1 (of three; the bag starts at the lips' average):
+    /// its mesh, where the bag hangs from and its dense weights.
+    fn bag_strip(columns: u32) -> (crate::model::FaceMesh, Vec<Option<Hang>>, Vec<Vec<f64>>) {
+        let (mesh, positions) = strip(columns);
+        let last = 2 * columns - 2;
+        let pieces = [(1u32, (2..last).collect::<Vec<u32>>())];
+        let pieces = Piece::all(&pieces, &positions, 100.0);
+        let hung = hanging(&mesh, &pieces);
+        let dense = (0..2 * columns)
+            .map(|v| match v {
+                0 | 1 => vec![1.0, 0.0, 0.0],
+                v if v >= last => vec![0.0, 1.0, 0.0],
+                _ => vec![0.5, 0.5, 0.0],
+            })
+            .collect();
+        (mesh, hung, dense)
+    }
+
     /// A strip of twelve columns whose ten inner ones are a bag joined to skin columns at both
     /// ends (markers 0 and 1): with a back (no jaw: all of it still, marker 2), the bag deeper
     /// than [`BAG_SEAM`] of its deepest takes the still weights exactly, and the columns by the
     /// seams are a membrane between the skin and the still back, not the lips' average.
     #[test]
     fn a_bags_back_is_held_still_and_its_seam_stretches_to_it() {
-        let (mesh, positions) = strip(12);
-        let bag: Vec<u32> = (2..22).collect();
-        let pieces = [(1u32, bag)];
-        let pieces = Piece::all(&pieces, &positions, 100.0);
-        let hung = hanging(&mesh, &pieces);
-        let mut dense: Vec<Vec<f64>> = (0..24)
-            .map(|v| match v {
-                0 | 1 => vec![1.0, 0.0, 0.0],
-                22 | 23 => vec![0.0, 1.0, 0.0],
-                _ => vec![0.5, 0.5, 0.0],
-            })
-            .collect();
+        let (mesh, hung, mut dense) = bag_strip(12);
         let still = [0.0, 0.0, 1.0];
         let back = BagBack {
             still: &still,
@@ -642,18 +650,7 @@ mod tests {
     /// whose skin has none, carry nothing.
     #[test]
     fn a_bag_by_its_seam_carries_its_skins_corrections() {
-        let (mesh, positions) = strip(24);
-        let bag: Vec<u32> = (2..46).collect();
-        let pieces = [(1u32, bag)];
-        let pieces = Piece::all(&pieces, &positions, 100.0);
-        let hung = hanging(&mesh, &pieces);
-        let mut dense: Vec<Vec<f64>> = (0..48)
-            .map(|v| match v {
-                0 | 1 => vec![1.0, 0.0, 0.0],
-                46 | 47 => vec![0.0, 1.0, 0.0],
-                _ => vec![0.5, 0.5, 0.0],
-            })
-            .collect();
+        let (mesh, hung, mut dense) = bag_strip(24);
         let mut vertical = vec![Vec::new(); 48];
         let mut give_way = vec![0.0; 48];
         for v in [0, 1] {
