@@ -184,7 +184,11 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 /// triangles over in a line along the jaw's underside (3.11×, 15 edges over 2×; face mean /
 /// max 0.744 / 14.21 mm; `surface::anchoring::THROAT_REACH`). Measured 2026-12-05 (session
 /// 13), the eyes' lower lids taking the corners' profile on the vertical alone
-/// (`surface::corners`): eyelids 1.55 → 1.30 mm, the rest unchanged.
+/// (`surface::corners`): eyelids 1.55 → 1.30 mm, the rest unchanged. Measured 2026-12-05
+/// (session 18), the upper lip's markers letting go of the skin past the lip
+/// (`surface::let_go`): face mean 0.694 → 0.683 mm (the pucker 0.723 → 0.609, the funnel
+/// 0.914 → 0.822; `jaw left` 0.590 → 0.631, whose truth takes the nose's base sideways with
+/// the lips), the rest unchanged.
 #[test]
 fn place_and_the_default_bake_play_its_expressions() {
     let scene = placed_scene();
@@ -216,7 +220,7 @@ fn place_and_the_default_bake_play_its_expressions() {
             flipped: 0,
         },
     );
-    assert!(face.mean_mm <= 0.696 && face.max_mm <= 11.5, "{face:?}");
+    assert!(face.mean_mm <= 0.684 && face.max_mm <= 11.5, "{face:?}");
 }
 
 /// The bake without a capture played through its own stages (`facebake::bake::at_rest`): the
@@ -247,7 +251,7 @@ fn its_truth_through_the_stages_of_a_bake_without_a_capture() {
         },
     );
     assert!(take.static_drift_mm.0 <= 0.01, "{take}");
-    assert!(mean <= 0.686, "{mean}");
+    assert!(mean <= 0.676, "{mean}");
 }
 
 /// The mouth's bag, which this head's skin runs on into from the lips: its palate is the
@@ -475,7 +479,7 @@ fn a_capture_rig_plays_a_jaw_open_its_take_never_showed() {
             flipped: 0,
         },
     );
-    assert!(mean <= 0.709, "{mean}");
+    assert!(mean <= 0.702, "{mean}");
 }
 
 /// Where a take folds the skin, the bake relaxes the weights there (`facebake::bake::relax`):
@@ -532,7 +536,7 @@ fn its_held_expressions_through_a_capture_bake() {
         each[surprise]
     );
     assert_eq!(each.len(), scene.truth.frames.len());
-    assert!(mean <= 0.68, "{mean}");
+    assert!(mean <= 0.665, "{mean}");
     assert!(each[surprise] <= 1.3, "{}", each[surprise]);
     let mut off = BakeOptions::product_default();
     off.stages.head_refit = facebake::stages::RefitUse::Off;

@@ -24,7 +24,7 @@ pub mod distances;
 pub mod evaluate;
 pub mod geometry;
 pub(crate) mod interior;
-pub mod lids;
+pub mod let_go;
 pub mod lip_curve;
 pub mod masks;
 pub mod pbw;
@@ -143,9 +143,10 @@ pub struct SurfaceFigures {
     /// The opening corners' reshaping, when applied ([`corners`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub corners: Option<corners::CornerFigures>,
-    /// The lids' reshaping, when applied ([`lids`]).
+    /// The lid and upper lip markers letting go of the skin past them, when applied
+    /// ([`let_go`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub lids: Option<lids::LidFigures>,
+    pub let_go: Option<let_go::LetGoFigures>,
     /// glTF vertices whose weights the lips' curve corrected ([`lip_curve`]).
     pub lip_curve_vertices: usize,
 }
@@ -592,15 +593,24 @@ pub(crate) fn dense_weights(
             }
             figures
         });
-    let lids =
+    let let_go =
         (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
-            lids::reshape(
+            let_go::reshape(
                 &mut dense,
                 &geometry,
                 &mesh.welded_positions,
                 &rest,
                 &names,
-                mouth,
+                // Not for PBW: its local weights turned the nose's underside over where the
+                // upper lip's let go (FaceCap's truth, `blend 22`: 2 → 5 flips).
+                mouth.map(|opening| let_go::Mouth {
+                    opening,
+                    upper: if config.method == Method::Pbw {
+                        &[]
+                    } else {
+                        &upper_lip
+                    },
+                }),
             )
         });
     let unreachable = geometry.pieces_of(&d.fallback);
@@ -691,7 +701,7 @@ pub(crate) fn dense_weights(
         },
         anchoring,
         corners,
-        lids,
+        let_go,
         lip_curve_vertices: rounded,
     };
     Ok(SurfaceBake {
@@ -884,7 +894,13 @@ impl SurfaceBake {
 /// each lid and four far out.
 #[cfg(test)]
 pub(crate) fn slit_markers() -> Vec<usize> {
-    let vertex = |x: i32, y: i32| ((y + 10) * 41 + x + 20) as usize;
+    slit_markers_in(10, 8)
+}
+
+/// [`slit_markers`] on [`slit_in`]`(half)`, the four far out `far` above and below the slit.
+#[cfg(test)]
+pub(crate) fn slit_markers_in(half: i32, far: i32) -> Vec<usize> {
+    let vertex = |x: i32, y: i32| ((y + half) * 41 + x + 20) as usize;
     [
         (-13, 0),
         (13, 0),
@@ -892,10 +908,10 @@ pub(crate) fn slit_markers() -> Vec<usize> {
         (5, 2),
         (-5, -2),
         (5, -2),
-        (-18, 8),
-        (18, 8),
-        (-18, -8),
-        (18, -8),
+        (-18, far),
+        (18, far),
+        (-18, -far),
+        (18, -far),
     ]
     .iter()
     .map(|&(x, y)| vertex(x, y))
@@ -907,13 +923,20 @@ pub(crate) fn slit_markers() -> Vec<usize> {
 /// so the rims run from x = −11 to 11 at y = ±1. For the tests of what happens at openings.
 #[cfg(test)]
 pub(crate) fn slit() -> crate::model::FaceMesh {
-    let (w, h) = (41u32, 21u32);
-    let at = |x: u32, y: u32| [f64::from(x) - 20.0, f64::from(y) - 10.0, 0.0];
+    slit_in(10)
+}
+
+/// [`slit`]'s slit in a grid 41 wide and `half` high either side (vertex `(y + half) · 41 + x
+/// + 20` at (x, y)).
+#[cfg(test)]
+pub(crate) fn slit_in(half: u32) -> crate::model::FaceMesh {
+    let (w, h) = (41u32, 2 * half + 1);
+    let at = |x: u32, y: u32| [f64::from(x) - 20.0, f64::from(y) - f64::from(half), 0.0];
     let p: Vec<[f64; 3]> = (0..h).flat_map(|y| (0..w).map(move |x| at(x, y))).collect();
     let mut t = Vec::new();
     for y in 0..h - 1 {
         for x in 0..w - 1 {
-            let c = [f64::from(x) - 19.5, f64::from(y) - 9.5];
+            let c = [f64::from(x) - 19.5, f64::from(y) - f64::from(half) + 0.5];
             if (c[0] / 12.0).powi(2) + (c[1] / 1.2).powi(2) < 1.0 {
                 continue;
             }

@@ -693,13 +693,32 @@ fn print_text(s: &BakeSummary) {
                 c.balanced_vertices
             );
         }
-        if let Some(l) = &f.lids {
-            outln!(
-                out,
-                "  lids          the lid markers ({}) let go of the skin past the lids' fold: {} vertices",
-                l.markers.join(", "),
-                l.reshaped_vertices
-            );
+        if let Some(l) = &f.let_go {
+            let worn = [
+                (
+                    "lids     ",
+                    "the lid markers",
+                    "the lids' fold",
+                    &l.lid_markers,
+                    l.lid_vertices,
+                ),
+                (
+                    "upper lip",
+                    "the upper lip's markers",
+                    "the lip",
+                    &l.lip_markers,
+                    l.lip_vertices,
+                ),
+            ];
+            for (label, whose, past, markers, vertices) in worn {
+                if !markers.is_empty() {
+                    outln!(
+                        out,
+                        "  {label}     {whose} ({}) let go of the skin past {past}: {vertices} vertices",
+                        markers.join(", ")
+                    );
+                }
+            }
         }
         if f.lip_curve_vertices > 0 {
             outln!(

@@ -1,0 +1,347 @@
+//! Lids and the upper lip let go: a marker worn on an eyelid or on the upper lip moves it, not
+//! the skin past it.
+//!
+//! **Eyelids.** A blink moves the upper lid's margin 9 mm while the skin a centimetre above it,
+//! past the lid's crease, stays where it is (on FaceCap's truth 0.1–0.5 mm at 8–16 mm above the
+//! rim, on ICT-FaceKit's 1–2 mm). An interpolation between the lid's marker, on the margin, and
+//! the brow's, 2 cm above, moves that skin in proportion to the distance instead: 5–7 mm, so the
+//! closed lid dragged the skin under the brow down with it and the lid kept its crease.
+//!
+//! So a lid marker's weight fades with the vertex's distance from the eye's rim along the skin
+//! ([`reshape`], [`Fade::keep`]): whole within [`LIDS`]' `hold` of the eye's width, nothing at
+//! its `reach`, a smoothstep between; what it gives up goes to the vertex's other markers in
+//! proportion (the brow's, the eye's corners', the cheek's), so the weights still sum to what
+//! they did and the skin past the fold follows them. The rim and the marker's own spot keep
+//! their weights, so the lids still close. Past `reach` the weights come back to what they were
+//! over `back` of the width: a lid marker's far field is small, and handing it to other markers
+//! across the whole face moved the chin (a third triangle there turned over in `blend 2` on
+//! FaceCap subdivided twice).
+//!
+//! A lid marker is a marker within [`LID_REACH`] of an eye's rim that is not at either of its
+//! corners (those are `surface::corners`').
+//!
+//! Measured 2026-12-04 (`--test structure`, `--test other_faces`, `--test rehearsal`, `--test
+//! ict_facekit`, `-- --nocapture`; the blink's bins by a scratch harness): the skin 8–10 mm
+//! above the upper rim in the blink, FaceCap / ICT-FaceKit, truth 0.5 / 1.0 mm, before 7.1 /
+//! 5.7 mm, now 3.9 / 2.9 mm; FaceCap's truth face mean / p99 / max 0.547 / 4.48 / 8.85 →
+//! 0.546 / 4.41 / 8.41 mm; its truth as a capture, forehead mean 0.325 → 0.275 mm; ICT's truth
+//! 0.745 / 4.66 → 0.734 / 4.54 mm; its rehearsal 0.601 / 3.75 → 0.594 / 3.65 mm; FaceCap
+//! subdivided twice 2.16× (5 edges over 2×) → 2.03× (1). A steeper fade tears: hold 0.1, reach
+//! 0.3 stretched FaceCap's JawMoCap take 2.15× and flipped 9 triangles in ICT's rehearsal;
+//! 0.12 / 0.35, 2.07× and 4 flips there; 0.12 / 0.5, ICT's rehearsal 1.90× (1.85× now). The
+//! rim pairs' eyelid figures do not move (they are on the rim).
+//!
+//! **The upper lip.** A pucker or a funnel pushes the upper lip forwards while the nose stays:
+//! ICT-FaceKit's truth moves the skin 23 mm above its upper rim (under the nose) 0.5 mm back in
+//! its pucker, where the rig, interpolating between the upper lip's markers and the nose's,
+//! moved it 2.3 mm forwards. So the upper lip's markers (the mouth's upper group within
+//! [`LID_REACH`] of its rim, not at its corners) let go of the skin past the lip the same way,
+//! over [`UPPER_LIP`]'s distances in the mouth's width. The lower lip keeps its reach: its drop
+//! spreads down the chin (FaceCap's funnel drops the skin between the lower lip and the chin in
+//! proportion, 35 mm at the rim to 14 at the chin), and letting it go there folded the funnel's
+//! chin (26 triangles turned over on FaceCap's truth).
+
+use crate::mesh::distance;
+use crate::surface::anchoring::smoothstep;
+use crate::surface::corners::{RimEnds, CORNER_REACH};
+use crate::surface::geometry::SurfaceGeometry;
+
+/// How a marker's weight fades with a vertex's distance from its opening's rim along the skin,
+/// in the opening's widths ([`Fade::keep`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fade {
+    /// Within this the weight is kept whole.
+    pub hold: f64,
+    /// Here it is gone.
+    pub reach: f64,
+    /// Past `reach`, over how much of the width the weight returns to what it was.
+    pub back: f64,
+}
+
+/// The eyes' lid markers.
+pub const LIDS: Fade = Fade {
+    hold: 0.15,
+    reach: 0.6,
+    back: 1.2,
+};
+
+/// The upper lip's markers, in the mouth's width. Measured 2026-12-05 (session 18, `--test
+/// structure`, `--test ict_facekit`; a scratch sweep), the face mean on FaceCap's truth with
+/// the JawMoCap layout / ICT-FaceKit's with its placed layout (0.543 / 0.694 mm without):
+///
+/// | hold – reach | FaceCap | ICT-FaceKit | |
+/// |---|---|---|---|
+/// | 0.25 – 0.55 | 0.524 | 0.699 | |
+/// | 0.3 – 0.6 / 1.0 | 0.522 / 0.518 | 0.694 / 0.683 | |
+/// | 0.35 – 0.85 | 0.519 | 0.684 | |
+/// | **0.4 – 0.9** | **0.519** | **0.683** | |
+/// | 0.4 – 0.55 / 0.7 / 1.1 | 0.522 / 0.520 / 0.521 | 0.692 / 0.686 / 0.682 | 2 flips at 0.55 |
+/// | 0.45 – 0.95; 0.5 – 1.0 | 0.521; 0.522 | 0.682; 0.682 | |
+/// | 0.5 – 0.8; 0.6 – 0.9 | 0.521; 0.525 | 0.682; 0.683 | 8 flips (FaceCap's `blend 22`) |
+///
+/// The return past `reach` is the lids' (0.6 / 1.2 / 2.5 widths or none give the same means
+/// within 0.0002 mm). No structure figure moves at the kept values, on either truth or on
+/// JawMoCap.
+pub const UPPER_LIP: Fade = Fade {
+    hold: 0.4,
+    reach: 0.9,
+    back: 1.2,
+};
+
+impl Fade {
+    /// The share of a marker's weight kept at `r` widths from the rim: 1 to `hold`, falling by
+    /// a smoothstep to 0 at `reach`, rising by a smoothstep back to 1 over `back` past it.
+    pub fn keep(&self, r: f64) -> f64 {
+        let fade = smoothstep((r - self.hold) / (self.reach - self.hold));
+        let back = smoothstep((r - self.reach) / self.back);
+        1.0 - fade * (1.0 - back)
+    }
+}
+
+/// A lid marker lies within this fraction of the eye's width of a rim vertex.
+pub const LID_REACH: f64 = 0.15;
+
+/// What letting go did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LetGoFigures {
+    /// The lid markers' names.
+    pub lid_markers: Vec<String>,
+    /// glTF vertices whose weights on them were reshaped.
+    pub lid_vertices: usize,
+    /// The upper lip's markers' names.
+    pub lip_markers: Vec<String>,
+    /// glTF vertices whose weights on them were reshaped.
+    pub lip_vertices: usize,
+}
+
+/// The mouth, for [`reshape`].
+#[derive(Clone, Copy, Debug)]
+pub struct Mouth<'a> {
+    /// Its opening, an index into the geometry's.
+    pub opening: usize,
+    /// The markers of its upper side (the mouth mask's upper group).
+    pub upper: &'a [usize],
+}
+
+/// Fade the lid markers' weights in `dense` (per glTF vertex, its weights on the markers at
+/// `rest`, named `names`) with the distance from their eye's rim, for every opening of
+/// `geometry` but the `mouth`, and the upper lip's markers' with the distance from the mouth's
+/// rim (see the module docs).
+pub fn reshape(
+    dense: &mut [Vec<f64>],
+    geometry: &SurfaceGeometry,
+    welded_positions: &[[f64; 3]],
+    rest: &[[f64; 3]],
+    names: &[&str],
+    mouth: Option<Mouth<'_>>,
+) -> LetGoFigures {
+    let mut figures = LetGoFigures::default();
+    let mut touched = [vec![false; dense.len()], vec![false; dense.len()]];
+    let openings = geometry.openings.iter().zip(&geometry.opening_distance);
+    for (index, (opening, from_rim)) in openings.enumerate() {
+        let upper = mouth.filter(|m| m.opening == index).map(|m| m.upper);
+        let Some(RimEnds { ends, width }) = RimEnds::of(opening, welded_positions) else {
+            continue;
+        };
+        let near_rim = |p: &[f64; 3]| {
+            opening
+                .vertices
+                .iter()
+                .map(|&v| distance(&welded_positions[v as usize], p))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let worn: Vec<usize> = (0..rest.len())
+            .filter(|&m| near_rim(&rest[m]) <= LID_REACH * width)
+            .filter(|&m| {
+                ends.iter()
+                    .all(|e| distance(e, &rest[m]) > CORNER_REACH * width)
+            })
+            .filter(|m| upper.is_none_or(|upper| upper.contains(m)))
+            .collect();
+        let (fade, markers, touched) = match upper {
+            None => (LIDS, &mut figures.lid_markers, &mut touched[0]),
+            Some(_) => (UPPER_LIP, &mut figures.lip_markers, &mut touched[1]),
+        };
+        markers.extend(worn.iter().map(|&m| names[m].to_string()));
+        for (v, weights) in dense.iter_mut().enumerate() {
+            let keep = fade.keep(from_rim[geometry.weld[v] as usize] / width);
+            if keep >= 1.0 {
+                continue;
+            }
+            // What the worn markers free goes to the others, in proportion.
+            let freed: f64 = worn
+                .iter()
+                .map(|&m| weights[m].max(0.0) * (1.0 - keep))
+                .sum();
+            let others: f64 = weights
+                .iter()
+                .enumerate()
+                .filter(|&(o, &x)| !worn.contains(&o) && x > 0.0)
+                .map(|(_, &x)| x)
+                .sum();
+            if freed <= 0.0 || others <= 0.0 {
+                continue;
+            }
+            for (o, x) in weights.iter_mut().enumerate() {
+                if worn.contains(&o) {
+                    if *x > 0.0 {
+                        *x *= keep;
+                    }
+                } else if *x > 0.0 {
+                    *x += freed * *x / others;
+                }
+            }
+            touched[v] = true;
+        }
+    }
+    let count = |t: &[bool]| t.iter().filter(|&&t| t).count();
+    figures.lid_vertices = count(&touched[0]);
+    figures.lip_vertices = count(&touched[1]);
+    figures
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geodesic::{GeodesicMethod, Source};
+
+    /// Markers on `vertices` of `mesh`: its geometry, their rest positions and every vertex's
+    /// inverse-square-distance weights on them.
+    fn markers_on(
+        mesh: &crate::model::FaceMesh,
+        vertices: &[usize],
+    ) -> (SurfaceGeometry, Vec<[f64; 3]>, Vec<Vec<f64>>) {
+        let sources: Vec<Source> = vertices.iter().map(|&v| Source::Vertex(v as u32)).collect();
+        let geometry = SurfaceGeometry::new(mesh, &sources, GeodesicMethod::EdgeDijkstra).unwrap();
+        let rest: Vec<[f64; 3]> = vertices.iter().map(|&v| mesh.positions[v]).collect();
+        let weights = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let raw: Vec<f64> = rest
+                    .iter()
+                    .map(|m| 1.0 / (distance(p, m).powi(2) + 1e-3))
+                    .collect();
+                let sum: f64 = raw.iter().sum();
+                raw.iter().map(|r| r / sum).collect()
+            })
+            .collect();
+        (geometry, rest, weights)
+    }
+
+    /// The width of `mesh`'s one opening.
+    fn rim_width(geometry: &SurfaceGeometry, mesh: &crate::model::FaceMesh) -> f64 {
+        RimEnds::of(&geometry.openings[0], &mesh.welded_positions)
+            .expect("a rim")
+            .width
+    }
+
+    /// `M0`, `M1`, …
+    fn names(n: usize) -> Vec<String> {
+        (0..n).map(|i| format!("M{i}")).collect()
+    }
+
+    #[test]
+    fn the_kept_share_holds_fades_and_returns() {
+        assert_eq!(LIDS.keep(0.0), 1.0);
+        assert_eq!(LIDS.keep(LIDS.hold), 1.0);
+        assert_eq!(LIDS.keep(LIDS.reach), 0.0);
+        assert_eq!(LIDS.keep(LIDS.reach + LIDS.back), 1.0);
+        assert_eq!(LIDS.keep(f64::INFINITY), 1.0);
+        let at = |i: u32| LIDS.keep(f64::from(i) / 1000.0);
+        let fall = (LIDS.hold * 1000.0) as u32..(LIDS.reach * 1000.0) as u32;
+        assert!(fall.into_iter().all(|i| at(i + 1) <= at(i)));
+        let rise = (LIDS.reach * 1000.0) as u32..((LIDS.reach + LIDS.back) * 1000.0) as u32;
+        assert!(rise.into_iter().all(|i| at(i + 1) >= at(i)));
+    }
+
+    /// `surface::slit`'s eye-like slit (22 wide) with `surface::slit_markers`: at its corners,
+    /// two on each lid and four far out; inverse-square-distance weights.
+    #[test]
+    fn lid_markers_let_go_of_the_skin_away_from_the_rim_and_nothing_else_changes() {
+        let (mesh, vertices) = (crate::surface::slit(), crate::surface::slit_markers());
+        let (geometry, rest, before) = markers_on(&mesh, &vertices);
+        let names = names(rest.len());
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let mut after = before.clone();
+        let figures = reshape(
+            &mut after,
+            &geometry,
+            &mesh.welded_positions,
+            &rest,
+            &names,
+            None,
+        );
+        assert_eq!(figures.lid_markers, ["M2", "M3", "M4", "M5"]);
+        assert!(figures.lid_vertices > 100, "{figures:?}");
+        let width = rim_width(&geometry, &mesh);
+        let mut faded = 0;
+        for (v, (b, a)) in before.iter().zip(&after).enumerate() {
+            assert!((b.iter().sum::<f64>() - a.iter().sum::<f64>()).abs() < 1e-12);
+            let r = geometry.opening_distance[0][geometry.weld[v] as usize];
+            if r / width <= LIDS.hold - 0.02 {
+                assert_eq!(a, b, "vertex {v}");
+                continue;
+            }
+            for m in 2..6 {
+                assert!(
+                    a[m] <= b[m] * LIDS.keep(r / width) + 1e-12,
+                    "vertex {v} marker {m}"
+                );
+            }
+            for m in [0, 1, 6, 7, 8, 9] {
+                assert!(a[m] >= b[m], "vertex {v} marker {m}");
+            }
+            faded += usize::from(a[2] < 0.5 * b[2]);
+        }
+        assert!(faded > 50, "{faded}");
+    }
+
+    #[test]
+    fn the_upper_lips_markers_let_go_past_the_lip_and_the_lower_lips_keep_their_reach() {
+        // `surface::slit`'s slit (about 24 wide, as a mouth) in a sheet 30 high either side.
+        let mesh = crate::surface::slit_in(30);
+        // The corners, the upper lip, the lower lip, four far out.
+        let at = crate::surface::slit_markers_in(30, 25);
+        let (geometry, rest, before) = markers_on(&mesh, &at);
+        let names = names(rest.len());
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let mut after = before.clone();
+        // The mask's upper group holds a far marker too; only the lip's are worn on the rim.
+        let upper = [2, 3, 6];
+        let mouth = Mouth {
+            opening: 0,
+            upper: &upper,
+        };
+        let figures = reshape(
+            &mut after,
+            &geometry,
+            &mesh.welded_positions,
+            &rest,
+            &names,
+            Some(mouth),
+        );
+        assert_eq!(figures.lip_markers, ["M2", "M3"]);
+        assert!(figures.lid_markers.is_empty(), "{figures:?}");
+        assert!(figures.lip_vertices > 100, "{figures:?}");
+        let width = rim_width(&geometry, &mesh);
+        let mut gone = 0;
+        for (v, (b, a)) in before.iter().zip(&after).enumerate() {
+            assert!((b.iter().sum::<f64>() - a.iter().sum::<f64>()).abs() < 1e-12);
+            let r = geometry.opening_distance[0][geometry.weld[v] as usize] / width;
+            if r <= UPPER_LIP.hold {
+                assert_eq!(a, b, "vertex {v}");
+                continue;
+            }
+            for m in [2, 3] {
+                assert!(a[m] <= b[m] * UPPER_LIP.keep(r) + 1e-12, "vertex {v}");
+            }
+            // The lower lip's markers never let go; they and the others take what was freed.
+            for m in [0, 1, 4, 5, 6, 7, 8, 9] {
+                assert!(a[m] >= b[m], "vertex {v} marker {m}");
+            }
+            gone += usize::from(r >= UPPER_LIP.reach && a[2] < 0.01 * b[2]);
+        }
+        assert!(gone > 20, "{gone}");
+    }
+}
