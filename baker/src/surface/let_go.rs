@@ -58,7 +58,7 @@ pub struct Fade {
     pub back: f64,
 }
 
-/// The eyes' lid markers.
+/// The eyes' lid markers, in the eye's width (measured in the module docs).
 pub const LIDS: Fade = Fade {
     hold: 0.15,
     reach: 0.6,
@@ -69,15 +69,15 @@ pub const LIDS: Fade = Fade {
 /// structure`, `--test ict_facekit`; a scratch sweep), the face mean on FaceCap's truth with
 /// the JawMoCap layout / ICT-FaceKit's with its placed layout (0.543 / 0.694 mm without):
 ///
-/// | hold – reach | FaceCap | ICT-FaceKit | |
+/// | hold – reach | FaceCap | ICT-FaceKit | flipped triangles, worst frame |
 /// |---|---|---|---|
-/// | 0.25 – 0.55 | 0.524 | 0.699 | |
-/// | 0.3 – 0.6 / 1.0 | 0.522 / 0.518 | 0.694 / 0.683 | |
-/// | 0.35 – 0.85 | 0.519 | 0.684 | |
-/// | **0.4 – 0.9** | **0.519** | **0.683** | |
-/// | 0.4 – 0.55 / 0.7 / 1.1 | 0.522 / 0.520 / 0.521 | 0.692 / 0.686 / 0.682 | 2 flips at 0.55 |
-/// | 0.45 – 0.95; 0.5 – 1.0 | 0.521; 0.522 | 0.682; 0.682 | |
-/// | 0.5 – 0.8; 0.6 – 0.9 | 0.521; 0.525 | 0.682; 0.683 | 8 flips (FaceCap's `blend 22`) |
+/// | 0.25 – 0.55 | 0.524 | 0.699 | 1 (FaceCap's sliver, as without) |
+/// | 0.3 – 0.6 / 1.0 | 0.522 / 0.518 | 0.694 / 0.683 | 1 |
+/// | 0.35 – 0.85 | 0.519 | 0.684 | 1 |
+/// | **0.4 – 0.9** | **0.519** | **0.683** | **1** |
+/// | 0.4 – 0.55 / 0.7 / 1.1 | 0.522 / 0.520 / 0.521 | 0.692 / 0.686 / 0.682 | 2 / 1 / 1 |
+/// | 0.45 – 0.95; 0.5 – 1.0 | 0.521; 0.522 | 0.682; 0.682 | 1 |
+/// | 0.5 – 0.8; 0.6 – 0.9 | 0.521; 0.525 | 0.682; 0.683 | 8 (FaceCap's `blend 22`) |
 ///
 /// The return past `reach` is the lids' (0.6 / 1.2 / 2.5 widths or none give the same means
 /// within 0.0002 mm). No structure figure moves at the kept values, on either truth or on
@@ -98,7 +98,8 @@ impl Fade {
     }
 }
 
-/// A lid marker lies within this fraction of the eye's width of a rim vertex.
+/// A lid's marker, or the upper lip's, lies within this fraction of its opening's width of a
+/// rim vertex.
 pub const LID_REACH: f64 = 0.15;
 
 /// What letting go did.

@@ -696,7 +696,7 @@ fn print_text(s: &BakeSummary) {
         if let Some(l) = &f.let_go {
             let worn = [
                 (
-                    "lids     ",
+                    "lids",
                     "the lid markers",
                     "the lids' fold",
                     &l.lid_markers,
@@ -714,7 +714,7 @@ fn print_text(s: &BakeSummary) {
                 if !markers.is_empty() {
                     outln!(
                         out,
-                        "  {label}     {whose} ({}) let go of the skin past {past}: {vertices} vertices",
+                        "  {label:<14}{whose} ({}) let go of the skin past {past}: {vertices} vertices",
                         markers.join(", ")
                     );
                 }
