@@ -188,7 +188,10 @@ fn its_mouth_and_eyes_are_found_behind_its_skin() {
 /// (session 18), the upper lip's markers letting go of the skin past the lip
 /// (`surface::let_go`): face mean 0.694 → 0.683 mm (the pucker 0.723 → 0.609, the funnel
 /// 0.914 → 0.822; `jaw left` 0.590 → 0.631, whose truth takes the nose's base sideways with
-/// the lips), the rest unchanged.
+/// the lips), the rest unchanged. Measured 2026-12-05 (session 19), the cheeks' anchoring
+/// rising three times as far across (`surface::anchoring::ACROSS_RISE`): face mean / p99 / max
+/// 0.683 / 4.25 / 11.43 → 0.677 / 4.20 / 11.20 mm (the smile's cheek in front of the ear), the
+/// rest unchanged.
 #[test]
 fn place_and_the_default_bake_play_its_expressions() {
     let scene = placed_scene();
@@ -220,7 +223,7 @@ fn place_and_the_default_bake_play_its_expressions() {
             flipped: 0,
         },
     );
-    assert!(face.mean_mm <= 0.684 && face.max_mm <= 11.5, "{face:?}");
+    assert!(face.mean_mm <= 0.678 && face.max_mm <= 11.5, "{face:?}");
 }
 
 /// The bake without a capture played through its own stages (`facebake::bake::at_rest`): the
@@ -251,7 +254,7 @@ fn its_truth_through_the_stages_of_a_bake_without_a_capture() {
         },
     );
     assert!(take.static_drift_mm.0 <= 0.01, "{take}");
-    assert!(mean <= 0.676, "{mean}");
+    assert!(mean <= 0.670, "{mean}");
 }
 
 /// The mouth's bag, which this head's skin runs on into from the lips: its palate is the
@@ -479,7 +482,7 @@ fn a_capture_rig_plays_a_jaw_open_its_take_never_showed() {
             flipped: 0,
         },
     );
-    assert!(mean <= 0.702, "{mean}");
+    assert!(mean <= 0.696, "{mean}");
 }
 
 /// Where a take folds the skin, the bake relaxes the weights there (`facebake::bake::relax`):
@@ -517,7 +520,8 @@ fn the_bake_relaxes_the_folds_its_take_shows() {
 /// 8's f64 oracle (five rounds of reweighting each frame) 0.686 (1.17); the bake without a
 /// capture, played the truth's markers where they are, 0.695 (1.19). Since the anchored skin
 /// follows three head markers' mean with a capture too (`surface::anchoring::followed`, session
-/// 12): 0.675 mm (1.27).
+/// 12): 0.675 mm (1.27); 0.664 since the upper lip lets go (session 18), 0.659 since the cheeks'
+/// anchoring rises three times as far across (session 19).
 #[test]
 fn its_held_expressions_through_a_capture_bake() {
     let scene = placed_scene();
@@ -536,7 +540,7 @@ fn its_held_expressions_through_a_capture_bake() {
         each[surprise]
     );
     assert_eq!(each.len(), scene.truth.frames.len());
-    assert!(mean <= 0.665, "{mean}");
+    assert!(mean <= 0.660, "{mean}");
     assert!(each[surprise] <= 1.3, "{}", each[surprise]);
     let mut off = BakeOptions::product_default();
     off.stages.head_refit = facebake::stages::RefitUse::Off;

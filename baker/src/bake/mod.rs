@@ -709,6 +709,7 @@ fn planar_anchor(
         rest,
         &anchors,
         Some(mouth),
+        crate::surface::eyes_height(&eyes),
         factor * spacing,
     )
     .strength;

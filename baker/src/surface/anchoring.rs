@@ -10,6 +10,9 @@
 //! * A vertex is *outside* by its distance beyond the convex hull of the markers in that plane.
 //!   Its anchoring strength rises linearly from 0 on the hull to 1 at [`HULL_RISE`] × `margin`
 //!   outside.
+//! * Below the eyes and in front of the ears the rise runs [`ACROSS_RISE`] times as far across
+//!   the face: a smile takes the cheek's skin back towards the ear, while above the brows the
+//!   scalp holds.
 //! * Below the mouth the skin beyond the markers is the jaw's and the neck's, which follow the
 //!   chin rather than the skull: the strength fades out over one `margin`-sized band under the
 //!   mouth opening's height (or, on a mesh without a mouth opening, under the markers' mean
@@ -369,14 +372,47 @@ pub const JAW_FLOOR_FADE: f64 = 2.0;
 /// FaceCap's own surprise flipped a triangle at the outer end of a brow.
 pub const HULL_RISE: f64 = 0.8;
 
+/// Below the eyes and in front of the ears ([`FRONT`]), how many times as far across the face
+/// as up or down the anchoring's strength takes to rise beyond the markers' hull. A smile and a
+/// jaw move the cheek's skin back towards the ear, while above the brows the scalp holds: in
+/// both truths' smiles the skin 14–30 mm behind the outer cheek marker rises 4–6.5 mm
+/// (ICT-FaceKit 4.9–6.5 mm, FaceCap 4.1–6.0), where the rig moved it 0–2.4 mm. Measured 2026-12-05 (`--test
+/// structure`, `--test ict_facekit`, `--test other_faces`, `--test accuracy`, `-- --nocapture`),
+/// face mean on the truths with the JawMoCap layout, and on FaceCap's 40 sampled markers (which
+/// reach round behind the ears):
+///
+/// | across | FaceCap | ICT-FaceKit | FaceCap's sampled markers |
+/// |---|---|---|---|
+/// | 1 (as up or down) | 0.5193 mm | 0.6829 | 0.8666 |
+/// | 2.5 | 0.5143 | 0.6778 | – |
+/// | **3** | **0.5137** | **0.6768** | **0.8666** |
+/// | 4 / 5 | 0.5132 / 0.5129 | 0.6756 / 0.6750 | – |
+/// | 3, all round the head | 0.5129 | 0.6764 | 0.8703 (the back of the head 0.3 mm worse) |
+/// | 3, all round and up to a margin over the eyes | 0.5139 | 0.6751 | – |
+/// | 2.5 / 3 at every height | 0.5141 / 0.5134 | 0.6712 / 0.6686 | – |
+///
+/// At every height the forehead's sides follow the brows: FaceCap's static drift 0.29 → 0.40
+/// mm at 3, and subdivided once 0.57 mm at 2.5 (beside `ForeHead_R` in the surprise).
+///
+/// No structure figure moves on any truth, take or head, and JawMoCap's static drift stays
+/// 0.01 mm.
+pub const ACROSS_RISE: f64 = 3.0;
+
+/// The angles round the head from the face's front (about the vertical axis through the mesh's
+/// bounding box), in degrees, within which [`ACROSS_RISE`] holds fully and beyond which not at
+/// all: the ears and the back of the head keep the rise up or down.
+pub const FRONT: [f64; 2] = [60.0, 90.0];
+
 /// Anchoring strengths of `positions` (glTF vertices) beyond the hull of `markers` (see
 /// [`hull_markers`]), with the skin under `floor` (a height: the mouth's) left to the face
-/// markers; `margin` is the distance over which the strength rises, in asset units.
+/// markers; `margin` is the distance over which the strength rises, in asset units, and
+/// [`ACROSS_RISE`] times as far across the cheeks, below `eyes` (a height: the eyes' rims').
 pub fn static_anchoring(
     positions: &[[f64; 3]],
     markers: &[[f64; 3]],
     head: &[usize],
     floor: Option<f64>,
+    eyes: Option<f64>,
     margin: f64,
 ) -> Anchoring {
     let (lo, hi) = crate::model::bounds(positions.iter().copied());
@@ -387,7 +423,19 @@ pub fn static_anchoring(
         .collect();
     radii.sort_by(f64::total_cmp);
     let radius = radii.get(radii.len() / 2).copied().unwrap_or(1.0);
-    let project = |p: &[f64; 3]| [(p[0] - axis[0]).atan2(p[2] - axis[1]) * radius, p[1]];
+    let angle = |p: &[f64; 3]| (p[0] - axis[0]).atan2(p[2] - axis[1]);
+    let project = |p: &[f64; 3]| [angle(p) * radius, p[1]];
+    // The hull seen with distances across the face shrunk by `ACROSS_RISE`: its outside
+    // distances are those of a rise that runs that many times as far across.
+    let across = |q: [f64; 2]| [q[0] / ACROSS_RISE, q[1]];
+    let wide = convex_hull(markers.iter().map(|m| across(project(m))).collect());
+    // Where the longer rise across holds: below the eyes (fully a margin under them) and in
+    // front of the ears (fully within `FRONT[0]` of the face's front, not at all past `FRONT[1]`).
+    let cheek = |p: &[f64; 3]| {
+        let below = eyes.map_or(0.0, |eyes| smoothstep((eyes - p[1]) / margin));
+        let [full, none] = FRONT.map(f64::to_radians);
+        below * (1.0 - smoothstep((angle(p).abs() - full) / (none - full)))
+    };
     let hull = convex_hull(markers.iter().map(project).collect());
     let floor = floor
         .unwrap_or_else(|| markers.iter().map(|m| m[1]).sum::<f64>() / markers.len().max(1) as f64);
@@ -406,7 +454,9 @@ pub fn static_anchoring(
             if hull.len() < 3 || margin <= 0.0 {
                 return 0.0;
             }
-            let outside = outside_distance(&hull, project(p));
+            let c = cheek(p);
+            let outside = (1.0 - c) * outside_distance(&hull, project(p))
+                + c * outside_distance(&wide, across(project(p)));
             let near = jaw
                 .iter()
                 .map(|m| distance(m, p))
@@ -541,7 +591,7 @@ mod tests {
         }
         let head = skull_markers(&markers, &[], 1.0);
         assert!(head.iter().all(|&h| markers[h][1] == 0.5));
-        let anchoring = static_anchoring(&positions, &markers, &head, Some(-0.5), 0.2);
+        let anchoring = static_anchoring(&positions, &markers, &head, Some(-0.5), None, 0.2);
         // The front vertex (angle 0) is among the markers, the back one (angle π) far beyond.
         assert_eq!(anchoring.strength[0], 0.0);
         assert_eq!(anchoring.strength[12], 1.0);
@@ -645,7 +695,7 @@ mod tests {
         let above: Vec<f64> = (0..=10).map(|k| 0.05 * f64::from(k)).collect();
         let mut positions: Vec<[f64; 3]> = above.iter().map(|d| [x, 1.0 + d, z]).collect();
         positions.extend([[0.0, 0.5, -1.0], [0.6, 0.5, 0.0], [-0.6, 0.5, 0.0]]);
-        let a = static_anchoring(&positions, &markers, &[2, 3], Some(-10.0), margin);
+        let a = static_anchoring(&positions, &markers, &[2, 3], Some(-10.0), None, margin);
         for (d, s) in above.iter().zip(&a.strength) {
             // Outside by d × (1 − the projection's small stretch): the rise is linear.
             let expected = (d / (HULL_RISE * margin)).min(1.0);
@@ -658,10 +708,46 @@ mod tests {
     }
 
     #[test]
+    fn below_the_eyes_and_in_front_of_the_ears_the_rise_runs_further_across() {
+        let markers = PATCH.to_vec();
+        // A margin long enough that skin far round the head is not yet wholly anchored.
+        let margin = 2.5;
+        // Skin beside the patch at its middle height, a little way round (in front of the
+        // ears) and far round (behind them); three points that centre the mesh's box.
+        let round = |degrees: f64| {
+            let a = f64::to_radians(degrees);
+            [a.sin(), 0.5, a.cos()]
+        };
+        let mut positions = vec![round(22.0), round(30.0), round(120.0)];
+        positions.extend([[0.0, 0.5, -1.0], [1.0, 0.5, 0.0], [-1.0, 0.5, 0.0]]);
+        let with_eyes = |eyes| {
+            static_anchoring(&positions, &markers, &[2, 3], Some(-10.0), eyes, margin).strength
+        };
+        let plain = with_eyes(None);
+        // The eyes two margins above the skin: beside the face the rise runs three times as
+        // far across; behind the ears it does not.
+        let cheeks = with_eyes(Some(0.5 + 2.0 * margin));
+        for v in 0..2 {
+            assert!(plain[v] > 0.0 && plain[v] < 1.0, "{plain:?}");
+            assert!(
+                (cheeks[v] - plain[v] / ACROSS_RISE).abs() < 1e-12,
+                "{cheeks:?}"
+            );
+            assert!(cheeks[v] < plain[v], "{cheeks:?}");
+        }
+        assert!(
+            plain[2] < 1.0 && cheeks[2] == plain[2],
+            "{plain:?} {cheeks:?}"
+        );
+        // The eyes two margins below it (a forehead): the rise up or down.
+        assert_eq!(with_eyes(Some(0.5 - 2.0 * margin)), plain);
+    }
+
+    #[test]
     fn skin_below_the_floor_is_left_to_the_face() {
         let markers = PATCH.to_vec();
         let positions = vec![[0.0, 3.0, 1.0], [0.0, -3.0, 1.0]];
-        let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), 0.5);
+        let a = static_anchoring(&positions, &markers, &[2, 3], Some(0.0), None, 0.5);
         assert_eq!(a.strength, vec![1.0, 0.0]);
     }
 
@@ -677,7 +763,7 @@ mod tests {
         ];
         // Under the floor: beside the jaw marker (outside the hull), and round at the nape.
         let positions = vec![[0.35, -0.7, 0.94], [-0.35, -0.7, 0.94], [0.0, -1.0, -1.0]];
-        let a = static_anchoring(&positions, &markers, &[3, 4], Some(0.0), 0.2);
+        let a = static_anchoring(&positions, &markers, &[3, 4], Some(0.0), None, 0.2);
         assert_eq!(a.strength, vec![0.0, 0.0, 1.0]);
     }
 
@@ -697,7 +783,7 @@ mod tests {
         // Under the chin (between the jaw's sides), and as far under the jaw's side but well
         // beside it (more than a margin beyond its widest marker).
         let positions = vec![[0.0, -1.2, 1.0], [0.75, -0.9, 0.66]];
-        let a = static_anchoring(&positions, &markers, &[5, 6], Some(0.0), margin);
+        let a = static_anchoring(&positions, &markers, &[5, 6], Some(0.0), None, margin);
         let near = |p: &[f64; 3]| {
             markers[..3]
                 .iter()
@@ -732,8 +818,8 @@ mod tests {
             ]
         };
         let positions = vec![[0.6, 0.0, 0.8], [-0.6, 0.0, 0.8], [0.0, 0.5, -1.0]];
-        let near = static_anchoring(&positions, &face(-0.2), &[3, 4], Some(0.0), 0.2);
-        let far = static_anchoring(&positions, &face(-50.0), &[3, 4], Some(0.0), 0.2);
+        let near = static_anchoring(&positions, &face(-0.2), &[3, 4], Some(0.0), None, 0.2);
+        let far = static_anchoring(&positions, &face(-50.0), &[3, 4], Some(0.0), None, 0.2);
         // At the floor: anchored by the band (smoothstep(1) = 1) away from the jaw; within its
         // reach the floor stands half a margin higher and the band is two margins tall, so
         // a quarter of the way up it: smoothstep(0.25) = 0.15625 (the points are far outside

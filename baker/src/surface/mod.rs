@@ -645,6 +645,7 @@ pub(crate) fn dense_weights(
                 &anchoring::hull_markers(&rest, &anchors),
                 &followed,
                 floor,
+                eyes_height(&eyes),
                 factor * spacing,
             );
             // The RBF deformer's affine part is the anchor markers' mean translation, so fading
@@ -749,6 +750,12 @@ fn head_candidates(rest: &[[f64; 3]], skull: &[usize], eyes: &[&[[f64; 3]]]) -> 
 }
 
 /// The openings' rims but the `mouth`'s: the eyes'.
+/// The eyes' height: the mean height of their rims' points (`None` without eyes).
+pub(crate) fn eyes_height(eyes: &[&[[f64; 3]]]) -> Option<f64> {
+    let points: Vec<f64> = eyes.iter().flat_map(|r| r.iter().map(|p| p[1])).collect();
+    (!points.is_empty()).then(|| points.iter().sum::<f64>() / points.len() as f64)
+}
+
 fn eye_rims(rims: &[Vec<[f64; 3]>], mouth: Option<usize>) -> Vec<&[[f64; 3]]> {
     rims.iter()
         .enumerate()
