@@ -376,10 +376,10 @@ pub const HULL_RISE: f64 = 0.8;
 /// as up or down the anchoring's strength takes to rise beyond the markers' hull. A smile and a
 /// jaw move the cheek's skin back towards the ear, while above the brows the scalp holds: in
 /// both truths' smiles the skin 14–30 mm behind the outer cheek marker rises 4–6.5 mm
-/// (ICT-FaceKit 4.9–6.5 mm, FaceCap 4.1–6.0), where the rig moved it 0–2.4 mm. Measured 2026-12-05 (`--test
-/// structure`, `--test ict_facekit`, `--test other_faces`, `--test accuracy`, `-- --nocapture`),
-/// face mean on the truths with the JawMoCap layout, and on FaceCap's 40 sampled markers (which
-/// reach round behind the ears):
+/// (ICT-FaceKit 4.9–6.5 mm, FaceCap 4.1–6.0), where the rig moved it 0–2.4 mm. Measured
+/// 2026-12-05 (`--test structure`, `--test ict_facekit`, `--test other_faces`, `--test
+/// accuracy`, `-- --nocapture`), face mean on the truths with the JawMoCap layout, and on
+/// FaceCap's 40 sampled markers (which reach round behind the ears):
 ///
 /// | across | FaceCap | ICT-FaceKit | FaceCap's sampled markers |
 /// |---|---|---|---|
