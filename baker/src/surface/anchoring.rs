@@ -431,9 +431,9 @@ pub fn static_anchoring(
     let wide = convex_hull(markers.iter().map(|m| across(project(m))).collect());
     // Where the longer rise across holds: below the eyes (fully a margin under them) and in
     // front of the ears (fully within `FRONT[0]` of the face's front, not at all past `FRONT[1]`).
+    let [full, none] = FRONT.map(f64::to_radians);
     let cheek = |p: &[f64; 3]| {
         let below = eyes.map_or(0.0, |eyes| smoothstep((eyes - p[1]) / margin));
-        let [full, none] = FRONT.map(f64::to_radians);
         below * (1.0 - smoothstep((angle(p).abs() - full) / (none - full)))
     };
     let hull = convex_hull(markers.iter().map(project).collect());

@@ -237,9 +237,27 @@ mod tests {
             .width
     }
 
-    /// `M0`, `M1`, …
-    fn names(n: usize) -> Vec<String> {
-        (0..n).map(|i| format!("M{i}")).collect()
+    /// `before` reshaped for `mouth` (every opening a pair of lids without one), its markers
+    /// named `M0`, `M1`, …: the weights after and the figures.
+    fn reshaped(
+        mesh: &crate::model::FaceMesh,
+        geometry: &SurfaceGeometry,
+        rest: &[[f64; 3]],
+        before: &[Vec<f64>],
+        mouth: Option<Mouth<'_>>,
+    ) -> (Vec<Vec<f64>>, LetGoFigures) {
+        let names: Vec<String> = (0..rest.len()).map(|i| format!("M{i}")).collect();
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let mut after = before.to_vec();
+        let figures = reshape(
+            &mut after,
+            geometry,
+            &mesh.welded_positions,
+            rest,
+            &names,
+            mouth,
+        );
+        (after, figures)
     }
 
     #[test]
@@ -262,17 +280,7 @@ mod tests {
     fn lid_markers_let_go_of_the_skin_away_from_the_rim_and_nothing_else_changes() {
         let (mesh, vertices) = (crate::surface::slit(), crate::surface::slit_markers());
         let (geometry, rest, before) = markers_on(&mesh, &vertices);
-        let names = names(rest.len());
-        let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        let mut after = before.clone();
-        let figures = reshape(
-            &mut after,
-            &geometry,
-            &mesh.welded_positions,
-            &rest,
-            &names,
-            None,
-        );
+        let (after, figures) = reshaped(&mesh, &geometry, &rest, &before, None);
         assert_eq!(figures.lid_markers, ["M2", "M3", "M4", "M5"]);
         assert!(figures.lid_vertices > 100, "{figures:?}");
         let width = rim_width(&geometry, &mesh);
@@ -305,23 +313,13 @@ mod tests {
         // The corners, the upper lip, the lower lip, four far out.
         let at = crate::surface::slit_markers_in(30, 25);
         let (geometry, rest, before) = markers_on(&mesh, &at);
-        let names = names(rest.len());
-        let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        let mut after = before.clone();
         // The mask's upper group holds a far marker too; only the lip's are worn on the rim.
         let upper = [2, 3, 6];
         let mouth = Mouth {
             opening: 0,
             upper: &upper,
         };
-        let figures = reshape(
-            &mut after,
-            &geometry,
-            &mesh.welded_positions,
-            &rest,
-            &names,
-            Some(mouth),
-        );
+        let (after, figures) = reshaped(&mesh, &geometry, &rest, &before, Some(mouth));
         assert_eq!(figures.lip_markers, ["M2", "M3"]);
         assert!(figures.lid_markers.is_empty(), "{figures:?}");
         assert!(figures.lip_vertices > 100, "{figures:?}");
