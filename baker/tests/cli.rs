@@ -222,6 +222,54 @@ fn render_draws_the_demo_frames_and_measures_them() {
     // `tests/tests/structure.rs`.
     let drift = take["static_drift_mm"][0].as_f64().unwrap();
     assert!((drift - 0.29).abs() < 0.01, "{take}");
+    // The colour scale tops at the drawn frames' 95th-percentile error, rounded up; `--scale-mm`
+    // sets it, and the skin's errors then fill the error panels' top colour.
+    let own = summary["scale_mm"].as_f64().unwrap();
+    assert!(own >= 1.0, "{}", summary["scale_mm"]);
+    let fixed = dir.join("fixed.png");
+    let args = |scale: &'static str, to: &Path| {
+        let (frames, truth) = (demo_dir.join("facecap_frames.npy"), mesh_path());
+        let truth_npy = demo_dir.join("facecap_truth.npy");
+        let to = to.to_path_buf();
+        move || {
+            facebake(&[
+                "render",
+                s(&frames),
+                "--mesh",
+                s(&truth),
+                "--truth",
+                s(&truth_npy),
+                "--frames",
+                "0,2",
+                "--panel",
+                "128",
+                "--scale-mm",
+                scale,
+                "-o",
+                s(&to),
+                "--json",
+            ])
+        }
+    };
+    let small = json_ok(&args("0.5", &fixed)());
+    assert_eq!(
+        (&small["scale_mm"], &small["clipped"]),
+        (&0.5.into(), &true.into())
+    );
+    // Yellow, the scale's top, shaded or not.
+    let in_top_colour = |path: &Path| {
+        let yellow = |p: &&[u8; 3]| p[0] > 180 && p[1] > 180 && p[2] < 120;
+        png_pixels(path).0.iter().filter(yellow).count()
+    };
+    let (at_own, at_small) = (in_top_colour(&sheet), in_top_colour(&fixed));
+    assert!(at_small > 4 * at_own, "{at_small} against {at_own}");
+    let out = args("0", &fixed)();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("not a positive number of millimetres"),
+        "{}",
+        stderr(&out)
+    );
     // Without a truth: result and displacement only, four square panels and the colour bar.
     assert_eq!(draw_mouth_open(&sheet, "head"), 4 * 128 + 120);
     // A frame the file does not have is bad input, named.

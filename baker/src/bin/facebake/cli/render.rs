@@ -64,6 +64,11 @@ pub(crate) struct RenderArgs {
     /// Panel size in pixels.
     #[arg(long, value_name = "PX", default_value_t = PANEL as u32, value_parser = clap::value_parser!(u32).range(64..=2048))]
     pub panel: u32,
+    /// The top of the heat maps' colour scale, mm (default: the drawn frames' 95th-percentile
+    /// error, or their largest displacement, rounded up): give two sheets the same to compare
+    /// them, or a small one to see the skin's errors beside a mouth interior's large ones.
+    #[arg(long, value_name = "MM", value_parser = parse_scale_mm)]
+    pub scale_mm: Option<f64>,
     /// Remove each frame's best rigid motion (over the static region) before measuring: for
     /// frames that carry head motion.
     #[arg(long)]
@@ -71,6 +76,14 @@ pub(crate) struct RenderArgs {
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--scale-mm`: a positive, finite number of millimetres.
+fn parse_scale_mm(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(mm) if mm > 0.0 && mm.is_finite() => Ok(mm),
+        _ => Err(format!("{text:?} is not a positive number of millimetres")),
+    }
 }
 
 /// What a sheet's panels frame (`render --focus`).
@@ -140,6 +153,10 @@ pub(crate) struct RenderSummary {
     pub files: Vec<PathBuf>,
     /// Frames drawn.
     pub frames: Vec<usize>,
+    /// The top of the heat maps' colour scale, mm (`--scale-mm`, or the drawn frames').
+    pub scale_mm: f64,
+    /// Whether some drawn value lies above it (drawn in the top colour).
+    pub clipped: bool,
     /// The structure metrics over every frame of the `.npy`.
     pub structure: Structure,
 }
@@ -382,8 +399,12 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
     );
     let focus = args.focus.vertices(&regions, &args.mesh)?;
     let played = (frames.as_slice(), truth.as_deref(), None);
-    let image = sheet_of(title, &mesh, played, &rows, (args.panel as usize, focus)).render();
-    write_sheet(&args.output, &image)?;
+    let sheet = Sheet {
+        scale_mm: args.scale_mm,
+        ..sheet_of(title, &mesh, played, &rows, (args.panel as usize, focus))
+    };
+    let (scale_mm, clipped) = sheet.scale();
+    write_sheet(&args.output, &sheet.render())?;
     let mut files = vec![args.output.clone()];
     if let (Some(path), Some(rig)) = (&args.marker_sheet, &rig) {
         let title = format!(
@@ -403,6 +424,8 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
     let summary = RenderSummary {
         files,
         frames: chosen,
+        scale_mm,
+        clipped,
         structure,
     };
     if args.json {
@@ -412,6 +435,12 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode, CliError> {
         for f in &summary.files {
             outln!(out, "wrote {}", f.display());
         }
+        let above = if summary.clipped {
+            " (larger values in its top colour)"
+        } else {
+            ""
+        };
+        outln!(out, "  colour scale   0 to {} mm{above}", summary.scale_mm);
         out.push_str(&structure_text(&summary.structure, false));
         emit(&out);
     }
