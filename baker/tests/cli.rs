@@ -226,32 +226,31 @@ fn render_draws_the_demo_frames_and_measures_them() {
     // sets it, and the skin's errors then fill the error panels' top colour.
     let own = summary["scale_mm"].as_f64().unwrap();
     assert!(own >= 1.0, "{}", summary["scale_mm"]);
-    let fixed = dir.join("fixed.png");
-    let args = |scale: &'static str, to: &Path| {
-        let (frames, truth) = (demo_dir.join("facecap_frames.npy"), mesh_path());
-        let truth_npy = demo_dir.join("facecap_truth.npy");
-        let to = to.to_path_buf();
-        move || {
-            facebake(&[
-                "render",
-                s(&frames),
-                "--mesh",
-                s(&truth),
-                "--truth",
-                s(&truth_npy),
-                "--frames",
-                "0,2",
-                "--panel",
-                "128",
-                "--scale-mm",
-                scale,
-                "-o",
-                s(&to),
-                "--json",
-            ])
-        }
+    let (frames, truth) = (
+        demo_dir.join("facecap_frames.npy"),
+        demo_dir.join("facecap_truth.npy"),
+    );
+    let (mesh, fixed) = (mesh_path(), dir.join("fixed.png"));
+    let render_at = |scale: &str| {
+        facebake(&[
+            "render",
+            s(&frames),
+            "--mesh",
+            s(&mesh),
+            "--truth",
+            s(&truth),
+            "--frames",
+            "0,2",
+            "--panel",
+            "128",
+            "--scale-mm",
+            scale,
+            "-o",
+            s(&fixed),
+            "--json",
+        ])
     };
-    let small = json_ok(&args("0.5", &fixed)());
+    let small = json_ok(&render_at("0.5"));
     assert_eq!(
         (&small["scale_mm"], &small["clipped"]),
         (&0.5.into(), &true.into())
@@ -263,7 +262,7 @@ fn render_draws_the_demo_frames_and_measures_them() {
     };
     let (at_own, at_small) = (in_top_colour(&sheet), in_top_colour(&fixed));
     assert!(at_small > 4 * at_own, "{at_small} against {at_own}");
-    let out = args("0", &fixed)();
+    let out = render_at("0");
     assert_eq!(out.status.code(), Some(2));
     assert!(
         stderr(&out).contains("not a positive number of millimetres"),
