@@ -223,7 +223,7 @@ fn place_and_the_default_bake_play_its_expressions() {
             flipped: 0,
         },
     );
-    assert!(face.mean_mm <= 0.678 && face.max_mm <= 11.5, "{face:?}");
+    assert!(face.mean_mm <= 0.676 && face.max_mm <= 11.5, "{face:?}");
 }
 
 /// The bake without a capture played through its own stages (`facebake::bake::at_rest`): the
@@ -254,7 +254,7 @@ fn its_truth_through_the_stages_of_a_bake_without_a_capture() {
         },
     );
     assert!(take.static_drift_mm.0 <= 0.01, "{take}");
-    assert!(mean <= 0.670, "{mean}");
+    assert!(mean <= 0.668, "{mean}");
 }
 
 /// The mouth's bag, which this head's skin runs on into from the lips: its palate is the
@@ -482,7 +482,7 @@ fn a_capture_rig_plays_a_jaw_open_its_take_never_showed() {
             flipped: 0,
         },
     );
-    assert!(mean <= 0.696, "{mean}");
+    assert!(mean <= 0.694, "{mean}");
 }
 
 /// Where a take folds the skin, the bake relaxes the weights there (`facebake::bake::relax`):
@@ -540,7 +540,7 @@ fn its_held_expressions_through_a_capture_bake() {
         each[surprise]
     );
     assert_eq!(each.len(), scene.truth.frames.len());
-    assert!(mean <= 0.660, "{mean}");
+    assert!(mean <= 0.658, "{mean}");
     assert!(each[surprise] <= 1.3, "{}", each[surprise]);
     let mut off = BakeOptions::product_default();
     off.stages.head_refit = facebake::stages::RefitUse::Off;

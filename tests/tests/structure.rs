@@ -397,8 +397,9 @@ fn facecap_layout_surface_aware() {
             assert!(lips.p99_mm <= 4.22, "{lips:?}");
             // 0.543 mm before the upper lip's markers let go of the skin past the lip
             // (`surface::let_go`, 2026-12-05), 0.519 before the cheeks' anchoring rose three
-            // times as far across (`surface::anchoring::ACROSS_RISE`).
-            assert!(face.mean_mm <= 0.515, "{face:?}");
+            // times as far across (`surface::anchoring::ACROSS_RISE`), 0.514 before the lower
+            // lip handed its depth to the jaw (`surface::let_go::lower_lip_depth`).
+            assert!(face.mean_mm <= 0.508, "{face:?}");
         }
     }
 }

@@ -37,6 +37,8 @@ pub(super) fn linear(
         &[],
         [0.0, 1.0, 0.0],
         &[],
+        [0.0, 0.0, 1.0],
+        &[],
         None,
         options.k,
         options.refit,

@@ -255,6 +255,11 @@ pub struct DenseWeights {
     /// The face's vertical in file coordinates, a unit vector: the direction the rig's derived
     /// markers store ([`crate::deformer::linear::derived_direction`]).
     pub up: [f64; 3],
+    /// Per vertex, `(marker, weight)` on markers' displacements along `ahead` alone (the lower
+    /// lip's depth, `surface::let_go::lower_lip_depth`; empty elsewhere).
+    pub forward: Vec<Vec<(usize, f64)>>,
+    /// The face's forward axis in file coordinates, as the rig's derived markers store it.
+    pub ahead: [f64; 3],
 }
 
 impl DenseWeights {
@@ -273,11 +278,14 @@ impl DenseWeights {
             .map(|(i, (v, w))| {
                 let mut p =
                     [0, 1, 2].map(|c| v[c] + w.iter().zip(&d).map(|(w, d)| w * d[c]).sum::<f64>());
-                for &(m, w) in self.vertical.get(i).unwrap_or(&none) {
-                    let d = d.get(m).copied().unwrap_or([0.0; 3]);
-                    let along: f64 = (0..3).map(|c| d[c] * self.up[c]).sum();
-                    for (p, u) in p.iter_mut().zip(self.up) {
-                        *p += w * along * u;
+                let axial = [(&self.vertical, self.up), (&self.forward, self.ahead)];
+                for (corrections, axis) in axial {
+                    for &(m, w) in corrections.get(i).unwrap_or(&none) {
+                        let d = d.get(m).copied().unwrap_or([0.0; 3]);
+                        let along: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
+                        for (p, u) in p.iter_mut().zip(axis) {
+                            *p += w * along * u;
+                        }
                     }
                 }
                 p
@@ -805,7 +813,14 @@ fn bake_deformer(
     };
     let mut s = crate::surface::dense_weights(&input, options, space)?;
     if let Some(r) = relaxed {
-        relax::relax_rows(&mut s.dense, &s.vertical, &mesh.weld, r.neighbours, r.patch);
+        // Vertices with corrections on either axis are held.
+        let corrected: Vec<Vec<(usize, f64)>> = s
+            .vertical
+            .iter()
+            .zip(&s.forward)
+            .map(|(v, f)| v.iter().chain(f).copied().collect())
+            .collect();
+        relax::relax_rows(&mut s.dense, &corrected, &mesh.weld, r.neighbours, r.patch);
     }
     let output = match options.deformer {
         DeformerKind::Linear => s.linear(options)?,
@@ -832,6 +847,8 @@ fn bake_deformer(
             weights: s.dense,
             vertical: s.vertical,
             up: crate::deformer::linear::derived_direction(s.up).1,
+            forward: s.forward,
+            ahead: crate::deformer::linear::derived_direction(s.ahead).1,
         }),
         surface_markers: Some((s.marker_distances, head_candidates)),
     })

@@ -283,9 +283,10 @@ impl FollowedMean<'_> {
 
 /// The linear deformer from each vertex's dense weights: keep K, re-fit, quantise. A vertex
 /// with `vertical` weights (on markers' displacements along the face's `up` alone, a unit
-/// vector in file coordinates, summing to zero; empty for most) keeps K less their count on
-/// the markers and takes them on derived markers, one per source marker, after the markers
-/// (the covariance's order). Every vertex then has K influences, the
+/// vector in file coordinates, summing to zero; empty for most) or `forward` ones (the same
+/// along `ahead`, the face's forward axis) keeps K less their count on the markers and takes
+/// them on derived markers, one per source marker and axis, after the markers (the
+/// covariance's order). Every vertex then has K influences, the
 /// uniform count the Cortex-M4's unrolled kernel needs (keeping all K markers besides the
 /// derived ones costs 60 % more instructions on the M4, docs/measurements.md). So that the kept
 /// set does not jump where the corrections begin, a vertex without them gives way by
@@ -298,6 +299,8 @@ pub(crate) fn bake(
     dense_rows: impl Iterator<Item = Vec<f64>>,
     vertical: &[Vec<(usize, f64)>],
     up: [f64; 3],
+    forward: &[Vec<(usize, f64)>],
+    ahead: [f64; 3],
     give_way: &[f64],
     followed: Option<FollowedMean<'_>>,
     k: usize,
@@ -305,11 +308,15 @@ pub(crate) fn bake(
     covariance: &nalgebra::DMatrix<f64>,
 ) -> Result<DeformerOutput, super::DeformerError> {
     let markers = covariance.nrows();
-    let mut sources: Vec<usize> = vertical.iter().flatten().map(|&(m, _)| m).collect();
-    sources.sort_unstable();
-    sources.dedup();
+    let sources_of = |rows: &[Vec<(usize, f64)>]| {
+        let mut sources: Vec<usize> = rows.iter().flatten().map(|&(m, _)| m).collect();
+        sources.sort_unstable();
+        sources.dedup();
+        sources
+    };
+    let (sources, sources_ahead) = (sources_of(vertical), sources_of(forward));
     let followed = followed.filter(|f| (2..=MEAN_MAX_SOURCES).contains(&f.markers.len()));
-    let derived_count = sources.len() + usize::from(followed.is_some());
+    let derived_count = sources.len() + sources_ahead.len() + usize::from(followed.is_some());
     if markers + derived_count > MAX_MARKERS {
         return Err(SectionError(format!(
             "{markers} markers and {derived_count} derived ones: at most {MAX_MARKERS} in all",
@@ -317,24 +324,35 @@ pub(crate) fn bake(
         .into());
     }
     let derived_index = |m: usize| markers + sources.binary_search(&m).unwrap_or(0);
+    let ahead_index =
+        |m: usize| markers + sources.len() + sources_ahead.binary_search(&m).unwrap_or(0);
     // The mean's column follows the markers' in the rows and the covariance; its derived
-    // marker follows the vertical ones.
-    let mean_index = markers + sources.len();
+    // marker follows the vertical ones and the forward ones.
+    let mean_index = markers + sources.len() + sources_ahead.len();
     let covariance = match &followed {
         Some(f) => std::borrow::Cow::Owned(f.covariance(covariance)),
         None => std::borrow::Cow::Borrowed(covariance),
     };
+    let length2_of = |direction: [i16; 3]| {
+        direction
+            .iter()
+            .map(|&c| (f64::from(c) / f64::from(DIRECTION_ONE)).powi(2))
+            .sum::<f64>()
+    };
     let (direction, _) = derived_direction(up);
-    let length2 = direction
-        .iter()
-        .map(|&c| (f64::from(c) / f64::from(DIRECTION_ONE)).powi(2))
-        .sum::<f64>();
+    let (direction_ahead, _) = derived_direction(ahead);
+    let (length2, length2_ahead) = (length2_of(direction), length2_of(direction_ahead));
     let mean_scale = followed.as_ref().map_or(1.0, |f| {
         let n = f.markers.len() as u8;
         f64::from(n) * f64::from(DerivedMarker::mean_factor(n)) / f64::from(MEAN_ONE)
     });
     // How many of the K the corrections take where they are: what the skin beside them gives way.
-    let ranks = vertical.iter().map(Vec::len).max().unwrap_or(0);
+    let extra_len =
+        |v: usize| vertical.get(v).map_or(0, Vec::len) + forward.get(v).map_or(0, Vec::len);
+    let ranks = (0..vertical.len().max(forward.len()))
+        .map(extra_len)
+        .max()
+        .unwrap_or(0);
     let mut dropped = Vec::new();
     let rows: Vec<_> = dense_rows
         .enumerate()
@@ -344,11 +362,12 @@ pub(crate) fn bake(
                 None => dense,
             };
             let extra = vertical.get(v).map_or(&[][..], Vec::as_slice);
-            let mut row = if extra.is_empty() {
+            let extra_ahead = forward.get(v).map_or(&[][..], Vec::as_slice);
+            let mut row = if extra.is_empty() && extra_ahead.is_empty() {
                 let a = give_way.get(v).copied().unwrap_or(0.0);
                 sparsify::sparsify_row_giving_way(&dense, k, ranks, a, refit, Some(&covariance))
             } else {
-                let keep = k.saturating_sub(extra.len()).max(1);
+                let keep = k.saturating_sub(extra.len() + extra_ahead.len()).max(1);
                 sparsify::sparsify_row(&dense, keep, refit, Some(&covariance))
             };
             let kept: f64 = row.iter().map(|&(i, _)| dense[i]).sum();
@@ -361,6 +380,11 @@ pub(crate) fn bake(
             }
             // The stored direction `a` projects as (q·a)a = |a|² (q·u)u.
             row.extend(extra.iter().map(|&(m, w)| (derived_index(m), w / length2)));
+            row.extend(
+                extra_ahead
+                    .iter()
+                    .map(|&(m, w)| (ahead_index(m), w / length2_ahead)),
+            );
             row
         })
         .collect();
@@ -371,6 +395,10 @@ pub(crate) fn bake(
             source: m as u8,
             direction,
         })
+        .chain(sources_ahead.iter().map(|&m| DerivedMarker::Projection {
+            source: m as u8,
+            direction: direction_ahead,
+        }))
         .collect();
     if let Some(f) = &followed {
         derived.push(DerivedMarker::Mean {

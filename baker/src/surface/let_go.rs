@@ -40,10 +40,19 @@
 //! spreads down the chin (FaceCap's funnel drops the skin between the lower lip and the chin in
 //! proportion, 35 mm at the rim to 14 at the chin), and letting it go there folded the funnel's
 //! chin (26 triangles turned over on FaceCap's truth).
+//!
+//! **The lower lip's depth.** Its drop spreads down the chin, its depth does not: along
+//! FaceCap's midline the truth's depth leaves the lip within about 20 mm of the rim (a share of
+//! the lip's 0.84 / 0.49 / 0.32 / 0.0 at 3 / 9.5 / 15.6 / 23.7 mm, over the funnel, `blend 22`,
+//! the jaw open and the pucker), its drop over about 35 mm, where the rig's lower-lip markers
+//! carried 0.98 / 0.85 / 0.72 / 0.53 of the weight on every axis. So past the corners' band a
+//! share of the lower lip's weight moves to the jaw on the face's forward axis alone
+//! ([`lower_lip_depth`]): derived markers projecting the lip's middle marker and the jaw's on
+//! that axis, one pair for every vertex.
 
 use crate::mesh::distance;
 use crate::surface::anchoring::smoothstep;
-use crate::surface::corners::{RimEnds, CORNER_REACH};
+use crate::surface::corners::{self, RimEnds, CORNER_REACH};
 use crate::surface::geometry::SurfaceGeometry;
 
 /// How a marker's weight fades with a vertex's distance from its opening's rim along the skin,
@@ -113,6 +122,12 @@ pub struct LetGoFigures {
     pub lip_markers: Vec<String>,
     /// glTF vertices whose weights on them were reshaped.
     pub lip_vertices: usize,
+    /// The lower lip's markers whose depth lets go ([`lower_lip_depth`]).
+    pub depth_markers: Vec<String>,
+    /// The jaw's markers that take it.
+    pub jaw_markers: Vec<String>,
+    /// glTF vertices with depth corrections.
+    pub depth_vertices: usize,
 }
 
 /// The mouth, for [`reshape`].
@@ -199,6 +214,154 @@ pub fn reshape(
     figures.lid_vertices = count(&touched[0]);
     figures.lip_vertices = count(&touched[1]);
     figures
+}
+
+/// The lower lip's depth ([`lower_lip_depth`]): the share of the lower lip's markers' weight
+/// that moves to the jaw's on the face's forward axis, from `hold` of the mouth's width from the
+/// rim to all of it at `reach`, back to none over `back` past it.
+pub const LOWER_LIP_DEPTH: Fade = Fade {
+    hold: 0.2,
+    reach: 0.8,
+    back: 0.5,
+};
+
+/// A marker at least this share of the mouth's width below the rim's lowest point is the jaw's.
+pub const JAW_BELOW: f64 = 0.3;
+
+/// Over how much of the mouth's width above its jaw's markers a vertex's depth correction fades
+/// in: below, the skin is the chin's underside and the throat's.
+pub const ABOVE_JAW: f64 = 0.4;
+
+/// Over how much of the mouth's width past the corners' vertical band ([`corners::BAND`]) the
+/// depth corrections fade in. Inside the band a vertex takes no depth correction; starting at
+/// full strength where the band's patchwork ends stretched FaceCap subdivided twice 2.14× (7
+/// edges over 2×) in the jaw open, with the pair taken on top of K (the fade-in alone gives
+/// main's one edge). Measured 2026-12-05 on that scaffold (`--test structure`, `--test
+/// ict_facekit`, face mean on FaceCap's truth / ICT-FaceKit's): none 0.5067 / 0.6679 mm, **0.2**
+/// 0.5074 / 0.6684, 0.3 0.5080 / 0.6690.
+pub const DEPTH_FADE_IN: f64 = 0.2;
+
+/// Over how much of the mouth's width past the corrections' far end (`reach + back` of
+/// [`LOWER_LIP_DEPTH`]) the skin still gives way, so that its kept markers meet the corrected
+/// skin's (which keeps two fewer) instead of jumping where the corrections end.
+pub const DEPTH_RING_PAST: f64 = 0.3;
+
+/// Where [`lower_lip_depth`] reads and writes, per glTF vertex.
+pub struct Depth<'a> {
+    /// The mouth's vertical corrections (`surface::corners`): a vertex with them takes none.
+    pub vertical: &'a [Vec<(usize, f64)>],
+    /// How far the vertex's two weakest kept markers give way (`surface::corners`): the depth
+    /// correction fades in as the skin stops giving way to the vertical corrections, and the
+    /// skin it corrects, or ends beside, gives way to it.
+    pub give_way: &'a mut [f64],
+    /// `(marker, Δ)` on the markers' forward axes, summing to zero.
+    pub forward: &'a mut [Vec<(usize, f64)>],
+}
+
+/// The lower lip's depth corrections: for each glTF vertex below the `mouth`'s rim with no
+/// vertical correction, the share of its weights on the lower lip's markers (the mouth's markers
+/// within [`LID_REACH`] of the rim, not at its corners or in its upper group) that
+/// [`LOWER_LIP_DEPTH`] frees moves, on the forward axis alone, from the lower lip's middle
+/// marker to the jaw's ([`JAW_BELOW`]; of those as near the middle, the highest). One pair for
+/// every vertex, so the correction varies with the weights and the distances alone: a pair from
+/// each vertex's strongest markers jumped where the strongest changed. The pair takes two of a
+/// vertex's K, so a corrected vertex gives way fully (the followed mean's share too) and the skin
+/// past the far end over [`DEPTH_RING_PAST`]: the kept set does not jump where the corrections
+/// begin or end (within the corners' band it gives way already). Returns the lower lip's and the
+/// jaw's markers and the vertices corrected.
+pub fn lower_lip_depth(
+    dense: &[Vec<f64>],
+    geometry: &SurfaceGeometry,
+    welded_positions: &[[f64; 3]],
+    rest: &[[f64; 3]],
+    mouth: Mouth<'_>,
+    depth: Depth<'_>,
+) -> (Vec<usize>, Vec<usize>, usize) {
+    let opening = &geometry.openings[mouth.opening];
+    let from_rim = &geometry.opening_distance[mouth.opening];
+    let Some(RimEnds { ends, width }) = RimEnds::of(opening, welded_positions) else {
+        return (Vec::new(), Vec::new(), 0);
+    };
+    let rim: Vec<[f64; 3]> = opening
+        .vertices
+        .iter()
+        .map(|&v| welded_positions[v as usize])
+        .collect();
+    let near_rim = |p: &[f64; 3]| {
+        rim.iter()
+            .map(|q| distance(q, p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let lowest = rim.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+    let centre = rim.iter().map(|p| p[1]).sum::<f64>() / rim.len().max(1) as f64;
+    let lip: Vec<usize> = (0..rest.len())
+        .filter(|&m| near_rim(&rest[m]) <= LID_REACH * width)
+        .filter(|&m| {
+            ends.iter()
+                .all(|e| distance(e, &rest[m]) > CORNER_REACH * width)
+        })
+        .filter(|m| !mouth.upper.contains(m) && rest[*m][1] < centre)
+        .collect();
+    let jaw: Vec<usize> = (0..rest.len())
+        .filter(|&m| rest[m][1] < lowest - JAW_BELOW * width)
+        .collect();
+    // The marker nearest the mouth's middle across the face, in steps of a tenth of its width
+    // (a throat marker under the chin's is as near: the higher wins).
+    let middle = (ends[0][0] + ends[1][0]) / 2.0;
+    let off_middle = |m: usize| ((rest[m][0] - middle).abs() / (0.1 * width)).floor();
+    let middle_marker = |among: &[usize]| {
+        among.iter().copied().min_by(|&a, &b| {
+            off_middle(a)
+                .total_cmp(&off_middle(b))
+                .then(rest[b][1].total_cmp(&rest[a][1]))
+        })
+    };
+    let (Some(from), Some(to)) = (middle_marker(&lip), middle_marker(&jaw)) else {
+        return (lip, jaw, 0);
+    };
+    let mut corrected = 0;
+    for (v, weights) in dense.iter().enumerate() {
+        let w = geometry.weld[v] as usize;
+        if welded_positions[w][1] >= centre || depth.vertical.get(v).is_some_and(|c| !c.is_empty())
+        {
+            continue;
+        }
+        let r = from_rim[w] / width;
+        let on_lip: f64 = lip.iter().map(|&m| weights[m].max(0.0)).sum();
+        let on_jaw: f64 = jaw.iter().map(|&m| weights[m].max(0.0)).sum();
+        if on_jaw <= 0.0 {
+            continue;
+        }
+        // Only between the lip and the jaw's markers (at this vertex's weights' height on them):
+        // under the chin the skin is the throat's.
+        let height = jaw
+            .iter()
+            .map(|&m| weights[m].max(0.0) * rest[m][1])
+            .sum::<f64>()
+            / on_jaw;
+        let above = (welded_positions[w][1] - height) / (ABOVE_JAW * width);
+        // Fading in past the corners' band and as the skin stops giving way to its corrections.
+        let fade_in =
+            smoothstep((r - corners::BAND) / DEPTH_FADE_IN) * (1.0 - depth.give_way[v].min(1.0));
+        let strength = (1.0 - LOWER_LIP_DEPTH.keep(r)) * smoothstep(above) * fade_in;
+        if strength > 0.0 {
+            depth.give_way[v] = 1.0;
+            let freed = on_lip * strength;
+            if freed > 0.0 {
+                depth.forward[v] = vec![(from, -freed), (to, freed)];
+                corrected += 1;
+            }
+        } else {
+            // Past the far end the skin gives way over a ring. Not under the jaw's markers: a
+            // ring there turned 89 triangles of ICT-FaceKit's chin over in its jaw open.
+            let past = r - (LOWER_LIP_DEPTH.reach + LOWER_LIP_DEPTH.back);
+            if past > 0.0 {
+                let beside = smoothstep(1.0 - past / DEPTH_RING_PAST);
+                depth.give_way[v] = depth.give_way[v].max(beside);
+            }
+        }
+    }
+    (lip, jaw, corrected)
 }
 
 #[cfg(test)]
@@ -342,5 +505,81 @@ mod tests {
             gone += usize::from(r >= UPPER_LIP.reach && a[2] < 0.01 * b[2]);
         }
         assert!(gone > 20, "{gone}");
+    }
+
+    #[test]
+    fn the_lower_lips_depth_moves_to_the_jaw_past_the_lip_smoothly() {
+        // `surface::slit`'s slit (about 24 wide, as a mouth) in a sheet 30 high either side:
+        // the corners, the upper lip, the lower lip, two far above and two far below (the jaw).
+        let mesh = crate::surface::slit_in(30);
+        let at = crate::surface::slit_markers_in(30, 25);
+        let (geometry, rest, weights) = markers_on(&mesh, &at);
+        let n = mesh.positions.len();
+        let (mut forward, mut give_way) = (vec![Vec::new(); n], vec![0.0; n]);
+        // A vertex with a vertical correction takes no depth correction.
+        let mut vertical = vec![Vec::new(); n];
+        let held = (30 - 16) * 41 + 20;
+        vertical[held] = vec![(0, 0.1), (4, -0.1)];
+        let (lip, jaw, corrected) = lower_lip_depth(
+            &weights,
+            &geometry,
+            &mesh.welded_positions,
+            &rest,
+            Mouth {
+                opening: 0,
+                upper: &[2, 3, 6],
+            },
+            Depth {
+                vertical: &vertical,
+                give_way: &mut give_way,
+                forward: &mut forward,
+            },
+        );
+        assert_eq!(
+            (lip.as_slice(), jaw.as_slice()),
+            ([4, 5].as_slice(), [8, 9].as_slice())
+        );
+        assert!(corrected > 100, "{corrected}");
+        assert!(forward[held].is_empty());
+        let width = rim_width(&geometry, &mesh);
+        let mut pairs = std::collections::BTreeSet::new();
+        let shift = |f: &[(usize, f64)]| f.last().map_or(0.0, |&(_, into)| into);
+        for (v, f) in forward.iter().enumerate() {
+            let p = mesh.positions[v];
+            let r = geometry.opening_distance[0][geometry.weld[v] as usize] / width;
+            if p[1] >= 0.0 || r <= corners::BAND {
+                assert!(f.is_empty(), "vertex {v}: {f:?}");
+                continue;
+            }
+            let [(from, out), (to, into)] = f.as_slice() else {
+                continue;
+            };
+            // From the lower lip's marker to the jaw's, summing to zero, at most the share of
+            // the lip's weight that the fade frees.
+            pairs.insert((*from, *to));
+            // Its pair takes two of its K: its weakest kept markers give way.
+            assert_eq!(give_way[v], 1.0, "vertex {v}");
+            assert!(
+                (out + into).abs() < 1e-15 && *into > 0.0,
+                "vertex {v}: {f:?}"
+            );
+            let on_lip: f64 = lip.iter().map(|&m| weights[v][m]).sum();
+            let freed = on_lip * (1.0 - LOWER_LIP_DEPTH.keep(r));
+            assert!(*into <= freed + 1e-12, "vertex {v}: {f:?} against {freed}");
+        }
+        // One pair everywhere (each vertex's strongest markers' pair jumped where they
+        // changed), and no step between neighbours: on this sheet (a unit apart, the mouth 24
+        // wide) the steepest fade, above the jaw over 0.4 widths, moves the shift by about a
+        // sixth of its largest a unit; a correction starting at full strength, by all of it.
+        assert_eq!(pairs.len(), 1, "{pairs:?}");
+        let largest = forward.iter().map(|f| shift(f)).fold(0.0, f64::max);
+        let step = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .filter(|&(a, b)| a as usize != held && b as usize != held)
+            .map(|(a, b)| (shift(&forward[a as usize]) - shift(&forward[b as usize])).abs())
+            .fold(0.0, f64::max);
+        assert!(step < 0.3 * largest, "{step} against {largest}");
     }
 }

@@ -185,6 +185,12 @@ pub(crate) struct SurfaceBake {
     pub(crate) vertical: Vec<Vec<(usize, f64)>>,
     /// The face's vertical in file coordinates ([`FaceFrame`]), along which `vertical` acts.
     pub(crate) up: [f64; 3],
+    /// Per glTF vertex, weights on the markers' displacements along the face's forward axis
+    /// alone, summing to zero (the lower lip's depth, [`let_go::lower_lip_depth`]; empty
+    /// elsewhere).
+    pub(crate) forward: Vec<Vec<(usize, f64)>>,
+    /// The face's forward axis in file coordinates, along which `forward` acts.
+    pub(crate) ahead: [f64; 3],
     /// Per glTF vertex, how far its two weakest kept markers give way to the vertical
     /// corrections (1 where it has them, fading to 0 over a ring outside; [`corners`]).
     pub(crate) give_way: Vec<f64>,
@@ -613,6 +619,34 @@ pub(crate) fn dense_weights(
                 }),
             )
         });
+    let mut forward = vec![Vec::new(); dense.len()];
+    let mut let_go = let_go;
+    if let (Some(figures), Some(opening)) = (let_go.as_mut(), mouth) {
+        // The depth corrections take an influence pair of the K, as the vertical ones do. Not
+        // for PBW: with their first form (docs/measurements.md, session 19) its local weights
+        // stretched an edge past the chin 2.06× and turned two triangles over in FaceCap's
+        // funnel.
+        if config.k >= corners::VERTICAL_MIN_K && config.method != Method::Pbw {
+            let (lip, jaw, corrected) = let_go::lower_lip_depth(
+                &dense,
+                &geometry,
+                &mesh.welded_positions,
+                &rest,
+                let_go::Mouth {
+                    opening,
+                    upper: &upper_lip,
+                },
+                let_go::Depth {
+                    vertical: &vertical,
+                    give_way: &mut give_way,
+                    forward: &mut forward,
+                },
+            );
+            figures.depth_markers = lip.iter().map(|&m| names[m].to_string()).collect();
+            figures.jaw_markers = jaw.iter().map(|&m| names[m].to_string()).collect();
+            figures.depth_vertices = corrected;
+        }
+    }
     let unreachable = geometry.pieces_of(&d.fallback);
     let pieces = interior::Piece::all(&unreachable, &mesh.positions, spacing);
     let jaw = mouth.map(|opening| {
@@ -716,6 +750,8 @@ pub(crate) fn dense_weights(
         dense,
         vertical,
         up: local.frame.axes()[1],
+        forward,
+        ahead: local.frame.axes()[2],
         give_way,
         warnings,
         marker_distances,
@@ -869,6 +905,8 @@ impl SurfaceBake {
             self.dense.iter().cloned(),
             &self.vertical,
             self.up,
+            &self.forward,
+            self.ahead,
             &self.give_way,
             self.followed_mean
                 .as_ref()

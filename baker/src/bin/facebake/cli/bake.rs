@@ -719,6 +719,15 @@ fn print_text(s: &BakeSummary) {
                     );
                 }
             }
+            if l.depth_vertices > 0 {
+                outln!(
+                    out,
+                    "  lower lip     the lower lip's markers ({}) hand their depth to the jaw's ({}) past the lip: {} vertices",
+                    l.depth_markers.join(", "),
+                    l.jaw_markers.join(", "),
+                    l.depth_vertices
+                );
+            }
         }
         if f.lip_curve_vertices > 0 {
             outln!(
