@@ -42,10 +42,10 @@
 //! chin (26 triangles turned over on FaceCap's truth).
 //!
 //! **The lower lip's depth.** Its drop spreads down the chin, its depth does not: along
-//! FaceCap's midline the truth's depth leaves the lip within about 20 mm of the rim (a share of
-//! the lip's 0.84 / 0.49 / 0.32 / 0.0 at 3 / 9.5 / 15.6 / 23.7 mm, over the funnel, `blend 22`,
-//! the jaw open and the pucker), its drop over about 35 mm, where the rig's lower-lip markers
-//! carried 0.98 / 0.85 / 0.72 / 0.53 of the weight on every axis. So past the corners' band a
+//! FaceCap's midline the truth's depth leaves the lip within about 20 mm of the rim (in the
+//! funnel a share of the lip's 0.84 / 0.49 / 0.32 / 0.0 at 3 / 9.5 / 15.6 / 23.7 mm below it;
+//! `blend 22`, the jaw open and the pucker alike), its drop over about 35 mm, where the rig's
+//! lower-lip markers carried 0.98 / 0.85 / 0.72 / 0.53 of the weight on every axis. So past the corners' band a
 //! share of the lower lip's weight moves to the jaw on the face's forward axis alone
 //! ([`lower_lip_depth`]): derived markers projecting the lip's middle marker and the jaw's on
 //! that axis, one pair for every vertex.
