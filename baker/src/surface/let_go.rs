@@ -45,10 +45,10 @@
 //! FaceCap's midline the truth's depth leaves the lip within about 20 mm of the rim (in the
 //! funnel a share of the lip's 0.84 / 0.49 / 0.32 / 0.0 at 3 / 9.5 / 15.6 / 23.7 mm below it;
 //! `blend 22`, the jaw open and the pucker alike), its drop over about 35 mm, where the rig's
-//! lower-lip markers carried 0.98 / 0.85 / 0.72 / 0.53 of the weight on every axis. So past the corners' band a
-//! share of the lower lip's weight moves to the jaw on the face's forward axis alone
-//! ([`lower_lip_depth`]): derived markers projecting the lip's middle marker and the jaw's on
-//! that axis, one pair for every vertex.
+//! lower-lip markers carried 0.98 / 0.85 / 0.72 / 0.53 of the weight on every axis. So past the
+//! corners' band a share of the lower lip's weight moves to the jaw on the face's forward axis
+//! alone ([`lower_lip_depth`]): derived markers projecting the lip's middle marker and the jaw's
+//! on that axis, one pair for every vertex.
 
 use crate::mesh::distance;
 use crate::surface::anchoring::smoothstep;
@@ -139,6 +139,29 @@ pub struct Mouth<'a> {
     pub upper: &'a [usize],
 }
 
+/// The markers of `rest` worn on `opening`'s rim: within [`LID_REACH`] of the rim's width of
+/// a rim vertex, and not at either of its `ends` (those are `surface::corners`').
+fn worn_on<'a>(
+    opening: &'a crate::openings::Opening,
+    welded_positions: &'a [[f64; 3]],
+    rest: &'a [[f64; 3]],
+    (ends, width): (&'a [[f64; 3]; 2], f64),
+) -> impl Iterator<Item = usize> + 'a {
+    let near_rim = move |p: &[f64; 3]| {
+        opening
+            .vertices
+            .iter()
+            .map(|&v| distance(&welded_positions[v as usize], p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    (0..rest.len())
+        .filter(move |&m| near_rim(&rest[m]) <= LID_REACH * width)
+        .filter(move |&m| {
+            ends.iter()
+                .all(|e| distance(e, &rest[m]) > CORNER_REACH * width)
+        })
+}
+
 /// Fade the lid markers' weights in `dense` (per glTF vertex, its weights on the markers at
 /// `rest`, named `names`) with the distance from their eye's rim, for every opening of
 /// `geometry` but the `mouth`, and the upper lip's markers' with the distance from the mouth's
@@ -159,19 +182,7 @@ pub fn reshape(
         let Some(RimEnds { ends, width }) = RimEnds::of(opening, welded_positions) else {
             continue;
         };
-        let near_rim = |p: &[f64; 3]| {
-            opening
-                .vertices
-                .iter()
-                .map(|&v| distance(&welded_positions[v as usize], p))
-                .fold(f64::INFINITY, f64::min)
-        };
-        let worn: Vec<usize> = (0..rest.len())
-            .filter(|&m| near_rim(&rest[m]) <= LID_REACH * width)
-            .filter(|&m| {
-                ends.iter()
-                    .all(|e| distance(e, &rest[m]) > CORNER_REACH * width)
-            })
+        let worn: Vec<usize> = worn_on(opening, welded_positions, rest, (&ends, width))
             .filter(|m| upper.is_none_or(|upper| upper.contains(m)))
             .collect();
         let (fade, markers, touched) = match upper {
@@ -282,24 +293,15 @@ pub fn lower_lip_depth(
     let Some(RimEnds { ends, width }) = RimEnds::of(opening, welded_positions) else {
         return (Vec::new(), Vec::new(), 0);
     };
-    let rim: Vec<[f64; 3]> = opening
-        .vertices
-        .iter()
-        .map(|&v| welded_positions[v as usize])
-        .collect();
-    let near_rim = |p: &[f64; 3]| {
-        rim.iter()
-            .map(|q| distance(q, p))
-            .fold(f64::INFINITY, f64::min)
+    let heights = || {
+        opening
+            .vertices
+            .iter()
+            .map(|&v| welded_positions[v as usize][1])
     };
-    let lowest = rim.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
-    let centre = rim.iter().map(|p| p[1]).sum::<f64>() / rim.len().max(1) as f64;
-    let lip: Vec<usize> = (0..rest.len())
-        .filter(|&m| near_rim(&rest[m]) <= LID_REACH * width)
-        .filter(|&m| {
-            ends.iter()
-                .all(|e| distance(e, &rest[m]) > CORNER_REACH * width)
-        })
+    let lowest = heights().fold(f64::INFINITY, f64::min);
+    let centre = heights().sum::<f64>() / opening.vertices.len().max(1) as f64;
+    let lip: Vec<usize> = worn_on(opening, welded_positions, rest, (&ends, width))
         .filter(|m| !mouth.upper.contains(m) && rest[*m][1] < centre)
         .collect();
     let jaw: Vec<usize> = (0..rest.len())
@@ -554,11 +556,11 @@ mod tests {
             let [(from, out), (to, into)] = f.as_slice() else {
                 continue;
             };
+            // Its pair takes two of its K: its weakest kept markers give way.
+            assert_eq!(give_way[v], 1.0, "vertex {v}");
             // From the lower lip's marker to the jaw's, summing to zero, at most the share of
             // the lip's weight that the fade frees.
             pairs.insert((*from, *to));
-            // Its pair takes two of its K: its weakest kept markers give way.
-            assert_eq!(give_way[v], 1.0, "vertex {v}");
             assert!(
                 (out + into).abs() < 1e-15 && *into > 0.0,
                 "vertex {v}: {f:?}"

@@ -599,8 +599,8 @@ pub(crate) fn dense_weights(
             }
             figures
         });
-    let let_go =
-        (config.surface.corners && config.deformer == crate::DeformerKind::Linear).then(|| {
+    let mut let_go = (config.surface.corners && config.deformer == crate::DeformerKind::Linear)
+        .then(|| {
             let_go::reshape(
                 &mut dense,
                 &geometry,
@@ -620,7 +620,6 @@ pub(crate) fn dense_weights(
             )
         });
     let mut forward = vec![Vec::new(); dense.len()];
-    let mut let_go = let_go;
     if let (Some(figures), Some(opening)) = (let_go.as_mut(), mouth) {
         // The depth corrections take an influence pair of the K, as the vertical ones do. Not
         // for PBW: with their first form (docs/measurements.md, session 19) its local weights
