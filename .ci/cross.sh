@@ -374,15 +374,24 @@ if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.
             fail "host $rig: instructions per frame depend on the markers: ${per_class[*]}"
         fi
     done
+    # Instructions per frame of `frame_cost weights <poses> <mode>` inside the function
+    # `<mode>_frame` (normals_frame, planned_frame).
+    frame_ir() {
+        local out="$WORK/cg.$1.$2"
+        valgrind --tool=callgrind --toggle-collect="*$2_frame*" \
+            --callgrind-out-file="$out" "$FC" weights "$1" "$2" >"$out.log" 2>&1
+        echo $(( $(awk '/^(summary|totals):/ {print $2; exit}' "$out") / 32 ))
+    }
     # Rig::normals: the same work for every pose inside ±2 rig units (truth and rest), more but
     # bounded (the edge clamps) when a position is beyond; never more than 1.5x the unclamped.
-    declare -A NORMALS_IR
+    # Rig::normals_planned: the same normals (tests/tests/normals.rs), each triangle's cross
+    # product once; the same work for truth and rest, the fans' beyond ±2 rig units.
+    declare -A NORMALS_IR PLANNED_IR
     for poses in truth rest extreme; do
-        out="$WORK/cgn.$poses"
-        valgrind --tool=callgrind --toggle-collect='*normals_frame*' \
-            --callgrind-out-file="$out" "$FC" weights "$poses" normals >"$out.log" 2>&1
-        total=$(awk '/^(summary|totals):/ {print $2; exit}' "$out")
-        NORMALS_IR[$poses]=$(( total / 32 ))
+        NORMALS_IR[$poses]=$(frame_ir "$poses" normals)
+    done
+    for poses in truth rest; do
+        PLANNED_IR[$poses]=$(frame_ir "$poses" planned)
     done
     if [ "${NORMALS_IR[truth]}" -gt 0 ] &&
         [ "${NORMALS_IR[truth]}" -eq "${NORMALS_IR[rest]}" ] &&
@@ -391,6 +400,13 @@ if cargo build -q --release -p facebake-runtime --example frame_cost >"$WORK/fc.
         figure "host ($HOST) normals: ${NORMALS_IR[truth]} Ir/frame ($(awk -v i="${NORMALS_IR[truth]}" -v d="${HOST_IR[weights.truth]:-0}" 'BEGIN {printf "%.2f", (d > 0 ? i / d : 0)}') x the weights rig's deform), ${NORMALS_IR[extreme]} with clamped edges"
     else
         fail "host normals: instructions per frame truth=${NORMALS_IR[truth]} rest=${NORMALS_IR[rest]} extreme=${NORMALS_IR[extreme]}"
+    fi
+    if [ "${PLANNED_IR[truth]}" -gt 0 ] && [ "${PLANNED_IR[truth]}" -eq "${PLANNED_IR[rest]}" ] &&
+        [ "${PLANNED_IR[truth]}" -lt "${NORMALS_IR[truth]}" ]; then
+        pass "host planned normals: ${PLANNED_IR[truth]} instructions per frame for truth and rest alike, fewer than the fans'"
+        figure "host ($HOST) planned normals: ${PLANNED_IR[truth]} Ir/frame ($(awk -v p="${PLANNED_IR[truth]}" -v f="${NORMALS_IR[truth]}" 'BEGIN {printf "%.2f", p / f}') x the fans')"
+    else
+        fail "host planned normals: instructions per frame truth=${PLANNED_IR[truth]} rest=${PLANNED_IR[rest]} (fans ${NORMALS_IR[truth]})"
     fi
 else
     cat "$WORK/fc.log"

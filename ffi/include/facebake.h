@@ -21,9 +21,10 @@
  * `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
  * functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`). Version 4:
  * splitting a frame over workers (`FbFrameTable`, `fb_prepare`, `fb_deform_chunk`,
- * `FB_ERROR_TABLE_MISMATCH`).
+ * `FB_ERROR_TABLE_MISMATCH`). Version 5: planned normals (`fb_normals_plan_len`,
+ * `fb_plan_normals`, `fb_normals_planned`, `FB_ERROR_PLAN_MISMATCH`).
  */
-#define FB_ABI_VERSION 4
+#define FB_ABI_VERSION 5
 
 /**
  * The most markers a rig can have.
@@ -155,6 +156,11 @@ enum FbError
    * filled, or filled by another rig).
    */
   FB_ERROR_TABLE_MISMATCH = 25,
+  /**
+   * `fb_normals_planned`: the plan names a vertex the rig does not have (it was not filled
+   * by `fb_plan_normals` on a rig of this mesh).
+   */
+  FB_ERROR_PLAN_MISMATCH = 26,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -699,6 +705,45 @@ FbError fb_normals(const struct FbRig *rig,
                    size_t vertex_count,
                    int16_t *out,
                    size_t out_capacity);
+
+/**
+ * Triangles in the rig's normals plan: `fb_plan_normals` fills `3 ×` this many `uint32_t`.
+ *
+ * # Safety
+ * `rig` must be null or point to an `FbRig` storage (0 when it holds no loaded rig).
+ */
+size_t fb_normals_plan_len(const struct FbRig *rig);
+
+/**
+ * List the rig's triangles for `fb_normals_planned` into `plan` (`plan_len` triangles of three
+ * `uint32_t`: exactly `fb_normals_plan_len`), once per rig; keep it for every frame.
+ *
+ * # Safety
+ * `plan` must be valid for writes of `plan_len` × 3 `uint32_t` (or be null).
+ */
+FbError fb_plan_normals(const struct FbRig *rig, uint32_t *plan, size_t plan_len);
+
+/**
+ * `fb_normals`, bit for bit, taking each triangle's cross product once instead of once per
+ * corner (about 0.6 × its instructions): `plan` as `fb_plan_normals` filled it (`plan_len`
+ * triangles; its vertices are checked), `sums` scratch of `sums_len` × 3 `int64_t`, one per
+ * vertex, overwritten. For a host that can spare 24 bytes a vertex and 12 a triangle. Nothing
+ * is written to `out` on error (`FB_ERROR_PLAN_MISMATCH` for a plan naming a vertex the rig
+ * does not have).
+ *
+ * # Safety
+ * As `fb_normals`; `plan` must be valid for reads of `plan_len` × 3 `uint32_t` and `sums`
+ * for writes of `sums_len` × 3 `int64_t` (or be null); none may overlap.
+ */
+FbError fb_normals_planned(const struct FbRig *rig,
+                           const uint32_t *plan,
+                           size_t plan_len,
+                           const int32_t *positions,
+                           size_t vertex_count,
+                           int64_t *sums,
+                           size_t sums_len,
+                           int16_t *out,
+                           size_t out_capacity);
 
 /**
  * Bytes of storage an `FbFrameTable` needs.

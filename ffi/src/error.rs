@@ -69,11 +69,14 @@ pub enum FbError {
     /// `fb_deform_chunk`: the `FbFrameTable` was not filled by `fb_prepare` on this rig (never
     /// filled, or filled by another rig).
     TableMismatch = 25,
+    /// `fb_normals_planned`: the plan names a vertex the rig does not have (it was not filled
+    /// by `fb_plan_normals` on a rig of this mesh).
+    PlanMismatch = 26,
 }
 
 impl FbError {
     /// Every code, in value order.
-    pub(crate) const ALL: [FbError; 26] = [
+    pub(crate) const ALL: [FbError; 27] = [
         Self::None,
         Self::NullPointer,
         Self::Misaligned,
@@ -100,6 +103,7 @@ impl FbError {
         Self::TakeNotLoaded,
         Self::EndOfTake,
         Self::TableMismatch,
+        Self::PlanMismatch,
     ];
 
     /// The static, NUL-terminated message of this code.
@@ -131,6 +135,7 @@ impl FbError {
             Self::TakeNotLoaded => c"the FbTake storage does not hold a loaded take",
             Self::EndOfTake => c"the take has no more frames",
             Self::TableMismatch => c"the frame table was not filled by fb_prepare on this rig",
+            Self::PlanMismatch => c"the normals plan names a vertex the rig does not have",
         }
     }
 }
@@ -169,9 +174,12 @@ impl From<FrameError> for FbError {
         match e {
             FrameError::MarkerCount { .. } => Self::MarkerCount,
             FrameError::NoStages => Self::NoStages,
-            FrameError::OutputLength { .. } => Self::BufferTooSmall,
+            FrameError::OutputLength { .. } | FrameError::ScratchLength { .. } => {
+                Self::BufferTooSmall
+            }
             FrameError::PositionCount { .. } | FrameError::VertexRange { .. } => Self::VertexCount,
             FrameError::TableMismatch => Self::TableMismatch,
+            FrameError::PlanMismatch => Self::PlanMismatch,
         }
     }
 }

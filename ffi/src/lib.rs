@@ -10,8 +10,9 @@
 //! The caller provides every byte: the rig blob (borrowed, never copied: it must outlive the
 //! rig), the storage of a loaded rig (`fb_rig_size`, `fb_rig_align`), the storage of each play
 //! state (`fb_play_state_size`, `fb_play_state_align`), of each packed take being read
-//! (`fb_take_size`, `fb_take_align`), and every output buffer (sized by
-//! `fb_rig_vertex_count` and `fb_rig_marker_count`). The library keeps no global state.
+//! (`fb_take_size`, `fb_take_align`), and every output buffer and scratch (sized by
+//! `fb_rig_vertex_count`, `fb_rig_marker_count` and `fb_normals_plan_len`). The library keeps
+//! no global state.
 //!
 //! # Checks
 //!
@@ -62,10 +63,10 @@ pub use play::{
 };
 pub use rig::{
     fb_cost, fb_deform, fb_deform_f32, fb_deform_range, fb_marker_index, fb_marker_name,
-    fb_marker_name_copy, fb_marker_rest, fb_marker_rest_f32, fb_normals, fb_rig_actor_space,
-    fb_rig_align, fb_rig_has_stages, fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space,
-    fb_rig_validate, fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost,
-    FbNormalsCost, FbRig, FbSpace,
+    fb_marker_name_copy, fb_marker_rest, fb_marker_rest_f32, fb_normals, fb_normals_plan_len,
+    fb_normals_planned, fb_plan_normals, fb_rig_actor_space, fb_rig_align, fb_rig_has_stages,
+    fb_rig_load, fb_rig_marker_count, fb_rig_size, fb_rig_space, fb_rig_validate,
+    fb_rig_vertex_count, fb_vertex_rest, fb_vertex_rest_f32, FbCost, FbNormalsCost, FbRig, FbSpace,
 };
 pub use table::{
     fb_deform_chunk, fb_frame_table_align, fb_frame_table_size, fb_prepare, FbFrameTable,
@@ -83,8 +84,9 @@ pub use take::{
 /// `FB_ERROR_VERTEX_COUNT` were added. Version 3: packed takes (`FbTake`, the `fb_take_`
 /// functions, `FB_ERROR_INVALID_TAKE`, `FB_ERROR_TAKE_NOT_LOADED`, `FB_ERROR_END_OF_TAKE`). Version 4:
 /// splitting a frame over workers (`FbFrameTable`, `fb_prepare`, `fb_deform_chunk`,
-/// `FB_ERROR_TABLE_MISMATCH`).
-pub const FB_ABI_VERSION: u32 = 4;
+/// `FB_ERROR_TABLE_MISMATCH`). Version 5: planned normals (`fb_normals_plan_len`,
+/// `fb_plan_normals`, `fb_normals_planned`, `FB_ERROR_PLAN_MISMATCH`).
+pub const FB_ABI_VERSION: u32 = 5;
 
 /// The most markers a rig can have.
 pub const FB_MAX_MARKERS: usize = 256;

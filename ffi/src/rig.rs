@@ -580,15 +580,100 @@ pub unsafe extern "C" fn fb_normals(
 ) -> FbError {
     guard(|| {
         // SAFETY: the caller's contract.
-        let rig = unsafe { loaded(rig)? };
-        let n = rig.vertex_count();
-        if vertex_count != n {
-            return Err(FbError::VertexCount);
-        }
+        let (rig, positions) = unsafe { normals_input(rig, positions, vertex_count)? };
         // SAFETY: the caller's contract.
-        let positions = unsafe { slice(positions.cast::<[i32; 3]>(), n)? };
+        let out = unsafe { positions_out(out, out_capacity, positions.len())? };
+        Ok(rig.normals(positions, out)?)
+    })
+}
+
+/// The loaded rig and its `vertex_count` positions, for the normals calls.
+///
+/// # Safety
+/// As `fb_normals` for `rig` and `positions`.
+unsafe fn normals_input<'a>(
+    rig: *const FbRig,
+    positions: *const i32,
+    vertex_count: usize,
+) -> Result<(&'a Rig<'static>, &'a [[i32; 3]]), FbError> {
+    // SAFETY: the caller's contract.
+    let rig = unsafe { loaded(rig)? };
+    if vertex_count != rig.vertex_count() {
+        return Err(FbError::VertexCount);
+    }
+    // SAFETY: the caller's contract; `[i32; 3]` has `i32`'s alignment.
+    let positions = unsafe { slice(positions.cast::<[i32; 3]>(), vertex_count)? };
+    Ok((rig, positions))
+}
+
+/// Triangles in the rig's normals plan: `fb_plan_normals` fills `3 ×` this many `uint32_t`.
+///
+/// # Safety
+/// `rig` must be null or point to an `FbRig` storage (0 when it holds no loaded rig).
+#[no_mangle]
+pub unsafe extern "C" fn fb_normals_plan_len(rig: *const FbRig) -> usize {
+    // SAFETY: the caller's contract.
+    unsafe { loaded(rig) }.map_or(0, |r| r.normals_plan_len())
+}
+
+/// List the rig's triangles for `fb_normals_planned` into `plan` (`plan_len` triangles of three
+/// `uint32_t`: exactly `fb_normals_plan_len`), once per rig; keep it for every frame.
+///
+/// # Safety
+/// `plan` must be valid for writes of `plan_len` × 3 `uint32_t` (or be null).
+#[no_mangle]
+pub unsafe extern "C" fn fb_plan_normals(
+    rig: *const FbRig,
+    plan: *mut u32,
+    plan_len: usize,
+) -> FbError {
+    guard(|| {
+        // SAFETY: the caller's contract.
+        let rig = unsafe { loaded(rig)? };
+        // SAFETY: the caller's contract; `[u32; 3]` has `u32`'s alignment.
+        let plan = unsafe { slice_mut(plan.cast::<[u32; 3]>(), plan_len)? };
+        rig.plan_normals(plan)?;
+        Ok(())
+    })
+}
+
+/// `fb_normals`, bit for bit, taking each triangle's cross product once instead of once per
+/// corner (about 0.6 × its instructions): `plan` as `fb_plan_normals` filled it (`plan_len`
+/// triangles; its vertices are checked), `sums` scratch of `sums_len` × 3 `int64_t`, one per
+/// vertex, overwritten. For a host that can spare 24 bytes a vertex and 12 a triangle. Nothing
+/// is written to `out` on error (`FB_ERROR_PLAN_MISMATCH` for a plan naming a vertex the rig
+/// does not have).
+///
+/// # Safety
+/// As `fb_normals`; `plan` must be valid for reads of `plan_len` × 3 `uint32_t` and `sums`
+/// for writes of `sums_len` × 3 `int64_t` (or be null); none may overlap.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)] // a C signature: each buffer with its length
+pub unsafe extern "C" fn fb_normals_planned(
+    rig: *const FbRig,
+    plan: *const u32,
+    plan_len: usize,
+    positions: *const i32,
+    vertex_count: usize,
+    sums: *mut i64,
+    sums_len: usize,
+    out: *mut i16,
+    out_capacity: usize,
+) -> FbError {
+    guard(|| {
+        // SAFETY: the caller's contract.
+        let (rig, positions) = unsafe { normals_input(rig, positions, vertex_count)? };
+        let n = positions.len();
+        if sums_len < n {
+            return Err(FbError::BufferTooSmall);
+        }
+        // SAFETY: the caller's contract; `[T; 3]` has `T`'s alignment.
+        let plan = unsafe { slice(plan.cast::<[u32; 3]>(), plan_len)? };
+        let plan = rig.normals_plan_from(plan)?;
+        // SAFETY: the caller's contract.
+        let sums = unsafe { slice_mut(sums.cast::<[i64; 3]>(), n)? };
         // SAFETY: the caller's contract.
         let out = unsafe { positions_out(out, out_capacity, n)? };
-        Ok(rig.normals(positions, out)?)
+        Ok(rig.normals_planned(positions, &plan, sums, out)?)
     })
 }

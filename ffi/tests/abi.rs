@@ -253,6 +253,61 @@ fn every_golden_normals_frame_hashes_as_hashes_normals_txt() {
         assert_eq!(status.0, status.1);
     }
     assert_eq!(normals, before);
+    // Planned: the same normals; a plan of the wrong length, naming a vertex the rig lacks, or
+    // too few sums is refused and nothing written.
+    let t = unsafe { fb_normals_plan_len(ffi) };
+    let mut plan = vec![0u32; 3 * t];
+    assert_eq!(
+        unsafe { fb_plan_normals(ffi, plan.as_mut_ptr(), t - 1) },
+        FbError::BufferTooSmall
+    );
+    assert_eq!(
+        unsafe { fb_plan_normals(ffi, plan.as_mut_ptr(), t) },
+        FbError::None
+    );
+    let mut sums = vec![0i64; 3 * n];
+    let mut planned = vec![0i16; 3 * n];
+    let positions = out.clone();
+    let call = |plan: &[u32], len: usize, sums: &mut [i64], sums_len: usize, out: &mut [i16]| unsafe {
+        fb_normals_planned(
+            ffi,
+            plan.as_ptr(),
+            len,
+            positions.as_ptr(),
+            n,
+            sums.as_mut_ptr(),
+            sums_len,
+            out.as_mut_ptr(),
+            n,
+        )
+    };
+    assert_eq!(call(&plan, t, &mut sums, n, &mut planned), FbError::None);
+    assert_eq!(planned, normals);
+    let mut bad = plan.clone();
+    bad[4] = n as u32;
+    let untouched = vec![7i16; 3 * n];
+    for (status, want) in [
+        (
+            call(&plan, t - 1, &mut sums, n, &mut planned),
+            FbError::BufferTooSmall,
+        ),
+        (
+            call(&bad, t, &mut sums, n, &mut planned),
+            FbError::PlanMismatch,
+        ),
+        (
+            call(&plan, t, &mut sums, n - 1, &mut planned),
+            FbError::BufferTooSmall,
+        ),
+    ] {
+        assert_eq!(status, want);
+    }
+    let mut fresh = untouched.clone();
+    assert_eq!(
+        call(&bad, t, &mut sums, n, &mut fresh),
+        FbError::PlanMismatch
+    );
+    assert_eq!(fresh, untouched);
     let mut cost = FbCost::default();
     assert_eq!(unsafe { fb_cost(ffi, &mut cost) }, FbError::None);
     assert_eq!(cost.normals.vertices, n as u64);
@@ -632,13 +687,13 @@ fn bad_blobs_and_storage_are_refused_and_leave_no_rig() {
 #[test]
 fn error_messages_are_static_distinct_and_total() {
     let message = |code: i32| unsafe { std::ffi::CStr::from_ptr(fb_error_message(code)) };
-    let known: Vec<_> = (0..=FbError::TableMismatch as i32).map(message).collect();
+    let known: Vec<_> = (0..=FbError::PlanMismatch as i32).map(message).collect();
     for (i, m) in known.iter().enumerate() {
         assert!(!m.to_bytes().is_empty());
         assert!(!known[..i].contains(m), "code {i} repeats a message");
     }
     assert_eq!(message(0).to_str().unwrap(), "no error");
-    for unknown in [-1, FbError::TableMismatch as i32 + 1, i32::MIN, i32::MAX] {
+    for unknown in [-1, FbError::PlanMismatch as i32 + 1, i32::MIN, i32::MAX] {
         assert_eq!(
             message(unknown).to_str().unwrap(),
             "unknown facebake error code"

@@ -1,5 +1,5 @@
-//! The rig loader and the per-frame calls: a blob that loads must deform and play any frame
-//! without panicking. The first bytes choose the markers, the rest is the blob.
+//! The rig loader and the per-frame calls: a blob that loads must deform, give normals and play
+//! any frame without panicking. The first bytes choose the markers, the rest is the blob.
 #![no_main]
 
 use facebake_runtime::{PlayState, Rig};
@@ -29,6 +29,15 @@ fuzz_target!(|data: &[u8]| {
         .collect();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
     let _ = rig.deform(&markers, &mut out);
+    // Normals of whatever came out, fanned and planned (a crafted blob's fans need not agree
+    // with each other, so only the absence of a panic is asked).
+    let mut normals = vec![[0i16; 3]; rig.vertex_count()];
+    let _ = rig.normals(&out, &mut normals);
+    let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+    if let Ok(plan) = rig.plan_normals(&mut triangles) {
+        let mut sums = vec![[0i64; 3]; rig.vertex_count()];
+        let _ = rig.normals_planned(&out, &plan, &mut sums, &mut normals);
+    }
     let actor: Vec<Option<[i32; 3]>> = markers
         .iter()
         .enumerate()

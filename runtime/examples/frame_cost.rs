@@ -2,9 +2,10 @@
 //! plays one golden rig through `FRAMES` frames of one pose class, each frame through
 //! [`deform_frame`], so callgrind counts exactly the instructions of the per-frame call. With
 //! `normals`, each frame's normals are computed too, through [`normals_frame`]
-//! (`--toggle-collect='*normals_frame*'` counts them alone).
+//! (`--toggle-collect='*normals_frame*'` counts them alone); with `planned`, through
+//! [`planned_frame`] (`Rig::normals_planned`, `--toggle-collect='*planned_frame*'`).
 //!
-//! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses> [normals]`
+//! `cargo run --release -p facebake-runtime --example frame_cost -- <rig> <poses> [normals|planned]`
 //!
 //! * `<rig>`: `coefficients`, `weights`, `coefficients_k4`, `product` or `planar` (the golden
 //!   rigs; `product` plays the layout's 41 markers);
@@ -16,7 +17,7 @@
 
 use std::hint::black_box;
 
-use facebake_runtime::Rig;
+use facebake_runtime::{NormalsPlan, Rig};
 
 /// Frames played per run, whatever the pose class.
 const FRAMES: usize = 32;
@@ -43,14 +44,37 @@ fn normals_frame(rig: &Rig<'_>, positions: &[[i32; 3]], out: &mut [[i16; 3]]) {
     black_box(out);
 }
 
+/// One frame's planned normals: the call callgrind measures with `planned`.
+#[inline(never)]
+fn planned_frame(
+    rig: &Rig<'_>,
+    positions: &[[i32; 3]],
+    plan: &NormalsPlan<'_>,
+    sums: &mut [[i64; 3]],
+    out: &mut [[i16; 3]],
+) {
+    rig.normals_planned(black_box(positions), plan, sums, out)
+        .expect("one normal and one sum per vertex");
+    black_box(out);
+}
+
+/// Which normals each frame computes besides its positions.
+#[derive(Clone, Copy, PartialEq)]
+enum Normals {
+    None,
+    Fans,
+    Planned,
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (rig_name, poses, normals) = match args.as_slice() {
-        [rig, poses] => (rig, poses, false),
-        [rig, poses, n] if n == "normals" => (rig, poses, true),
+        [rig, poses] => (rig, poses, Normals::None),
+        [rig, poses, n] if n == "normals" => (rig, poses, Normals::Fans),
+        [rig, poses, n] if n == "planned" => (rig, poses, Normals::Planned),
         _ => {
             eprintln!(
-                "usage: frame_cost <coefficients|weights|coefficients_k4|product|planar> <truth|rest|extreme> [normals]"
+                "usage: frame_cost <coefficients|weights|coefficients_k4|product|planar> <truth|rest|extreme> [normals|planned]"
             );
             std::process::exit(2);
         }
@@ -103,10 +127,17 @@ fn main() {
         .collect();
     let mut out = vec![[0i32; 3]; rig.vertex_count()];
     let mut unit = vec![[0i16; 3]; rig.vertex_count()];
+    let mut sums = vec![[0i64; 3]; rig.vertex_count()];
+    let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+    let plan = rig
+        .plan_normals(&mut triangles)
+        .expect("a plan of its length");
     for markers in &frames {
         deform_frame(&rig, markers, &mut out);
-        if normals {
-            normals_frame(&rig, &out, &mut unit);
+        match normals {
+            Normals::None => {}
+            Normals::Fans => normals_frame(&rig, &out, &mut unit),
+            Normals::Planned => planned_frame(&rig, &out, &plan, &mut sums, &mut unit),
         }
     }
     let cost = rig.cost();

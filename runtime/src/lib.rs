@@ -25,9 +25,9 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`], [`Rig::normals`] |
+//! | `rig` | [`Rig`]: loading, [`Rig::deform`], [`Rig::play`], [`Rig::normals`], [`Rig::normals_planned`] |
 //! | `deformer/` | one module per deformer (`linear`, `rbf`, `planar`), each owning its section, validation, cost and per-frame code; `mod.rs` dispatches |
-//! | `normals` | the normals section and the per-frame unit normals of the deformed mesh |
+//! | `normals` | the normals section, the per-frame unit normals of the deformed mesh, [`NormalsPlan`] |
 //! | `stages/` | the capture stages before the deformer: `compensate`, `fill`, `smoothing`, `retarget`, `report` |
 //! | `format/` | the blob: `header` and `RigData` (the docs of every section) |
 //! | `records`, `error` | every record size, named once; [`LoadError`] and the other load errors |
@@ -82,6 +82,7 @@ pub mod take;
 pub use cost::{Cost, NormalsCost};
 pub use deformer::{DegenerateTriangles, FrameTable};
 pub use error::{LoadError, Section, StagesLoadError, StagesSection};
+pub use normals::NormalsPlan;
 /// The most markers a rig can have (the loader rejects more): a bound for callers that keep
 /// per-marker buffers of a fixed size, such as the C ABI's marker sets.
 pub use records::MAX_MARKERS;

@@ -2,9 +2,10 @@
 //!
 //! For FaceCap baked the way `facebake bake` does with no options (geodesic, linear deformer,
 //! K = 8) and with the linear deformer on paper 000's inverse multiquadric (K = 8), fed the
-//! "jaw open" frame: a frame of [`Rig::deform`] alone and a frame of [`Rig::deform`] then
-//! [`Rig::normals`], timed in interleaved rounds of equal duration after a warm-up round; the
-//! ratio is the median of per-round ratios, so machine noise hits both sides alike.
+//! "jaw open" frame: a frame of [`Rig::deform`] alone, a frame of [`Rig::deform`] then
+//! [`Rig::normals`], and one of [`Rig::deform`] then [`Rig::normals_planned`], timed in
+//! interleaved rounds of equal duration after a warm-up round; each ratio is the median of
+//! per-round ratios, so machine noise hits every path alike.
 //!
 //! Run: `cargo bench -p facebake-tests --bench normals`.
 
@@ -31,13 +32,19 @@ fn time(f: &mut dyn FnMut()) -> f64 {
     start.elapsed().as_secs_f64() / f64::from(calls)
 }
 
-/// Median seconds per frame of positions alone and of positions + normals, and the median
-/// per-round ratio.
-fn measure(baked: &Baked, markers: &[[i32; 3]]) -> (f64, f64, f64) {
+/// Median seconds per frame of positions alone, of positions + normals and of positions +
+/// planned normals, and the median per-round ratios of the last two to the first.
+fn measure(baked: &Baked, markers: &[[i32; 3]]) -> [f64; 5] {
     let rig = Rig::from_bytes(&baked.blob).expect("the bake loads");
-    let mut out = vec![[0i32; 3]; rig.vertex_count()];
-    let mut normals = vec![[0i16; 3]; rig.vertex_count()];
-    let (mut positions_t, mut both_t, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let n = rig.vertex_count();
+    let mut out = vec![[0i32; 3]; n];
+    let mut normals = vec![[0i16; 3]; n];
+    let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+    let plan = rig
+        .plan_normals(&mut triangles)
+        .expect("a plan of its length");
+    let mut sums = vec![[0i64; 3]; n];
+    let mut rounds: [Vec<f64>; 5] = Default::default();
     for round in 0..=ROUNDS {
         let p = time(&mut || {
             rig.deform(black_box(markers), &mut out)
@@ -50,17 +57,20 @@ fn measure(baked: &Baked, markers: &[[i32; 3]]) -> (f64, f64, f64) {
             rig.normals(&out, &mut normals).expect("frame shape");
             black_box(&normals);
         });
+        let q = time(&mut || {
+            rig.deform(black_box(markers), &mut out)
+                .expect("frame shape");
+            rig.normals_planned(&out, &plan, &mut sums, &mut normals)
+                .expect("frame shape");
+            black_box(&normals);
+        });
         if round > 0 {
-            positions_t.push(p);
-            both_t.push(b);
-            ratios.push(b / p);
+            for (r, x) in rounds.iter_mut().zip([p, b, q, b / p, q / p]) {
+                r.push(x);
+            }
         }
     }
-    (
-        median(&mut positions_t),
-        median(&mut both_t),
-        median(&mut ratios),
-    )
+    rounds.map(|mut r| median(&mut r))
 }
 
 fn main() {
@@ -69,8 +79,8 @@ fn main() {
     let truth = facecap_truth();
     let frame = truth.markers_of(&truth.positions(jaw_open_frame(&truth)));
     println!(
-        "{:<34} {:>6} {:>2} {:>12} {:>14} {:>22}",
-        "rig", "verts", "K", "positions µs", "+ normals µs", "positions+normals / positions"
+        "{:<34} {:>6} {:>2} {:>12} {:>14} {:>14} {:>10} {:>10}",
+        "rig", "verts", "K", "positions µs", "+ normals µs", "+ planned µs", "normals", "planned"
     );
     for (name, options) in [
         (
@@ -90,17 +100,24 @@ fn main() {
             let mut normals = vec![[0i16; 3]; rig.vertex_count()];
             rig.deform(&markers, &mut out).expect("frame shape");
             rig.normals(&out, &mut normals).expect("frame shape");
+            let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+            let plan = rig.plan_normals(&mut triangles).expect("a plan");
+            let mut sums = vec![[0i64; 3]; rig.vertex_count()];
+            rig.normals_planned(&out, &plan, &mut sums, &mut normals)
+                .expect("frame shape");
             continue;
         }
-        let (p, b, ratio) = measure(&baked, &markers);
+        let [p, b, q, normals, planned] = measure(&baked, &markers);
         let cost = rig.cost();
         println!(
-            "{name:<34} {:>6} {:>2} {:>12.1} {:>14.1} {:>22.2}",
+            "{name:<34} {:>6} {:>2} {:>12.1} {:>14.1} {:>14.1} {:>9.2}× {:>9.2}×",
             cost.vertices,
             cost.max_influences,
             p * 1e6,
             b * 1e6,
-            ratio
+            q * 1e6,
+            normals,
+            planned
         );
     }
 }

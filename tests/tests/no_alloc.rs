@@ -1,6 +1,6 @@
 //! The runtime never allocates: loading a rig, asking its cost and marker names, and deforming
-//! many frames of both golden rigs (computing their normals, and again in chunks from one prepared
-//! `FrameTable`) make no heap allocation.
+//! many frames of both golden rigs (computing their normals, fanned and planned, and again in
+//! chunks from one prepared `FrameTable`) make no heap allocation.
 //!
 //! A counting global allocator wraps the system one and counts allocations made by this thread
 //! while a thread-local flag is set, so the test harness's other threads do not disturb it.
@@ -111,6 +111,8 @@ fn loading_and_deforming_never_allocate() {
     let mut out = vec![[0i32; 3]; 4096];
     let mut normals = vec![[0i16; 3]; 4096];
     let mut table = Box::new(facebake_runtime::FrameTable::new());
+    let mut sums = vec![[0i64; 3]; 4096];
+    let mut triangles = vec![[0u32; 3]; 16384];
     let mut played = 0usize;
     for (blob, marker_file) in BLOBS {
         let frames = marker_words(marker_file);
@@ -123,10 +125,15 @@ fn loading_and_deforming_never_allocate() {
             assert_eq!(rig.marker_index(last), Some(m - 1));
             let out = &mut out[..v];
             let normals = &mut normals[..v];
+            let sums = &mut sums[..v];
+            let plan = rig
+                .plan_normals(&mut triangles[..rig.normals_plan_len()])
+                .unwrap();
             // Every frame of the golden sequence, three times over, with its normals.
             for markers in frames.chunks_exact(m).cycle().take(3 * frames.len() / m) {
                 rig.deform_report(markers, out).unwrap();
                 rig.normals(out, normals).unwrap();
+                rig.normals_planned(out, &plan, sums, normals).unwrap();
                 // The same frame in two chunks from one prepared table.
                 rig.prepare(markers, &mut table).unwrap();
                 let (a, b) = out.split_at_mut(v / 2);

@@ -1,16 +1,17 @@
 //! `Rig::normals` against the f64 reference ([`facebake::normals::vertex_normals`]) on every
 //! frame of the bundled takes, computed from the runtime's own deformed positions: the angle
 //! between the two must stay within 0.5° at the 99th percentile of vertices, on every frame.
-//! Also: split vertices get identical normals, and the rest pose's normals are close to the
-//! glTF file's own `NORMAL` attribute (which tells the weld is right).
+//! Also: split vertices get identical normals, the rest pose's normals are close to the glTF
+//! file's own `NORMAL` attribute (which tells the weld is right), and `Rig::normals_planned`
+//! gives `Rig::normals`'s normals bit for bit on every frame.
 //!
 //! `cargo test --release -p facebake-tests --test normals -- --nocapture` prints the figures.
 
 use facebake::model::FaceMesh;
 use facebake::normals::{angle_degrees, vertex_normals};
 use facebake::BakeOptions;
-use facebake_runtime::{PlayState, Rig};
-use facebake_tests::{bake_truth, facecap_truth, jawmocap_rig};
+use facebake_runtime::{FrameError, PlayState, Rig};
+use facebake_tests::{bake_truth, facecap_truth, jawmocap_rig, weights_config};
 
 /// The accuracy bar: angle to the f64 normals at the 99th percentile, every frame, degrees.
 const P99_BAR_DEGREES: f64 = 0.5;
@@ -22,6 +23,7 @@ fn angles(rig: &Rig<'_>, mesh: &FaceMesh, positions: &[[i32; 3]], what: &str) ->
     let mut normals = vec![[0i16; 3]; rig.vertex_count()];
     rig.normals(positions, &mut normals)
         .expect("one per vertex");
+    assert_eq!(planned(rig, positions), normals, "{what}: planned normals");
     assert_seams_identical(mesh, &normals, what);
     let f64_positions: Vec<[f64; 3]> = positions.iter().map(|p| p.map(f64::from)).collect();
     let reference = vertex_normals(mesh, &f64_positions);
@@ -31,6 +33,19 @@ fn angles(rig: &Rig<'_>, mesh: &FaceMesh, positions: &[[i32; 3]], what: &str) ->
         .filter(|(_, r)| **r != [0.0; 3])
         .map(|(n, r)| angle_degrees(n.map(f64::from), *r))
         .collect()
+}
+
+/// `Rig::normals_planned`'s normals of `positions`, planned afresh.
+fn planned(rig: &Rig<'_>, positions: &[[i32; 3]]) -> Vec<[i16; 3]> {
+    let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+    let plan = rig
+        .plan_normals(&mut triangles)
+        .expect("a plan of its length");
+    let mut sums = vec![[0i64; 3]; rig.vertex_count()];
+    let mut normals = vec![[0i16; 3]; rig.vertex_count()];
+    rig.normals_planned(positions, &plan, &mut sums, &mut normals)
+        .expect("one sum and one normal per vertex");
+    normals
 }
 
 /// The `q`-quantile of `x` (which it sorts).
@@ -246,4 +261,68 @@ fn collapsed_triangles_fall_back_to_the_rest_normal_and_nothing_panics() {
     // Wrong lengths are errors, not panics.
     assert!(rig.normals(&vec![[0; 3]; n - 1], &mut normals).is_err());
     assert!(rig.normals(&vec![[0; 3]; n], &mut normals[1..]).is_err());
+}
+
+/// The planned path's own cases: every triangle once, the fans' normals for collapsed and
+/// saturated poses too (those take the fans), and a plan, sums or buffer of the wrong rig or
+/// length refused.
+#[test]
+fn planned_normals_take_each_triangle_once_and_refuse_another_rigs_plan() {
+    let truth = facecap_truth();
+    let baked = bake_truth(&truth, &BakeOptions::product_default());
+    let rig = Rig::from_bytes(&baked.blob).unwrap();
+    let n = rig.vertex_count();
+    // FaceCap's skin and interior: 5032 triangles, none of them collapsed by the weld.
+    assert_eq!(rig.normals_plan_len(), truth.mesh.triangles.len());
+    let mut fans = vec![[0i16; 3]; n];
+    for positions in [
+        vec![[7, -3, 1 << 20]; n],
+        vec![[i32::MAX; 3]; n],
+        (0..n)
+            .map(|v| [0, 1, 2].map(|c| if (v + c) % 2 == 0 { i32::MAX } else { i32::MIN }))
+            .collect(),
+    ] {
+        rig.normals(&positions, &mut fans).unwrap();
+        assert_eq!(planned(&rig, &positions), fans);
+    }
+    let rest: Vec<[i32; 3]> = (0..n).map(|v| rig.vertex_rest(v).unwrap()).collect();
+    let mut triangles = vec![[0u32; 3]; rig.normals_plan_len()];
+    let plan = rig.plan_normals(&mut triangles).unwrap();
+    let (mut sums, mut out) = (vec![[0i64; 3]; n], vec![[0i16; 3]; n]);
+    let too_short = FrameError::ScratchLength {
+        expected: n,
+        found: n - 1,
+    };
+    assert_eq!(
+        rig.normals_planned(&rest, &plan, &mut sums[1..], &mut out),
+        Err(too_short)
+    );
+    assert!(rig
+        .normals_planned(&rest[1..], &plan, &mut sums, &mut out)
+        .is_err());
+    let mut short = vec![[0u32; 3]; rig.normals_plan_len() - 1];
+    assert!(matches!(
+        rig.plan_normals(&mut short),
+        Err(FrameError::ScratchLength { .. })
+    ));
+    // Another rig of the same mesh refuses this one's plan, and takes a checked copy of it.
+    let other = bake_truth(&truth, &weights_config());
+    let other = Rig::from_bytes(&other.blob).unwrap();
+    assert_eq!(
+        other.normals_planned(&rest, &plan, &mut sums, &mut out),
+        Err(FrameError::PlanMismatch)
+    );
+    let copy = triangles.clone();
+    let checked = other.normals_plan_from(&copy).unwrap();
+    other
+        .normals_planned(&rest, &checked, &mut sums, &mut out)
+        .unwrap();
+    other.normals(&rest, &mut fans).unwrap();
+    assert_eq!(out, fans);
+    let mut bad = copy;
+    bad[17][1] = n as u32;
+    assert_eq!(
+        other.normals_plan_from(&bad).err(),
+        Some(FrameError::PlanMismatch)
+    );
 }

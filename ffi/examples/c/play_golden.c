@@ -12,8 +12,9 @@
  * character's markers, the vertices and (head residual, rebuilt count, held count), as
  * tests/tests/golden.rs does; then the packed take jawmocap.fbt through fb_take_next_frame and
  * fb_play, hashed as fixtures/golden/hashes_take.txt records it. After each frame, its normals through fb_normals, hashed as
- * fixtures/golden/hashes_normals.txt records them and printed behind the word "normals". Only
- * hash lines go to stdout; a summary of each rig goes to stderr.
+ * fixtures/golden/hashes_normals.txt records them and printed behind the word "normals"; the
+ * same frame through fb_normals_planned (the rig's plan made once, at load) must give the same
+ * bytes. Only hash lines go to stdout; a summary of each rig goes to stderr.
  *
  * Build: cc -std=c11 -I ffi/include play_golden.c target/release/libfacebake_ffi.a \
  *            -lpthread -ldl -lm
@@ -111,23 +112,36 @@ static void fnv_i16s(Fnv1a64 *h, const int16_t *values, size_t n) {
     }
 }
 
-/* The normals of the positions `out` through fb_normals: hashed into `sequence`, printed. */
-static void normals_frame(const FbRig *rig, const char *name, size_t f, const int32_t *out,
-                          size_t vertices, int16_t *normals, Fnv1a64 *sequence) {
-    check(fb_normals(rig, out, vertices, normals, vertices), "fb_normals");
-    Fnv1a64 h = fnv_new();
-    fnv_i16s(&h, normals, vertices * 3);
-    fnv_i16s(sequence, normals, vertices * 3);
-    printf("normals %s frame %zu %016" PRIx64 "\n", name, f, h.state);
-}
-
-/* A rig loaded into malloc'd storage, with the blob it borrows. */
+/* A rig loaded into malloc'd storage, with the blob it borrows, and its normals plan and
+ * scratch sums for fb_normals_planned. */
 typedef struct {
     uint8_t *blob;
     FbRig *rig;
     size_t vertices;
     size_t markers;
+    uint32_t *plan;
+    size_t plan_len;
+    int64_t *sums;
+    int16_t *planned;
 } Loaded;
+
+/* The normals of the positions `out` through fb_normals: hashed into `sequence`, printed; the
+ * planned normals of the same positions must be the same bytes. */
+static void normals_frame(const Loaded *l, const char *name, size_t f, const int32_t *out,
+                          int16_t *normals, Fnv1a64 *sequence) {
+    check(fb_normals(l->rig, out, l->vertices, normals, l->vertices), "fb_normals");
+    check(fb_normals_planned(l->rig, l->plan, l->plan_len, out, l->vertices, l->sums,
+                             l->vertices, l->planned, l->vertices),
+          "fb_normals_planned");
+    if (memcmp(normals, l->planned, l->vertices * 3 * sizeof *normals) != 0) {
+        fprintf(stderr, "play_golden: %s frame %zu: planned normals differ\n", name, f);
+        exit(1);
+    }
+    Fnv1a64 h = fnv_new();
+    fnv_i16s(&h, normals, l->vertices * 3);
+    fnv_i16s(sequence, normals, l->vertices * 3);
+    printf("normals %s frame %zu %016" PRIx64 "\n", name, f, h.state);
+}
 
 static Loaded load(const char *dir, const char *file) {
     Loaded l;
@@ -137,6 +151,11 @@ static Loaded load(const char *dir, const char *file) {
     check(fb_rig_load(l.blob, len, l.rig, fb_rig_size()), file);
     l.vertices = fb_rig_vertex_count(l.rig);
     l.markers = fb_rig_marker_count(l.rig);
+    l.plan_len = fb_normals_plan_len(l.rig);
+    l.plan = xmalloc(l.plan_len * 3 * sizeof *l.plan);
+    check(fb_plan_normals(l.rig, l.plan, l.plan_len), "fb_plan_normals");
+    l.sums = xmalloc(l.vertices * 3 * sizeof *l.sums);
+    l.planned = xmalloc(l.vertices * 3 * sizeof *l.planned);
 
     FbCost cost;
     check(fb_cost(l.rig, &cost), "fb_cost");
@@ -153,6 +172,9 @@ static Loaded load(const char *dir, const char *file) {
 static void unload(Loaded *l) {
     free(l->rig); /* the rig owns nothing: freeing its storage is all */
     free(l->blob);
+    free(l->plan);
+    free(l->sums);
+    free(l->planned);
 }
 
 /* Every frame of the marker file `frames` through fb_deform. */
@@ -186,7 +208,7 @@ static void deform_take(const char *dir, const char *name, const char *file, con
         fnv_i32s(&h, out, l.vertices * 3);
         fnv_i32s(&sequence, out, l.vertices * 3);
         printf("%s frame %zu %016" PRIx64 "\n", name, f, h.state);
-        normals_frame(l.rig, name, f, out, l.vertices, normals, &normals_sequence);
+        normals_frame(&l, name, f, out, normals, &normals_sequence);
     }
     printf("%s sequence %016" PRIx64 "\n", name, sequence.state);
     printf("normals %s sequence %016" PRIx64 "\n", name, normals_sequence.state);
@@ -236,7 +258,7 @@ static void play_take(const char *dir) {
             fnv_i32s(hs[k], tail, 3);
         }
         printf("capture frame %zu %016" PRIx64 "\n", f, h.state);
-        normals_frame(l.rig, "capture", f, out, l.vertices, normals, &normals_sequence);
+        normals_frame(&l, "capture", f, out, normals, &normals_sequence);
     }
     printf("capture sequence %016" PRIx64 "\n", sequence.state);
     printf("normals capture sequence %016" PRIx64 "\n", normals_sequence.state);
