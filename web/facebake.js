@@ -201,6 +201,12 @@ export class LoadedRig {
     this.character = arena.reserve(12 * m, 4); // play's character markers
     this.out = arena.reserve(12 * v, 4);
     this.normalsOut = arena.reserve(6 * v, 2);
+    // The normals plan (each triangle once) and a sum per vertex: fb_normals_planned gives
+    // fb_normals's normals bit for bit with a third of the cross products.
+    this.planLen = fb.fb_normals_plan_len(this.ptr);
+    this.plan = arena.reserve(12 * this.planLen, 4);
+    this.sums = arena.reserve(24 * v, 8);
+    this.runtime.check(fb.fb_plan_normals(this.ptr, this.plan, this.planLen), 'fb_plan_normals');
     this.report = arena.reserve(REPORT_BYTES, 4);
     if (this.hasStages) {
       this.state = arena.reserve(fb.fb_play_state_size(), fb.fb_play_state_align());
@@ -244,7 +250,13 @@ export class LoadedRig {
   /** The unit normals (Q1.14) of the positions in `outView()`, into `normalsView()`. */
   normals() {
     const rt = this.runtime;
-    rt.check(rt.fb.fb_normals(this.ptr, this.out, this.vertexCount, this.normalsOut, this.vertexCount), 'fb_normals');
+    rt.check(
+      rt.fb.fb_normals_planned(
+        this.ptr, this.plan, this.planLen, this.out, this.vertexCount,
+        this.sums, this.vertexCount, this.normalsOut, this.vertexCount,
+      ),
+      'fb_normals_planned',
+    );
   }
 
   markerView() {

@@ -260,7 +260,7 @@ async function main() {
       ui.stats.textContent =
         `rebuilt ${report.rebuiltCount}, held ${report.heldCount} · ` +
         `fb_play ${(cost.playMs / cost.frames).toFixed(3)} ms, ` +
-        `fb_normals ${(cost.normalsMs / cost.normalFrames).toFixed(3)} ms a frame`;
+        `fb_normals_planned ${(cost.normalsMs / cost.normalFrames).toFixed(3)} ms a frame`;
     }
     shown = f;
     ui.slider.value = String(f);

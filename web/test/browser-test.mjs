@@ -198,7 +198,7 @@ try {
     for (const t of golden.timing) {
       const call = t.rig === 'capture' || t.rig === 'take' ? 'fb_play' : 'fb_deform';
       const then = t.decodeMsPerFrame === undefined
-        ? `${t.normalsMsPerFrame.toFixed(3)} ms per fb_normals call`
+        ? `${t.normalsMsPerFrame.toFixed(3)} ms per fb_normals_planned call`
         : `${t.decodeMsPerFrame.toFixed(4)} ms per fb_take_next_frame call`;
       console.log(`browser: ${t.rig}: ${t.frames} frames, ${t.msPerFrame.toFixed(3)} ms per ${call} call, ${then}`);
     }
