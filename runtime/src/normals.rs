@@ -47,14 +47,14 @@
 //! **Planned** ([`crate::Rig::normals_planned`]): a caller that can spare a sum per vertex
 //! (24 bytes) and a triangle list (12 bytes a triangle) takes each triangle's cross product
 //! once instead of once per corner. [`crate::Rig::plan_normals`] lists every triangle once,
-//! from the fan of its lowest-numbered vertex (`v < a` and `v < b` for a consecutive pair `a`,
-//! `b`), as `(v, a, b)`; a frame zeroes the sums, adds each triangle's `(p[a] − p[v]) × (p[b] − p[v])`
-//! to its three vertices' sums and normalises them as above. A triangle's cross product is the
-//! same integer vector from each of its corners, and integer sums do not depend on their order,
-//! so in a rig `bake` writes (every triangle in the fan of each of its vertices) every vertex
-//! sums the very terms its fan does and the normals are bit for bit those of
-//! [`crate::Rig::normals`]. A third of the multiplies, but scattered writes: poses beyond ±2
-//! rig units, whose clamped edges differ by corner, take the fans.
+//! from the fan of its lowest-numbered vertex (`v < a` and `v < b` for a consecutive pair
+//! `a`, `b`), as `(v, a, b)`; a frame zeroes the sums, adds each triangle's
+//! `(p[a] − p[v]) × (p[b] − p[v])` to its three vertices' sums and normalises them as above.
+//! A triangle's cross product is the same integer vector from each of its corners, and integer
+//! sums do not depend on their order, so in a rig `bake` writes (every triangle in the fan of
+//! each of its vertices) every vertex sums the very terms its fan does and the normals are bit
+//! for bit those of [`crate::Rig::normals`]. A third of the multiplies, but scattered writes:
+//! poses beyond ±2 rig units, whose clamped edges differ by corner, take the fans.
 //!
 //! Cost per call ([`NormalsCost`]): per fan corner one edge subtraction and clamp per axis and
 //! (but for the first) one cross product (6 multiplies); per vertex with a fan one normalisation (a table look-up,

@@ -115,7 +115,8 @@ impl core::fmt::Display for FrameError {
                 "the frame table was not prepared by this rig (call Rig::prepare first)",
             ),
             Self::PlanMismatch => f.write_str(
-                "the normals plan was made by another rig (call Rig::plan_normals on this one)",
+                "the normals plan was made by another rig or names a vertex this one does not \
+                 have (call Rig::plan_normals on this one)",
             ),
             Self::ScratchLength { expected, found } => {
                 write!(f, "scratch has {found} entries, the rig needs {expected}")
