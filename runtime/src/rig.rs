@@ -26,6 +26,9 @@ pub struct Rig<'a> {
     /// write), found once at load: a chunk then finds its first influence by a multiplication
     /// instead of summing the counts before it, and no frame scans the counts again.
     uniform_influences: Option<u8>,
+    /// Triangles in the rig's [`NormalsPlan`], counted once at load so that checking a kept
+    /// plan ([`Rig::normals_plan_from`], every frame through the C ABI) does not walk the fans.
+    normals_plan_len: usize,
 }
 
 /// Why a frame could not be deformed. Nothing was written to the output when this is returned.
@@ -133,6 +136,7 @@ impl<'a> Rig<'a> {
         let data = format::decode(payload)?;
         Ok(Self {
             uniform_influences: data.deformer.uniform_influences(),
+            normals_plan_len: data.normals.plan_len(),
             data,
         })
     }
@@ -249,7 +253,7 @@ impl<'a> Rig<'a> {
     /// Triangles in this rig's [`NormalsPlan`]: the length of the buffer
     /// [`Self::plan_normals`] fills.
     pub fn normals_plan_len(&self) -> usize {
-        self.data.normals.plan_len()
+        self.normals_plan_len
     }
 
     /// List the mesh's triangles for [`Self::normals_planned`] into `triangles`
