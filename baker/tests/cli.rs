@@ -451,11 +451,19 @@ fn bake_inspect_verify_round_trip() {
         "{derived:?}"
     );
     assert_eq!(info["blob_bytes"], baked["report"]["sizes"]["total"]);
+    // FaceCap's 5032 triangles, each once in the normals plan: 12 bytes each and 24 a vertex.
+    assert_eq!(info["normals_plan_triangles"], 5032);
+    assert_eq!(
+        info["normals_planned_scratch_bytes"],
+        12 * 5032 + 24 * VERTICES
+    );
     let text = facebake(&["inspect", s(&rig)]);
     assert_eq!(text.status.code(), Some(0));
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
-        text.contains("Q8.24") && text.contains("multiply-adds"),
+        text.contains("Q8.24")
+            && text.contains("multiply-adds")
+            && text.contains("Rig::normals_planned"),
         "{text}"
     );
 

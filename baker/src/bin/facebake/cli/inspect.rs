@@ -154,6 +154,11 @@ pub struct InspectSummary {
     pub derived: Vec<String>,
     /// Per-frame cost.
     pub cost: CostSummary,
+    /// Triangles in the rig's normals plan (`Rig::normals_plan_len`), for `Rig::normals_planned`.
+    pub normals_plan_triangles: usize,
+    /// Caller scratch `Rig::normals_planned` needs, bytes: the plan (12 a triangle) and one sum
+    /// per vertex (24).
+    pub normals_planned_scratch_bytes: usize,
     /// The capture stages, if the rig has them.
     pub capture: Option<CaptureSummary>,
 }
@@ -276,6 +281,9 @@ pub fn summarise(path: PathBuf, bytes: &[u8], rig: &Rig<'_>) -> InspectSummary {
         other_bytes_per_vertex: (bytes.len() - sections.influences) as f64 / vertices.max(1) as f64,
         sections,
         cost: cost.into(),
+        normals_plan_triangles: rig.normals_plan_len(),
+        normals_planned_scratch_bytes: size_of::<[u32; 3]>() * rig.normals_plan_len()
+            + size_of::<[i64; 3]>() * vertices,
         capture: rig.stages().map(|st| {
             let c = st.cost();
             CaptureSummary {
@@ -465,8 +473,11 @@ fn print_text(s: &InspectSummary) {
     outln!(out, "  per frame     {}", s.cost.text);
     outln!(
         out,
-        "  normals       {} (Rig::normals, when called)",
-        s.cost.normals
+        "  normals       {} (Rig::normals, when called); Rig::normals_planned: the same normals \
+         over {} triangles, each taken once, with {} of caller scratch",
+        s.cost.normals,
+        s.normals_plan_triangles,
+        bytes_text(s.normals_planned_scratch_bytes)
     );
     if let Some(c) = &s.capture {
         outln!(
