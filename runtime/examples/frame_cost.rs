@@ -60,7 +60,7 @@ fn planned_frame(
 
 /// Which normals each frame computes besides its positions.
 #[derive(Clone, Copy, PartialEq)]
-enum Normals {
+enum NormalsCall {
     None,
     Fans,
     Planned,
@@ -69,9 +69,9 @@ enum Normals {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (rig_name, poses, normals) = match args.as_slice() {
-        [rig, poses] => (rig, poses, Normals::None),
-        [rig, poses, n] if n == "normals" => (rig, poses, Normals::Fans),
-        [rig, poses, n] if n == "planned" => (rig, poses, Normals::Planned),
+        [rig, poses] => (rig, poses, NormalsCall::None),
+        [rig, poses, n] if n == "normals" => (rig, poses, NormalsCall::Fans),
+        [rig, poses, n] if n == "planned" => (rig, poses, NormalsCall::Planned),
         _ => {
             eprintln!(
                 "usage: frame_cost <coefficients|weights|coefficients_k4|product|planar> <truth|rest|extreme> [normals|planned]"
@@ -135,9 +135,9 @@ fn main() {
     for markers in &frames {
         deform_frame(&rig, markers, &mut out);
         match normals {
-            Normals::None => {}
-            Normals::Fans => normals_frame(&rig, &out, &mut unit),
-            Normals::Planned => planned_frame(&rig, &out, &plan, &mut sums, &mut unit),
+            NormalsCall::None => {}
+            NormalsCall::Fans => normals_frame(&rig, &out, &mut unit),
+            NormalsCall::Planned => planned_frame(&rig, &out, &plan, &mut sums, &mut unit),
         }
     }
     let cost = rig.cost();

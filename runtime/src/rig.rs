@@ -71,8 +71,8 @@ pub enum FrameError {
     /// [`Rig::normals_planned`]: the [`NormalsPlan`] was made by another rig;
     /// [`Rig::normals_plan_from`]: the triangles name a vertex the rig does not have.
     PlanMismatch,
-    /// [`Rig::plan_normals`] or [`Rig::normals_planned`]: a scratch slice (the plan's triangles
-    /// or the sums) does not have the length the rig needs.
+    /// [`Rig::plan_normals`], [`Rig::normals_plan_from`] or [`Rig::normals_planned`]: a scratch
+    /// slice (the plan's triangles or the sums) does not have the length the rig needs.
     ScratchLength {
         /// Entries the rig needs ([`Rig::normals_plan_len`] triangles, or one sum per vertex).
         expected: usize,
