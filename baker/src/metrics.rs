@@ -18,8 +18,8 @@
 //! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
 //! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. Without one, the second
 //! stretch figure says the same of the asset's shapes: ICT-FaceKit's `jawOpen` stretches a
-//! 0.066 mm edge at each mouth corner 34×; JawMoCap placed on that head stretches it 5.06×, and
-//! no edge beyond 1.60× of the longest the head's own shapes make it. The bars count the first
+//! 0.066 mm edge at each mouth corner 34×; JawMoCap placed on that head stretches it 3.82×, and
+//! no edge beyond 1.42× of the longest the head's own shapes make it. The bars count the first
 //! figure. The skin is the largest
 //! connected piece; other pieces (FaceCap's mouth bag, teeth and tongue, hidden behind the
 //! lips) are not measured, nor is a mouth bag joined to the lips (`openings::closed_mouth`).

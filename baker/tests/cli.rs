@@ -1200,6 +1200,14 @@ fn surface_aware_bakes_report_their_method_and_masks() {
         text.contains("mask groups   mouth (found from the openings): upper Mouth_Up"),
         "{text}"
     );
+    // The mouth corners' share, judged on FaceCap's own 51 shapes, none of which tears it.
+    assert!(
+        text.contains("mouth corners 0.7 of the crack's profile, judged on the mesh's 51 shapes\n"),
+        "{text}"
+    );
+    assert_eq!(j["report"]["mouth_share"]["share"], 0.7);
+    assert_eq!(j["report"]["mouth_share"]["shapes"], 51);
+    assert_eq!(j["report"]["mouth_share"]["tried"], serde_json::json!([]));
 }
 
 #[test]

@@ -194,8 +194,9 @@ pub struct BakeReport {
     /// The capture stages, from the scene's capture or at rest ([`StagesReport::at_rest`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stages: Option<StagesReport>,
-    /// With a capture and the mouth's corners reshaped: the share of their crack profile kept
-    /// so that the capture does not tear the rig (`mouth_share`).
+    /// With the mouth's corners reshaped, on a mesh with morph targets or with a capture: the
+    /// share of their crack profile kept so that neither the mesh's own shapes nor the capture
+    /// tear the rig (`mouth_share`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mouth_share: Option<mouth_share::MouthShareChoice>,
     /// With a capture (linear deformer, surface path): the skin triangles the capture folded
@@ -399,44 +400,82 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         })
     };
     let (mut blob, mut sizes) = write(&d)?;
-    // With a capture, as much of the mouth's corner profile as the capture does not tear.
+    // As much of the mouth's corner profile as the mesh's own shapes and the capture do not
+    // tear (`mouth_share`).
     let mut mouth_share = None;
     let corners = d.surface.as_ref().and_then(|s| s.corners.as_ref());
     let at_mouth = corners.is_some_and(|c| c.balanced_vertices > 0);
-    if let (Some(capture), true) = (scene.capture, at_mouth && options.surface.mouth_share > 0.0) {
+    let judged = at_mouth && options.surface.mouth_share > 0.0;
+    let shapes = match judged {
+        true => mouth_share::Shapes::new(scene.mesh, &scene.markers, &space)?,
+        false => None,
+    };
+    if judged && (shapes.is_some() || scene.capture.is_some()) {
         let with_share = |share: f64| {
             let mut o = options.clone();
             o.surface.mouth_share = share;
             bake_deformer(scene, &o, &rest, &space, held.as_deref(), None)
         };
-        let linear = with_share(0.0)?;
-        let (linear_blob, linear_sizes) = write(&linear)?;
+        // The linear profile's rig, baked when a probe first needs it.
+        let mut linear: Option<(DeformerBake, Vec<u8>, BlobSizes)> = None;
         let mut shares = mouth_share::MOUTH_SHARES
             .iter()
             .copied()
             .filter(|&s| s < options.surface.mouth_share && s > 0.0);
-        let mut tried = Vec::new();
-        let mut share = options.surface.mouth_share;
-        let chosen = loop {
-            let (torn, frames) =
-                mouth_share::frames_torn(&blob, &linear_blob, scene.mesh, capture)?;
-            if torn as f64 <= mouth_share::TORN_SHARE * frames as f64 {
-                break Some((share, frames));
-            }
-            tried.push((share, torn));
-            let Some(next) = shares.next() else {
-                (d, blob, sizes) = (linear, linear_blob, linear_sizes);
-                break Some((0.0, frames));
-            };
-            share = next;
-            d = with_share(share)?;
-            (blob, sizes) = write(&d)?;
+        let mut choice = mouth_share::MouthShareChoice {
+            share: options.surface.mouth_share,
+            shapes: shapes.as_ref().map_or(0, mouth_share::Shapes::count),
+            frames: scene.capture.map_or(0, |c| c.frames.len()),
+            tried: Vec::new(),
         };
-        mouth_share = chosen.map(|(share, frames)| mouth_share::MouthShareChoice {
-            share,
-            frames,
-            tried,
-        });
+        loop {
+            // The shapes first (against the linear profile's rig once there is one), then the
+            // capture, only if they pass.
+            let torn = |blob: &[u8], linear: Option<&[u8]>| {
+                shapes.as_ref().map_or(Ok(0), |s| s.torn(blob, linear))
+            };
+            let mut shapes_torn = torn(&blob, linear.as_ref().map(|(_, b, _)| b.as_slice()))?;
+            if linear.is_none() && (shapes_torn > 0 || scene.capture.is_some()) {
+                let l = with_share(0.0)?;
+                let (b, s) = write(&l)?;
+                if shapes_torn > 0 {
+                    shapes_torn = torn(&blob, Some(&b))?;
+                }
+                linear = Some((l, b, s));
+            }
+            let frames_torn = match (scene.capture, &linear) {
+                (Some(capture), Some((_, l, _))) if shapes_torn == 0 => {
+                    Some(mouth_share::frames_torn(&blob, l, scene.mesh, capture)?.0)
+                }
+                _ => None,
+            };
+            let too_many_frames = frames_torn
+                .is_some_and(|t| t as f64 > mouth_share::TORN_SHARE * choice.frames as f64);
+            if shapes_torn == 0 && !too_many_frames {
+                break;
+            }
+            choice.tried.push(mouth_share::TriedShare {
+                share: choice.share,
+                shapes_torn,
+                frames_torn,
+            });
+            match shares.next() {
+                Some(next) => {
+                    choice.share = next;
+                    d = with_share(next)?;
+                    (blob, sizes) = write(&d)?;
+                }
+                None => {
+                    // Every share tore: the linear profile (baked, since a probe tore).
+                    if let Some((l, b, s)) = linear.take() {
+                        (d, blob, sizes) = (l, b, s);
+                        choice.share = 0.0;
+                    }
+                    break;
+                }
+            }
+        }
+        mouth_share = Some(choice);
     }
     // With a capture, the weights relax where it folds the skin.
     let mut relaxed = None;

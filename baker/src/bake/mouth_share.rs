@@ -1,42 +1,65 @@
-//! With a capture, how much of the crack's profile the mouth's corners take is chosen so that
-//! the capture does not tear the rig. The corners open as a crack does (`surface::corners`),
+//! How much of the crack's profile the mouth's corners take, chosen so that what the bake can
+//! play through the rig does not tear it. The corners open as a crack does (`surface::corners`),
 //! and at the mouth the bake takes [`MOUTH_SHARE`] of the square-root profile, which FaceCap's
 //! truth wants (its worst lip pair 7.1 mm, 12.5 without). ICT-FaceKit's mouth, rounded where
 //! its lips roll into the corner, is pinched by it into a crack's tip and tears (JawMoCap
 //! through `bake --capture`: 3.20×, 5 flips; with the linear profile 1.95×, none).
 //!
-//! A take without a truth can only be measured against something the bake trusts, and rest is
-//! not it: FaceCap's own expressions stretch some edges past twice their rest length (a bake
-//! that judged against rest lowered FaceCap's share and lost its lips, 7.1 → 12.3 mm). The
-//! linear profile (share 0) is: it is the plain rig, smooth at the corners. So the bake plays
-//! the take through the rig and through the share-0 rig side by side, and a frame is torn where
-//! the rig flips a skin triangle the share-0 rig keeps upright or stretches a skin edge past
-//! twice its length there (or at rest, if longer), edges of near-degenerate slivers aside
-//! ([`TEAR_EDGE_FLOOR`]). It keeps the first share of
-//! [`MOUTH_SHARES`] that tears at most [`TORN_SHARE`] of the frames, else the linear profile.
-//! Measured 2026-12-04 (`--test ict_facekit`, `--test other_faces`, `--test rehearsal`):
+//! Two probes judge a share, in this order, and the bake keeps the first share of
+//! [`MOUTH_SHARES`] (from the options' down) that both pass, else the linear profile:
 //!
-//! | take | frames torn at 0.7 / 0.5 / 0.35 | kept |
-//! |---|---|---|
-//! | JawMoCap on FaceCap and on its wider, narrower and heavier-jawed warps; FaceCap's truth as takes and rehearsals | at most a tenth at 0.7 | 0.7 (nothing changes) |
-//! | the narrower FaceCap's truth as a 33-frame take | 3 of 33 (9 %) | 0.7 |
-//! | JawMoCap placed on ICT-FaceKit | at most a tenth | 0.7 |
-//! | ICT-FaceKit's truth as a 30 Hz rehearsal | 109 of 842 (12.9 %) / 92 (10.9 %) / at most 84 | 0.35 |
+//! 1. **The mesh's own shapes** ([`Shapes`]), when it has morph targets: each target that
+//!    moves the skin, at full weight, its markers read off it and played through the rig. The
+//!    shape is a truth, so a share fails where the rig stretches a skin edge past twice its
+//!    length in the shape (or at rest, if longer: the stretch bar's own reading) and the
+//!    linear profile's rig keeps that edge within it, in any shape. Flips are not counted: a
+//!    shape at full weight need not be a face (FaceCap's `mouthClose` alone pushes the lips
+//!    through each other, and turns 4 skin triangles over with the linear profile, 6 with any
+//!    share from 0.5). Measured 2026-12-06 (session 22), the default bake with the JawMoCap
+//!    layout, against the 32-frame truth (`cargo test --release -p facebake-tests --test
+//!    ict_facekit --test structure -- --nocapture`):
 //!
-//! At 5 % the narrower FaceCap's short take dropped to 0.5 and lost 1.2 mm of lip for no less
-//! stretch. Judging ICT's sub-0.1 mm sliver edges too, its rehearsal tore every share (144 /
-//! 130 / 106 frames) and kept the linear profile, its lips 8.3 mm off
-//! (`docs/measurements.md`, "Other files"). Until 2026-12-04, with the eye corners' markers
-//! placed on the lids' lining, ICT kept 0.35 on its rehearsal and 0.5 on JawMoCap (2.63×, 2
-//! flips against 3.20×, 5 at 0.7).
+//!    | head | shapes that tear 0.7 / 0.5 / 0.35 | kept | truth: lips, stretch (edges > 2×), face mean |
+//!    |---|---|---|---|
+//!    | FaceCap | none | 0.7 | 7.1 mm, 1.89× (0), 0.507 mm, as before |
+//!    | ICT-FaceKit | `jawOpen` (2.33×) / none | **0.5** | 5.9 → 6.5 mm, **2.33× (2) → 1.97× (0)**, 0.6750 → 0.6753 mm |
+//!
+//! 2. **The capture**, with one: a take has no truth to measure against, and rest is not one:
+//!    FaceCap's own expressions stretch some edges past twice their rest length (a bake that
+//!    judged against rest lowered FaceCap's share and lost its lips, 7.1 → 12.3 mm). The
+//!    linear profile (share 0) is: it is the plain rig, smooth at the corners. So the bake plays
+//!    the take through the rig and through the share-0 rig side by side, and a frame is torn
+//!    where the rig flips a skin triangle the share-0 rig keeps upright or stretches a skin edge
+//!    past twice its length there (or at rest, if longer). A share passes when it tears at most
+//!    [`TORN_SHARE`] of the frames. Measured 2026-12-04, before the shapes probe (`--test
+//!    ict_facekit`, `--test other_faces`, `--test rehearsal`):
+//!
+//!    | take | frames torn at 0.7 / 0.5 / 0.35 | kept |
+//!    |---|---|---|
+//!    | JawMoCap on FaceCap and on its wider, narrower and heavier-jawed warps; FaceCap's truth as takes and rehearsals | at most a tenth at 0.7 | 0.7 (nothing changes) |
+//!    | the narrower FaceCap's truth as a 33-frame take | 3 of 33 (9 %) | 0.7 |
+//!    | JawMoCap placed on ICT-FaceKit | at most a tenth | 0.7 (0.5 since its shapes tear 0.7) |
+//!    | ICT-FaceKit's truth as a 30 Hz rehearsal | 109 of 842 (12.9 %) / 92 (10.9 %) / at most 84 | 0.35 |
+//!
+//!    At 5 % the narrower FaceCap's short take dropped to 0.5 and lost 1.2 mm of lip for no
+//!    less stretch. Until 2026-12-04, with the eye corners' markers placed on the lids' lining,
+//!    ICT kept 0.35 on its rehearsal and 0.5 on JawMoCap (2.63×, 2 flips against 3.20×, 5 at
+//!    0.7).
+//!
+//! Both probes leave out the edges of near-degenerate slivers ([`TEAR_EDGE_FLOOR`]). Judging
+//! ICT's sub-0.1 mm sliver edges too, its rehearsal tore every share (144 / 130 / 106 frames)
+//! and kept the linear profile, its lips 8.3 mm off (`docs/measurements.md`, "Other files").
 
 use serde::Serialize;
+
+use facebake_runtime::{Rig, Space};
 
 use super::BakeError;
 use crate::mesh::distance;
 use crate::metrics::Regions;
 use crate::model::{Capture, FaceMesh};
 pub use crate::surface::corners::{MOUTH_SHARE, MOUTH_SHARES};
+use crate::surface::SurfaceMarker;
 
 /// The share of a take's frames a mouth share may tear and be kept (see the module docs).
 pub const TORN_SHARE: f64 = 0.1;
@@ -57,10 +80,130 @@ pub const TEAR_EDGE_FLOOR: f64 = 0.025;
 pub struct MouthShareChoice {
     /// The share kept.
     pub share: f64,
-    /// The capture's frames.
+    /// The mesh's own shapes played ([`Shapes`]; 0 without morph targets).
+    pub shapes: usize,
+    /// The capture's frames played (0 without a capture).
     pub frames: usize,
-    /// Each share tried before it, in order, with the frames it tore.
-    pub tried: Vec<(f64, usize)>,
+    /// Each share tried before it, in order, with what tore it.
+    pub tried: Vec<TriedShare>,
+}
+
+/// A share the bake tried and did not keep.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TriedShare {
+    /// The share.
+    pub share: f64,
+    /// The mesh's own shapes it tore.
+    pub shapes_torn: usize,
+    /// The capture's frames it tore, when the capture was played (the shapes passed).
+    pub frames_torn: Option<usize>,
+}
+
+/// The mesh's own shapes as a probe with a truth (see the module docs): its morph targets that
+/// move the skin, each played at full weight, its markers read off it.
+pub struct Shapes<'a> {
+    mesh: &'a FaceMesh,
+    markers: &'a [SurfaceMarker],
+    space: &'a Space,
+    regions: Regions,
+    judged: Vec<[u32; 2]>,
+    targets: Vec<usize>,
+}
+
+impl<'a> Shapes<'a> {
+    /// The probe of `mesh`'s shapes with `markers` in the rig's `space`; `None` without morph
+    /// targets that move the skin.
+    pub fn new(
+        mesh: &'a FaceMesh,
+        markers: &'a [SurfaceMarker],
+        space: &'a Space,
+    ) -> Result<Option<Self>, BakeError> {
+        if mesh.morph_targets.is_empty() {
+            return Ok(None);
+        }
+        let regions = Regions::for_mesh(mesh, &[], &[])
+            .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
+        let mut skin = vec![false; mesh.positions.len()];
+        for &[a, b] in &regions.edges {
+            skin[a as usize] = true;
+            skin[b as usize] = true;
+        }
+        let targets: Vec<usize> = (0..mesh.morph_targets.len())
+            .filter(|&t| {
+                let deltas = &mesh.morph_targets[t].deltas;
+                deltas
+                    .iter()
+                    .zip(&skin)
+                    .any(|(d, &on)| on && d.iter().any(|x| *x != 0.0))
+            })
+            .collect();
+        if targets.is_empty() {
+            return Ok(None);
+        }
+        let judged = judged_edges(&regions);
+        Ok(Some(Self {
+            mesh,
+            markers,
+            space,
+            regions,
+            judged,
+            targets,
+        }))
+    }
+
+    /// How many shapes it plays.
+    pub fn count(&self) -> usize {
+        self.targets.len()
+    }
+
+    /// The shapes the rig in `blob` tears: a judged skin edge stretched past twice its length
+    /// in the shape (or at rest, if longer) that the rig in `linear`, when given, keeps within
+    /// it. One shape's vertices at a time.
+    pub fn torn(&self, blob: &[u8], linear: Option<&[u8]>) -> Result<usize, BakeError> {
+        let rig = load(blob)?;
+        let linear = linear.map(load).transpose()?;
+        let rest = self.regions.rest();
+        let play = |rig: &Rig<'_>, markers: &[[i32; 3]]| -> Result<Vec<[f64; 3]>, BakeError> {
+            let mut out = vec![[0; 3]; rig.vertex_count()];
+            rig.deform(markers, &mut out).map_err(|e| {
+                BakeError::Input(format!("the rig just baked does not play a shape: {e}"))
+            })?;
+            let space = rig.space();
+            Ok(out.iter().map(|&q| space.to_asset_f64(q)).collect())
+        };
+        let mut torn = 0;
+        for &t in &self.targets {
+            let truth = self.mesh.morphed(&[(t, 1.0)]);
+            let markers = self
+                .markers
+                .iter()
+                .map(|m| {
+                    let mut p = [0.0; 3];
+                    for (v, w) in m.source.corners(&self.mesh.triangles) {
+                        for (c, x) in p.iter_mut().zip(truth[v as usize]) {
+                            *c += w * x;
+                        }
+                    }
+                    self.space.to_rig_f64(p).map_err(|e| {
+                        let name = &self.mesh.morph_targets[t].name;
+                        BakeError::Input(format!(
+                            "{}: morph target {name:?} moves marker {:?} out of the rig's range: {e}",
+                            self.mesh.source.display(),
+                            m.name
+                        ))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let got = play(&rig, &markers)?;
+            let base = linear.as_ref().map(|l| play(l, &markers)).transpose()?;
+            let allowed = |e| 2.0 * length(&truth, e).max(length(rest, e));
+            torn += usize::from(self.judged.iter().any(|&e| {
+                length(&got, e) > allowed(e)
+                    && base.as_deref().is_none_or(|b| length(b, e) <= allowed(e))
+            }));
+        }
+        Ok(torn)
+    }
 }
 
 /// Frames of `capture` that the rig in `blob` tears where the rig in `linear` (the same bake
@@ -80,6 +223,12 @@ pub fn frames_torn(
         torn += usize::from(tears(&regions, &judged, &played[0], &played[1]));
     })?;
     Ok((torn, capture.frames.len()))
+}
+
+/// The rig in `blob`, just baked.
+fn load(blob: &[u8]) -> Result<Rig<'_>, BakeError> {
+    Rig::from_bytes(blob)
+        .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
 }
 
 /// The length of skin edge `[a, b]` in `p`.

@@ -926,15 +926,26 @@ fn print_text(s: &BakeSummary) {
         }
     }
     if let Some(m) = &r.mouth_share {
+        let mut judged = Vec::new();
+        if m.shapes > 0 {
+            judged.push(format!("the mesh's {} shapes", m.shapes));
+        }
+        if m.frames > 0 {
+            judged.push(format!("the capture's {} frames", m.frames));
+        }
         let tried: Vec<String> = m
             .tried
             .iter()
-            .map(|(share, torn)| format!("{share} tore {torn} of {} frames", m.frames))
+            .map(|t| match t.frames_torn {
+                Some(f) => format!("{} tore {f} of {} frames", t.share, m.frames),
+                None => format!("{} tore {} of {} shapes", t.share, t.shapes_torn, m.shapes),
+            })
             .collect();
         outln!(
             out,
-            "  mouth corners {} of the crack's profile{}",
+            "  mouth corners {} of the crack's profile, judged on {}{}",
             m.share,
+            judged.join(" and "),
             if tried.is_empty() {
                 String::new()
             } else {
