@@ -246,6 +246,15 @@ fn place_and_the_default_bake_play_its_expressions() {
         (0.7, 1, None),
         "{choice:?}"
     );
+    // The finished rig against the head's own shapes: none stretched past 2×, nothing the
+    // CLI would refuse had an expert's form made it.
+    let check = baked.report.shapes.as_ref().expect("a head with shapes");
+    assert_eq!(check.shapes, 22);
+    assert!(
+        check.torn.is_empty() && check.max_stretch.0 < 2.0,
+        "{check:?}"
+    );
+    assert!(!check.refuses(&BakeOptions::for_method(facebake::Method::Hybrid, true)));
     assert!(face.mean_mm <= 0.676 && face.max_mm <= 11.5, "{face:?}");
 }
 

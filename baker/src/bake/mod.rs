@@ -9,6 +9,7 @@
 mod at_rest;
 mod euclidean;
 pub mod mouth_share;
+pub mod own_shapes;
 mod playback;
 pub mod relax;
 
@@ -203,6 +204,9 @@ pub struct BakeReport {
     /// and how the weights were relaxed round them (`relax`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relaxed: Option<relax::RelaxChoice>,
+    /// On a mesh with morph targets: the rig measured against them (`own_shapes`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shapes: Option<own_shapes::ShapesCheck>,
 }
 
 /// A patch of skin whose dense weights are relaxed (`relax`): the skin's welded neighbours and
@@ -406,10 +410,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     let corners = d.surface.as_ref().and_then(|s| s.corners.as_ref());
     let at_mouth = corners.is_some_and(|c| c.balanced_vertices > 0);
     let judged = at_mouth && options.surface.mouth_share > 0.0;
-    let shapes = match judged {
-        true => mouth_share::Shapes::new(scene.mesh, &scene.markers, &space)?,
-        false => None,
-    };
+    let shapes = own_shapes::Shapes::new(scene.mesh, &scene.markers, &space);
     if judged && (shapes.is_some() || scene.capture.is_some()) {
         let with_share = |share: f64| {
             let mut o = options.clone();
@@ -424,7 +425,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             .filter(|&s| s < options.surface.mouth_share && s > 0.0);
         let mut choice = mouth_share::MouthShareChoice {
             share: options.surface.mouth_share,
-            shapes: shapes.as_ref().map_or(0, mouth_share::Shapes::count),
+            shapes: shapes.as_ref().map_or(0, own_shapes::Shapes::count),
             frames: scene.capture.map_or(0, |c| c.frames.len()),
             tried: Vec::new(),
         };
@@ -524,6 +525,8 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         }
         relaxed = Some(choice);
     }
+    // The finished rig against the mesh's own shapes.
+    let shapes = shapes.map(|s| s.check(&blob)).transpose()?;
     let dropped = &d.output.dropped;
     let mean_dropped_mass = dropped.iter().sum::<f64>() / dropped.len().max(1) as f64;
     let mut warnings: Vec<String> = scene.mesh.units_warning().into_iter().collect();
@@ -531,6 +534,17 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
     warnings.extend(d.warnings);
     warnings.extend(unmasked);
     warnings.extend(at_rest_warning);
+    if let Some(check) = &shapes {
+        if !check.torn.is_empty() {
+            warnings.push(check.tears());
+        }
+        if !check.left_out.is_empty() {
+            warnings.push(format!(
+                "morph targets left out of the rig's check against the mesh's own shapes (they move a marker out of the rig's range): {}",
+                check.left_out.join(", ")
+            ));
+        }
+    }
     if let Some(st) = &stages {
         for name in &st.report.unsampled_markers {
             warnings.push(format!(
@@ -586,6 +600,7 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
         stages: stages.as_ref().map(|s| s.report.clone()),
         mouth_share,
         relaxed,
+        shapes,
     };
     Ok(Baked {
         blob,

@@ -8,7 +8,7 @@
 //! Two probes judge a share, in this order, and the bake keeps the first share of
 //! [`MOUTH_SHARES`] (from the options' down) that both pass, else the linear profile:
 //!
-//! 1. **The mesh's own shapes** ([`Shapes`]), when it has morph targets: each target that
+//! 1. **The mesh's own shapes** ([`super::own_shapes::Shapes`]), when it has morph targets: each target that
 //!    moves the skin, at full weight, its markers read off it and played through the rig. The
 //!    shape is a truth, so a share fails where the rig stretches a skin edge past twice its
 //!    length in the shape (or at rest, if longer: the stretch bar's own reading) and the
@@ -52,14 +52,13 @@
 
 use serde::Serialize;
 
-use facebake_runtime::{Rig, Space};
+use facebake_runtime::Rig;
 
 use super::BakeError;
 use crate::mesh::distance;
 use crate::metrics::Regions;
 use crate::model::{Capture, FaceMesh};
 pub use crate::surface::corners::{MOUTH_SHARE, MOUTH_SHARES};
-use crate::surface::SurfaceMarker;
 
 /// The share of a take's frames a mouth share may tear and be kept (see the module docs).
 pub const TORN_SHARE: f64 = 0.1;
@@ -80,7 +79,7 @@ pub const TEAR_EDGE_FLOOR: f64 = 0.025;
 pub struct MouthShareChoice {
     /// The share kept.
     pub share: f64,
-    /// The mesh's own shapes played ([`Shapes`]; 0 without morph targets).
+    /// The mesh's own shapes played ([`super::own_shapes::Shapes`]; 0 without morph targets).
     pub shapes: usize,
     /// The capture's frames played (0 without a capture).
     pub frames: usize,
@@ -97,113 +96,6 @@ pub struct TriedShare {
     pub shapes_torn: usize,
     /// The capture's frames it tore, when the capture was played (the shapes passed).
     pub frames_torn: Option<usize>,
-}
-
-/// The mesh's own shapes as a probe with a truth (see the module docs): its morph targets that
-/// move the skin, each played at full weight, its markers read off it.
-pub struct Shapes<'a> {
-    mesh: &'a FaceMesh,
-    markers: &'a [SurfaceMarker],
-    space: &'a Space,
-    regions: Regions,
-    judged: Vec<[u32; 2]>,
-    targets: Vec<usize>,
-}
-
-impl<'a> Shapes<'a> {
-    /// The probe of `mesh`'s shapes with `markers` in the rig's `space`; `None` without morph
-    /// targets that move the skin.
-    pub fn new(
-        mesh: &'a FaceMesh,
-        markers: &'a [SurfaceMarker],
-        space: &'a Space,
-    ) -> Result<Option<Self>, BakeError> {
-        if mesh.morph_targets.is_empty() {
-            return Ok(None);
-        }
-        let regions = Regions::for_mesh(mesh, &[], &[])
-            .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
-        let mut skin = vec![false; mesh.positions.len()];
-        for &[a, b] in &regions.edges {
-            skin[a as usize] = true;
-            skin[b as usize] = true;
-        }
-        let targets: Vec<usize> = (0..mesh.morph_targets.len())
-            .filter(|&t| {
-                let deltas = &mesh.morph_targets[t].deltas;
-                deltas
-                    .iter()
-                    .zip(&skin)
-                    .any(|(d, &on)| on && d.iter().any(|x| *x != 0.0))
-            })
-            .collect();
-        if targets.is_empty() {
-            return Ok(None);
-        }
-        let judged = judged_edges(&regions);
-        Ok(Some(Self {
-            mesh,
-            markers,
-            space,
-            regions,
-            judged,
-            targets,
-        }))
-    }
-
-    /// How many shapes it plays.
-    pub fn count(&self) -> usize {
-        self.targets.len()
-    }
-
-    /// The shapes the rig in `blob` tears: a judged skin edge stretched past twice its length
-    /// in the shape (or at rest, if longer) that the rig in `linear`, when given, keeps within
-    /// it. One shape's vertices at a time.
-    pub fn torn(&self, blob: &[u8], linear: Option<&[u8]>) -> Result<usize, BakeError> {
-        let rig = load(blob)?;
-        let linear = linear.map(load).transpose()?;
-        let rest = self.regions.rest();
-        let play = |rig: &Rig<'_>, markers: &[[i32; 3]]| -> Result<Vec<[f64; 3]>, BakeError> {
-            let mut out = vec![[0; 3]; rig.vertex_count()];
-            rig.deform(markers, &mut out).map_err(|e| {
-                BakeError::Input(format!("the rig just baked does not play a shape: {e}"))
-            })?;
-            let space = rig.space();
-            Ok(out.iter().map(|&q| space.to_asset_f64(q)).collect())
-        };
-        let mut torn = 0;
-        for &t in &self.targets {
-            let truth = self.mesh.morphed(&[(t, 1.0)]);
-            let markers = self
-                .markers
-                .iter()
-                .map(|m| {
-                    let mut p = [0.0; 3];
-                    for (v, w) in m.source.corners(&self.mesh.triangles) {
-                        for (c, x) in p.iter_mut().zip(truth[v as usize]) {
-                            *c += w * x;
-                        }
-                    }
-                    self.space.to_rig_f64(p).map_err(|e| {
-                        let name = &self.mesh.morph_targets[t].name;
-                        BakeError::Input(format!(
-                            "{}: morph target {name:?} moves marker {:?} out of the rig's range: {e}",
-                            self.mesh.source.display(),
-                            m.name
-                        ))
-                    })
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            let got = play(&rig, &markers)?;
-            let base = linear.as_ref().map(|l| play(l, &markers)).transpose()?;
-            let allowed = |e| 2.0 * length(&truth, e).max(length(rest, e));
-            torn += usize::from(self.judged.iter().any(|&e| {
-                length(&got, e) > allowed(e)
-                    && base.as_deref().is_none_or(|b| length(b, e) <= allowed(e))
-            }));
-        }
-        Ok(torn)
-    }
 }
 
 /// Frames of `capture` that the rig in `blob` tears where the rig in `linear` (the same bake
@@ -226,19 +118,19 @@ pub fn frames_torn(
 }
 
 /// The rig in `blob`, just baked.
-fn load(blob: &[u8]) -> Result<Rig<'_>, BakeError> {
+pub(super) fn load(blob: &[u8]) -> Result<Rig<'_>, BakeError> {
     Rig::from_bytes(blob)
         .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
 }
 
 /// The length of skin edge `[a, b]` in `p`.
-fn length(p: &[[f64; 3]], [a, b]: [u32; 2]) -> f64 {
+pub(super) fn length(p: &[[f64; 3]], [a, b]: [u32; 2]) -> f64 {
     distance(&p[a as usize], &p[b as usize])
 }
 
 /// The skin edges judged for tears: all but those shorter at rest than [`TEAR_EDGE_FLOOR`] of
 /// the median.
-fn judged_edges(regions: &Regions) -> Vec<[u32; 2]> {
+pub(super) fn judged_edges(regions: &Regions) -> Vec<[u32; 2]> {
     let rest = regions.rest();
     let mut lengths: Vec<f64> = regions.edges.iter().map(|&e| length(rest, e)).collect();
     if lengths.is_empty() {

@@ -82,6 +82,12 @@ pub struct BakeArgs {
     /// neighbours, up to three rings out) if that folds fewer. Linear deformer.
     #[arg(long)]
     pub no_relax: bool,
+    /// Write the rig even where it tears the mesh's own shapes. On a mesh with morph targets the
+    /// bake plays each target through the rig it made; a `--method` or `--deformer` other than
+    /// the default's that stretches a skin edge past twice its length in a target is refused
+    /// (the default warns instead).
+    #[arg(long)]
+    pub allow_tears: bool,
     /// Across a lip or lid, between the opening's rim and a marker worn on it, count this
     /// fraction of a distance, so that the rim moves with the marker in front of it rather than
     /// with the next one along (default 0.2; 1 measures distances as they are). Linear and RBF
@@ -516,6 +522,17 @@ pub fn run(args: &BakeArgs) -> Result<ExitCode, CliError> {
     };
     scene.capture = capture.as_ref();
     let baked = facebake::bake(&scene, &options).map_err(|e| bake_error(args, e))?;
+    if let Some(check) = &baked.report.shapes {
+        if check.refuses(&options) && !args.allow_tears {
+            return Err(CliError::input(
+                &args.mesh,
+                format!(
+                    "{}, where the mesh itself does not: `bake` without --method and --deformer bakes the default's form, --allow-tears writes this rig anyway",
+                    check.tears()
+                ),
+            ));
+        }
+    }
     write_file(&args.output, &baked.blob)?;
     let mut report = baked.report;
     report.warnings.extend(unmasked);
@@ -951,6 +968,22 @@ fn print_text(s: &BakeSummary) {
             } else {
                 format!(" (against the linear profile, {})", tried.join(", "))
             }
+        );
+    }
+    if let Some(c) = &r.shapes {
+        outln!(
+            out,
+            "  own shapes    {} morph targets played through the rig: stretch at most {:.2}× ({}), {}; at most {} skin triangle(s) turned over ({})",
+            c.shapes,
+            c.max_stretch.0,
+            c.max_stretch.1,
+            if c.torn.is_empty() {
+                "no edge past 2×".to_string()
+            } else {
+                format!("{} past 2×", c.torn.len())
+            },
+            c.max_flipped.0,
+            if c.max_flipped.0 > 0 { c.max_flipped.1.as_str() } else { "none" }
         );
     }
     if let Some(r) = &r.relaxed {
