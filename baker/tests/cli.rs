@@ -1233,6 +1233,14 @@ fn surface_aware_bakes_report_their_method_and_masks() {
     assert_eq!(j["report"]["mouth_share"]["share"], 0.7);
     assert_eq!(j["report"]["mouth_share"]["shapes"], 51);
     assert_eq!(j["report"]["mouth_share"]["tried"], serde_json::json!([]));
+    // The finished rig against those shapes: the most any stretches an edge, where, no tear.
+    assert!(
+        text.contains(
+            "own shapes    51 morph targets played through the rig: stretch at most 1.81× \
+             (mouthSmile_R), no edge past 2×;"
+        ),
+        "{text}"
+    );
 }
 
 #[test]

@@ -429,12 +429,12 @@ pub fn bake(scene: &Scene<'_>, options: &BakeOptions) -> Result<Baked, BakeError
             frames: scene.capture.map_or(0, |c| c.frames.len()),
             tried: Vec::new(),
         };
+        let torn = |blob: &[u8], linear: Option<&[u8]>| {
+            shapes.as_ref().map_or(Ok(0), |s| s.torn(blob, linear))
+        };
         loop {
             // The shapes first (against the linear profile's rig once there is one), then the
             // capture, only if they pass.
-            let torn = |blob: &[u8], linear: Option<&[u8]>| {
-                shapes.as_ref().map_or(Ok(0), |s| s.torn(blob, linear))
-            };
             let mut shapes_torn = torn(&blob, linear.as_ref().map(|(_, b, _)| b.as_slice()))?;
             if linear.is_none() && (shapes_torn > 0 || scene.capture.is_some()) {
                 let l = with_share(0.0)?;

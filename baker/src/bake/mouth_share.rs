@@ -8,16 +8,16 @@
 //! Two probes judge a share, in this order, and the bake keeps the first share of
 //! [`MOUTH_SHARES`] (from the options' down) that both pass, else the linear profile:
 //!
-//! 1. **The mesh's own shapes** ([`super::own_shapes::Shapes`]), when it has morph targets: each target that
-//!    moves the skin, at full weight, its markers read off it and played through the rig. The
-//!    shape is a truth, so a share fails where the rig stretches a skin edge past twice its
-//!    length in the shape (or at rest, if longer: the stretch bar's own reading) and the
-//!    linear profile's rig keeps that edge within it, in any shape. Flips are not counted: a
-//!    shape at full weight need not be a face (FaceCap's `mouthClose` alone pushes the lips
-//!    through each other, and turns 4 skin triangles over with the linear profile, 6 with any
-//!    share from 0.5). Measured 2026-12-06 (session 22), the default bake with the JawMoCap
-//!    layout, against the 32-frame truth (`cargo test --release -p facebake-tests --test
-//!    ict_facekit --test structure -- --nocapture`):
+//! 1. **The mesh's own shapes** ([`super::own_shapes::Shapes`]), when it has morph targets:
+//!    each target that moves the skin, at full weight, its markers read off it and played
+//!    through the rig. The shape is a truth, so a share fails where the rig stretches a skin
+//!    edge past twice its length in the shape (or at rest, if longer: the stretch bar's own
+//!    reading) and the linear profile's rig keeps that edge within it, in any shape. Flips are
+//!    not counted: a shape at full weight need not be a face (FaceCap's `mouthClose` alone
+//!    pushes the lips through each other, and turns 4 skin triangles over with the linear
+//!    profile, 6 with any share from 0.5). Measured 2026-12-06 (session 22), the default bake
+//!    with the JawMoCap layout, against the 32-frame truth (`cargo test --release -p
+//!    facebake-tests --test ict_facekit --test structure -- --nocapture`):
 //!
 //!    | head | shapes that tear 0.7 / 0.5 / 0.35 | kept | truth: lips, stretch (edges > 2×), face mean |
 //!    |---|---|---|---|
@@ -51,8 +51,6 @@
 //! and kept the linear profile, its lips 8.3 mm off (`docs/measurements.md`, "Other files").
 
 use serde::Serialize;
-
-use facebake_runtime::Rig;
 
 use super::BakeError;
 use crate::mesh::distance;
@@ -115,12 +113,6 @@ pub fn frames_torn(
         torn += usize::from(tears(&regions, &judged, &played[0], &played[1]));
     })?;
     Ok((torn, capture.frames.len()))
-}
-
-/// The rig in `blob`, just baked.
-pub(super) fn load(blob: &[u8]) -> Result<Rig<'_>, BakeError> {
-    Rig::from_bytes(blob)
-        .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
 }
 
 /// The length of skin edge `[a, b]` in `p`.

@@ -31,7 +31,7 @@
 use facebake_runtime::{Rig, Space};
 use serde::Serialize;
 
-use super::mouth_share::{judged_edges, length, load};
+use super::mouth_share::{judged_edges, length};
 use super::BakeError;
 use crate::deformer::DeformerKind;
 use crate::metrics::{Regions, STRETCH_LIMIT};
@@ -93,6 +93,12 @@ impl ShapesCheck {
             each.join(", ")
         )
     }
+}
+
+/// The rig in `blob`, just baked.
+fn load(blob: &[u8]) -> Result<Rig<'_>, BakeError> {
+    Rig::from_bytes(blob)
+        .map_err(|e| BakeError::Input(format!("the rig just baked does not load: {e}")))
 }
 
 impl<'a> Shapes<'a> {

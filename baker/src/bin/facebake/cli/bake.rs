@@ -971,19 +971,23 @@ fn print_text(s: &BakeSummary) {
         );
     }
     if let Some(c) = &r.shapes {
+        let torn = match c.torn.len() {
+            0 => "no edge past 2×".to_string(),
+            n => format!("an edge past 2× in {n} of them"),
+        };
+        let flipped = match c.max_flipped.0 {
+            0 => "no skin triangle turned over".to_string(),
+            n => format!(
+                "at most {n} skin triangle(s) turned over ({})",
+                c.max_flipped.1
+            ),
+        };
         outln!(
             out,
-            "  own shapes    {} morph targets played through the rig: stretch at most {:.2}× ({}), {}; at most {} skin triangle(s) turned over ({})",
+            "  own shapes    {} morph targets played through the rig: stretch at most {:.2}× ({}), {torn}; {flipped}",
             c.shapes,
             c.max_stretch.0,
             c.max_stretch.1,
-            if c.torn.is_empty() {
-                "no edge past 2×".to_string()
-            } else {
-                format!("{} past 2×", c.torn.len())
-            },
-            c.max_flipped.0,
-            if c.max_flipped.0 > 0 { c.max_flipped.1.as_str() } else { "none" }
         );
     }
     if let Some(r) = &r.relaxed {
