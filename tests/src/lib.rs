@@ -1,5 +1,6 @@
 //! Shared helpers for the cross-crate tests: fixture paths and the FaceCap ground-truth rig.
 
+pub mod ict;
 pub mod rehearsal;
 
 use std::path::PathBuf;

@@ -4,6 +4,7 @@
 //! the truth on the frames in between as well as on the held expressions, so that the marker
 //! smoothing's lag is charged as well as the jitter it removes.
 
+use facebake::ground_truth::Frame;
 use facebake::metrics::{FrameMetrics, Regions, TakeMetrics};
 use facebake::model::{Capture, Units};
 use facebake::surface::evaluate::Benchmark;
@@ -203,6 +204,67 @@ impl Rehearsal {
             visit(&played, &truth, skin);
         }
     }
+}
+
+/// Blends of targets both faces have, in [`share_expressions`]: as many as the truth's own.
+pub const SHARED_BLENDS: usize = 24;
+
+/// Targets mixed in each of those blends, as in the truth's own.
+pub const TARGETS_PER_SHARED_BLEND: usize = 4;
+
+/// Make two faces' truths tell the same story, frame by frame, so that one face's take can
+/// drive the other and be scored against the other's own shapes: the named expressions both
+/// truths hold (each face's as its own truth built it, a side-split target standing for the
+/// whole), then [`SHARED_BLENDS`] seeded blends of targets whose names both meshes have. Returns
+/// the number of frames.
+pub fn share_expressions(actor: &mut Benchmark, character: &mut Benchmark) -> usize {
+    let named = |f: &Frame| !f.name.starts_with("blend");
+    let (mut ours, mut theirs): (Vec<Frame>, Vec<Frame>) = actor
+        .truth
+        .frames
+        .iter()
+        .filter(|f| named(f))
+        .filter_map(|f| {
+            let other = character.truth.frames.iter().find(|g| g.name == f.name)?;
+            Some((f.clone(), other.clone()))
+        })
+        .unzip();
+    let (from, to) = (&actor.truth.mesh, &character.truth.mesh);
+    let shared: Vec<(usize, usize)> = (0..from.morph_targets.len())
+        .filter(|&i| {
+            from.morph_targets[i]
+                .deltas
+                .iter()
+                .flatten()
+                .any(|&x| x != 0.0)
+        })
+        .filter_map(|i| Some((i, to.morph_index(&from.morph_targets[i].name)?)))
+        .collect();
+    let mut rng = facebake::ground_truth::SplitMix64(0x5EA7_ED00);
+    for b in 0..SHARED_BLENDS {
+        let mut picked: Vec<((usize, usize), f64)> = Vec::new();
+        while picked.len() < TARGETS_PER_SHARED_BLEND.min(shared.len()) {
+            let pair = shared[(rng.next_u64() % shared.len() as u64) as usize];
+            if picked.iter().all(|p| p.0 != pair) {
+                picked.push((pair, 0.2 + 0.8 * rng.unit()));
+            }
+        }
+        let name = format!("blend {b}");
+        let weights = |side: fn(&(usize, usize)) -> usize| {
+            picked.iter().map(|(pair, w)| (side(pair), *w)).collect()
+        };
+        ours.push(Frame {
+            name: name.clone(),
+            weights: weights(|p| p.0),
+        });
+        theirs.push(Frame {
+            name,
+            weights: weights(|p| p.1),
+        });
+    }
+    actor.truth.frames = ours;
+    character.truth.frames = theirs;
+    character.truth.frames.len()
 }
 
 /// Lose each marker of `capture` in runs of 12 to 120 frames, a run starting at each frame

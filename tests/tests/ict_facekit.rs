@@ -17,45 +17,9 @@ use facebake::model::FaceMesh;
 use facebake::openings::{find_openings, mouth_and_eyes, seen_topology, skin_openings};
 use facebake::surface::evaluate::Benchmark;
 use facebake::BakeOptions;
+use facebake_tests::ict::{head, placed_on_seen_skin, placed_scene};
 use facebake_tests::rehearsal::{Pace, Rehearsal};
 use facebake_tests::{against_truth, bake_scene, fixture, guard, jawmocap_neutral, Pinned};
-
-fn head() -> FaceMesh {
-    facebake::io::gltf_mesh::load_mesh(&fixture("ict_facekit/ICTFaceKitSkin.glb"), None, None)
-        .expect("ICT-FaceKit's head loads")
-}
-
-/// JawMoCap's markers as `facebake place` puts them on `mesh`, each asserted on the skin that
-/// is seen, none on a socket (a marker on a rim vertex may name a triangle of the seam, with no
-/// weight on the bag's corners).
-fn placed_on_seen_skin(mesh: &FaceMesh) -> Vec<facebake::model::PlacedMarker> {
-    let (capture, neutral) = jawmocap_neutral();
-    let layout =
-        facebake::placement::place(mesh, &capture.marker_names, &neutral, &[]).expect("placed");
-    let placed = facebake::model::place_markers(
-        &layout,
-        mesh,
-        facebake::model::DEFAULT_MAX_SNAP_FRACTION * mesh.diagonal(),
-    )
-    .expect("on the mesh");
-    let seen = seen_topology(&mesh.welded_positions, &mesh.welded_triangles);
-    for m in &placed {
-        let corners = m.surface.vertices.iter().zip(m.surface.barycentric);
-        for (&v, _) in corners.filter(|(_, w)| *w > 0.0) {
-            let piece = seen.components.vertex_component[mesh.weld[v as usize] as usize];
-            assert_eq!(piece, 0, "{} is on piece {piece}", m.name);
-        }
-    }
-    placed
-}
-
-/// This head's truth (32 frames) with JawMoCap's markers placed on it.
-fn placed_scene() -> Benchmark {
-    let mesh = head();
-    let placed = placed_on_seen_skin(&mesh);
-    let truth = GroundTruth::new(mesh, 40, 6).expect("a truth");
-    Benchmark::new(truth, &placed, Vec::new(), 0).expect("benchmark")
-}
 
 /// The rehearsals' pace on this head: 30 Hz, each expression eased in over 10 frames, held 6,
 /// eased out; jitter, head motion and dropouts as [`Pace::NATURAL`].
