@@ -555,6 +555,13 @@ impl Regions {
         &self.rest
     }
 
+    /// Per edge of [`Regions::edges`], the longest the mesh's own shapes make it: its rest
+    /// length, or its length in a morph target at full weight if longer (`None`: the regions
+    /// of a mesh without morph targets).
+    pub fn shapes_longest(&self) -> Option<&[f64]> {
+        self.longest.as_deref()
+    }
+
     /// Whether triangle `t` faces against its rest normal at `positions`.
     pub fn turned(&self, positions: &[[f64; 3]], t: &[u32; 3]) -> bool {
         dot(&normal(positions, t), &normal(&self.rest, t)) < 0.0
