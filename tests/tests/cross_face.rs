@@ -73,9 +73,9 @@ fn ict_facekits_take_on_facecap() {
 
 /// FaceCap's expressions as the actor's take on ICT-FaceKit. Measured 2026-12-06: skin mean
 /// 0.560 mm over the take, 0.852 mm on the held expressions against 0.616 mm for ICT-FaceKit's
-/// own markers; static drift 0.00 mm. The edges over 2× (up to 8, 2.43×) are the head's sub-mm
-/// edges at the mouth's corners that its own `jawOpen` stretches 34× (`--test ict_facekit
-/// jawmocap_on_this`). One triangle turns over in two places: on the lips' inner roll beside
+/// own markers; static drift 0.00 mm. The edges over 2× (up to 8, 2.43×) are 12 edges of
+/// 0.3–1 mm within 2.5 mm of the mouth's corners: 9 no longer than the head's own shapes make
+/// them, 3 (0.8–1 mm) up to 2.06× their longest in a shape. One triangle turns over in two places: on the lips' inner roll beside
 /// `Mouth_UpL1` in FaceCap's funnel, which opens the lips 42 mm where this head's opens them 35
 /// (the lips' curve, `surface::lip_curve`: without it, none there), and a 0.3 mm sliver at the
 /// left eye's inner corner in the blink, with the jitter only.
