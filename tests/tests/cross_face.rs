@@ -52,7 +52,8 @@ fn across(
 /// 0.685 mm over the take, 1.029 mm on the held expressions against 0.574 mm for FaceCap's own
 /// markers; static drift 0.00 mm, 1.76× (no edge over 2×), no flipped triangle. The lips (10.5
 /// mm, the jaw open: FaceCap's own opens them 47 mm, ICT-FaceKit's 40) and the eyelids (4.1 mm,
-/// `blend 16`: `eyeWide_L` with `cheekSquint_L`) are where the two heads' shapes disagree.
+/// `blend 16`: `eyeWide_L` with `cheekSquint_L`, which leaves ICT-FaceKit's lids as at rest and
+/// opens FaceCap's 2.6 mm wider) are where the two heads' shapes disagree.
 #[test]
 fn ict_facekits_take_on_facecap() {
     let (mean, held) = across(
