@@ -13,7 +13,10 @@
 //!   make the edge, which says whether a stretch is one the asset itself makes;
 //! * **flipped triangles**: skin triangles whose normal turned against its rest normal (with a
 //!   truth: and whose true normal did not); degenerate triangles (zero area at rest) have no
-//!   normal to turn and are left out.
+//!   normal to turn and are left out. Without a truth, on a mesh with morph targets, beside
+//!   it: how many of them none of the mesh's own targets (at full weight) turns over
+//!   (ICT-FaceKit's rehearsal through its capture rig turns one triangle at a mouth corner
+//!   over, and the head's own `jawOpen` turns it over too).
 //!
 //! With a truth, what the truth itself does is not a fault: FaceCap's own `jawOpen` stretches
 //! an inner-lip edge 18.6× from rest and turns 6 skin triangles over. Without one, the second
@@ -135,6 +138,9 @@ pub struct Regions {
     /// Per edge of [`Regions::edges`], the longest the mesh's own shapes make it: its rest
     /// length, or its length in a morph target at full weight if longer (`None`: no targets).
     longest: Option<Vec<f64>>,
+    /// Per triangle of [`Regions::triangles`], whether a morph target at full weight turns it
+    /// over (`None`: no targets).
+    shapes_turn: Option<Vec<bool>>,
 }
 
 /// One opening's aperture in a frame.
@@ -176,6 +182,9 @@ pub struct FrameMetrics {
     pub edges_over_limit: usize,
     /// Triangles whose normal turned against the rest normal.
     pub flipped: usize,
+    /// Without a truth, on a mesh with morph targets: of [`FrameMetrics::flipped`], the
+    /// triangles that none of the mesh's own targets (at full weight) turns over.
+    pub flipped_beyond_shapes: Option<usize>,
 }
 
 /// The worst of each metric over a take, with the frame it happened in.
@@ -205,6 +214,9 @@ pub struct TakeMetrics {
     pub frames_over_limit: usize,
     /// Most flipped triangles in one frame, and that frame.
     pub flipped: (usize, usize),
+    /// Most flipped triangles in one frame that the mesh's own shapes do not turn over, and
+    /// that frame (see [`FrameMetrics::flipped_beyond_shapes`]).
+    pub flipped_beyond_shapes: Option<(usize, usize)>,
 }
 
 fn worse<T: PartialOrd + Copy>(best: &mut (T, usize), value: T, frame: usize) {
@@ -235,6 +247,9 @@ impl TakeMetrics {
             }
             worse(&mut t.edges_over_limit, m.edges_over_limit, f);
             worse(&mut t.flipped, m.flipped, f);
+            if let Some(n) = m.flipped_beyond_shapes {
+                worse(t.flipped_beyond_shapes.get_or_insert((0, f)), n, f);
+            }
             t.frames_over_limit += usize::from(m.edges_over_limit > 0);
         }
         t
@@ -263,7 +278,7 @@ impl std::fmt::Display for FrameMetrics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{}, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×{}), {} flipped",
+            "{}, {}, {}, stretch {:.2}× ({} edges > {STRETCH_LIMIT}×{}), {} flipped{}",
             if self.static_measured {
                 format!("static drift {:.2} mm", self.static_drift_mm)
             } else {
@@ -276,7 +291,12 @@ impl std::fmt::Display for FrameMetrics {
             self.beyond_shapes.map_or(String::new(), |b| format!(
                 "; {b:.2}× its own shapes' longest"
             )),
-            self.flipped
+            self.flipped,
+            self.flipped_beyond_shapes
+                .filter(|_| self.flipped > 0)
+                .map_or(String::new(), |n| format!(
+                    " ({n} that its own shapes do not turn over)"
+                ))
         )
     }
 }
@@ -300,9 +320,15 @@ impl std::fmt::Display for TakeMetrics {
                 self.frames_over_limit, self.frames
             ),
         };
-        let flips = match self.flipped {
-            (0, _) => "no flipped triangle".to_string(),
-            (n, fr) => format!("flipped up to {n} (frame {fr})"),
+        let flips = match (self.flipped, self.flipped_beyond_shapes) {
+            ((0, _), _) => "no flipped triangle".to_string(),
+            ((n, fr), None) => format!("flipped up to {n} (frame {fr})"),
+            ((n, fr), Some((0, _))) => format!(
+                "flipped up to {n} (frame {fr}; each one its own shapes turn over too)"
+            ),
+            ((n, fr), Some((b, bf))) => format!(
+                "flipped up to {n} (frame {fr}; up to {b} that its own shapes do not turn over, frame {bf})"
+            ),
         };
         let drift = if self.static_measured {
             format!(
@@ -477,6 +503,7 @@ impl Regions {
             mm_per_unit: 1000.0,
             rest: rest.to_vec(),
             longest: None,
+            shapes_turn: None,
         })
     }
 
@@ -536,6 +563,7 @@ impl Regions {
                 .iter()
                 .map(|&[a, b]| distance(&rest[a as usize], &rest[b as usize]))
                 .collect();
+            let mut turn = vec![false; regions.triangles.len()];
             for target in &mesh.morph_targets {
                 let shaped = |v: u32| {
                     let (p, d) = (rest[v as usize], target.deltas[v as usize]);
@@ -544,8 +572,13 @@ impl Regions {
                 for (l, &[a, b]) in longest.iter_mut().zip(&regions.edges) {
                     *l = l.max(distance(&shaped(a), &shaped(b)));
                 }
+                let positions: Vec<[f64; 3]> = (0..rest.len() as u32).map(shaped).collect();
+                for (turned, t) in turn.iter_mut().zip(&regions.triangles) {
+                    *turned |= regions.turned(&positions, t);
+                }
             }
             regions.longest = Some(longest);
+            regions.shapes_turn = Some(turn);
         }
         Ok(regions)
     }
@@ -646,11 +679,16 @@ impl Regions {
             }
         }
         let turned = |p: &[[f64; 3]], t: &[u32; 3]| self.turned(p, t);
-        let flipped = self
-            .triangles
-            .iter()
-            .filter(|t| turned(&got, t) && !truth.as_deref().is_some_and(|p| turned(p, t)))
-            .count();
+        let flipped_at: Vec<usize> = (0..self.triangles.len())
+            .filter(|&i| {
+                let t = &self.triangles[i];
+                turned(&got, t) && !truth.as_deref().is_some_and(|p| turned(p, t))
+            })
+            .collect();
+        let flipped = flipped_at.len();
+        let flipped_beyond_shapes = (self.shapes_turn.as_deref())
+            .filter(|_| truth.is_none())
+            .map(|turn| flipped_at.iter().filter(|&&i| !turn[i]).count());
         FrameMetrics {
             static_drift_mm,
             static_measured: !self.static_vertices.is_empty(),
@@ -660,6 +698,7 @@ impl Regions {
             beyond_shapes,
             edges_over_limit,
             flipped,
+            flipped_beyond_shapes,
         }
     }
 
@@ -894,6 +933,57 @@ mod tests {
         assert_eq!(r.measure(&q, Some(&q), false).flipped, 0);
         assert!(r.measure(&q, Some(r.rest()), false).flipped > 0);
         assert_eq!(r.measure(r.rest(), Some(&q), false).flipped, 0);
+    }
+
+    #[test]
+    fn a_fold_the_meshs_own_shapes_make_is_told_apart() {
+        let (p, t) = slit();
+        let mut mesh = FaceMesh::from_triangles("slit", p, t);
+        // A target that pushes vertex 0 past its neighbours turns triangle 0–1–8 over.
+        let mut deltas = vec![[0.0; 3]; mesh.positions.len()];
+        deltas[0] = [0.02, 0.005, 0.0];
+        mesh.morph_targets.push(crate::model::MorphTarget {
+            name: "fold".into(),
+            deltas: deltas.clone(),
+        });
+        let shaped = Regions::for_mesh(&mesh, &[], &[]).unwrap();
+        let mut folded = mesh.positions.clone();
+        folded[0] = [0.02, 0.005, 0.0];
+        let m = shaped.measure(&folded, None, false);
+        assert_eq!((m.flipped, m.flipped_beyond_shapes), (1, Some(0)), "{m:?}");
+        // Vertex 34 pushed in turns its two triangles over, which no target does.
+        let mut both = folded.clone();
+        both[34] = [0.04, 0.025, 0.0];
+        let m = shaped.measure(&both, None, false);
+        assert_eq!((m.flipped, m.flipped_beyond_shapes), (3, Some(2)), "{m:?}");
+        let (_, take) = shaped.measure_take(&[folded.clone(), both.clone()], None, false);
+        assert_eq!(take.flipped_beyond_shapes, Some((2, 1)));
+        assert!(
+            take.to_string().contains(
+                "flipped up to 3 (frame 1; up to 2 that its own shapes do not turn over, frame 1)"
+            ),
+            "{take}"
+        );
+        let (_, take) = shaped.measure_take(std::slice::from_ref(&folded), None, false);
+        assert!(
+            take.to_string()
+                .contains("flipped up to 1 (frame 0; each one its own shapes turn over too)"),
+            "{take}"
+        );
+        // Without targets, or with a truth, nothing is told apart.
+        mesh.morph_targets.clear();
+        let plain = Regions::for_mesh(&mesh, &[], &[]).unwrap();
+        assert_eq!(
+            plain.measure(&folded, None, false).flipped_beyond_shapes,
+            None
+        );
+        let truth = shaped.rest().to_vec();
+        assert_eq!(
+            shaped
+                .measure(&folded, Some(&truth), false)
+                .flipped_beyond_shapes,
+            None
+        );
     }
 
     #[test]

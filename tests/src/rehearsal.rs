@@ -152,6 +152,29 @@ impl Rehearsal {
         (all.iter().sum::<f64>() / all.len() as f64, each)
     }
 
+    /// Play every frame of the take through `blob` (a capture rig) and measure it as `bake`
+    /// measures its own take: without a truth, stretch and flips read from rest and beside
+    /// them against the mesh's own shapes.
+    pub fn measure_from_rest(&self, scene: &Benchmark, blob: &[u8]) -> TakeMetrics {
+        let regions =
+            Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
+        let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
+        let (space, actor) = (rig.space(), rig.actor_space().expect("a capture rig"));
+        let mut state = PlayState::new();
+        let mut out = vec![[0i32; 3]; rig.vertex_count()];
+        let mut metrics = Vec::with_capacity(self.capture.frames.len());
+        for frame in &self.capture.frames {
+            let markers: Vec<Option<[i32; 3]>> = frame
+                .iter()
+                .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
+                .collect();
+            rig.play(&mut state, &markers, &mut out).expect("plays");
+            let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+            metrics.push(regions.measure(&played, None, false));
+        }
+        TakeMetrics::of(&metrics)
+    }
+
     /// Play the take through `blob` (its capture stages; a rig without them deformed by the
     /// take's markers as they are, a missing one at rest); on each frame past the rest that
     /// `keep` takes, call `visit` with the played positions, the truth's and the skin's errors

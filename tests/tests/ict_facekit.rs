@@ -446,6 +446,18 @@ fn a_take_with_head_motion_jitter_and_dropouts_through_the_capture_stages() {
         (1, 1, 0),
         "only the triangle the truth turns over too, and nothing relaxed: {relaxed:?}"
     );
+    // Measured as `bake` measures its take, without the truth: the head's own shapes turn that
+    // triangle over too.
+    let from_rest = take.measure_from_rest(&scene, &baked.blob);
+    println!("from rest: {from_rest}");
+    assert_eq!(
+        (
+            from_rest.flipped.0,
+            from_rest.flipped_beyond_shapes.map(|f| f.0)
+        ),
+        (1, Some(0)),
+        "{from_rest}"
+    );
     assert_eq!(
         baked.report.mouth_share.as_ref().map(|m| m.share),
         Some(0.5),

@@ -1038,8 +1038,8 @@ fn print_text(s: &BakeSummary) {
 
 /// What the capture played through the rig shows that a face should not do: skin beyond the
 /// markers that moves more than 0.5 mm, triangles turned over, edges stretched past twice their
-/// rest length (a face's own jaw open can, so the note says whether the mesh's own morph targets
-/// stretch them as far).
+/// rest length (a face's own jaw open can, so the notes say whether the mesh's own morph targets
+/// turn those triangles over and stretch those edges as far).
 fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
     let Some(t) = t else {
         return Vec::new();
@@ -1052,8 +1052,17 @@ fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
         ));
     }
     if t.flipped.0 > 0 {
+        let verdict = match t.flipped_beyond_shapes {
+            Some((0, _)) => {
+                "; each is one the mesh's own morph targets turn over too, so the asset folds it itself".to_string()
+            }
+            Some((b, frame)) => format!(
+                "; up to {b} that no morph target of the mesh turns over (frame {frame}): look at that frame (facebake render)"
+            ),
+            None => String::new(),
+        };
         out.push(format!(
-            "on the capture, up to {} triangles turn over (frame {})",
+            "on the capture, up to {} triangles turn over (frame {}){verdict}",
             t.flipped.0, t.flipped.1
         ));
     }
