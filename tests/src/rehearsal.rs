@@ -158,20 +158,14 @@ impl Rehearsal {
     pub fn measure_from_rest(&self, scene: &Benchmark, blob: &[u8]) -> TakeMetrics {
         let regions =
             Regions::for_mesh(&scene.truth.mesh, &scene.truth.marker_rest(), &[]).expect("regions");
-        let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
-        let (space, actor) = (rig.space(), rig.actor_space().expect("a capture rig"));
-        let mut state = PlayState::new();
-        let mut out = vec![[0i32; 3]; rig.vertex_count()];
         let mut metrics = Vec::with_capacity(self.capture.frames.len());
-        for frame in &self.capture.frames {
-            let markers: Vec<Option<[i32; 3]>> = frame
-                .iter()
-                .map(|p| p.and_then(|p| actor.to_rig_f64(p).ok()))
-                .collect();
-            rig.play(&mut state, &markers, &mut out).expect("plays");
-            let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
-            metrics.push(regions.measure(&played, None, false));
-        }
+        self.each_frame(
+            blob,
+            |_| true,
+            |_, played| {
+                metrics.push(regions.measure(played, None, false));
+            },
+        );
         TakeMetrics::of(&metrics)
     }
 
@@ -185,6 +179,31 @@ impl Rehearsal {
         blob: &[u8],
         keep: impl Fn(usize) -> bool,
         mut visit: impl FnMut(&[[f64; 3]], &[[f64; 3]], Vec<f64>),
+    ) {
+        let keep = |i: usize| i >= REST_FRAMES && keep(i);
+        self.each_frame(blob, keep, |i, played| {
+            let rest = &scene.truth.mesh.positions;
+            let truth = match self.keys[i] {
+                (None, _) => rest.clone(),
+                (Some(f), t) => lerp(rest, &scene.truth.positions(f), t),
+            };
+            let skin = (0..played.len())
+                .filter(|&v| scene.truth.skin[v])
+                .map(|v| 1000.0 * facebake::mesh::distance(&played[v], &truth[v]))
+                .collect();
+            visit(played, &truth, skin);
+        });
+    }
+
+    /// Play every frame of the take through `blob` (its capture stages; a rig without them
+    /// deformed by the take's markers as they are, a missing one at rest) and call `visit`
+    /// with the frame's index and its played positions (asset units) on each frame `keep`
+    /// takes.
+    fn each_frame(
+        &self,
+        blob: &[u8],
+        keep: impl Fn(usize) -> bool,
+        mut visit: impl FnMut(usize, &[[f64; 3]]),
     ) {
         let rig = Rig::from_bytes(blob).expect("the rehearsal's rig loads");
         let (space, actor_space) = (rig.space(), rig.actor_space());
@@ -211,20 +230,10 @@ impl Rehearsal {
                     rig.deform(&markers, &mut out).expect("deforms");
                 }
             }
-            if i < REST_FRAMES || !keep(i) {
-                continue;
+            if keep(i) {
+                let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
+                visit(i, &played);
             }
-            let played: Vec<[f64; 3]> = out.iter().map(|q| space.to_asset_f64(*q)).collect();
-            let rest = &scene.truth.mesh.positions;
-            let truth = match self.keys[i] {
-                (None, _) => rest.clone(),
-                (Some(f), t) => lerp(rest, &scene.truth.positions(f), t),
-            };
-            let skin = (0..played.len())
-                .filter(|&v| scene.truth.skin[v])
-                .map(|v| 1000.0 * facebake::mesh::distance(&played[v], &truth[v]))
-                .collect();
-            visit(&played, &truth, skin);
         }
     }
 }
