@@ -115,31 +115,20 @@ pub fn frames_torn(
 ) -> Result<(usize, usize), BakeError> {
     let regions = Regions::for_mesh(mesh, &[], &[])
         .map_err(|e| BakeError::Input(format!("{}: {e}", mesh.source.display())))?;
-    let judged = judged_edges(&regions);
-    let own = shapes_longest(&regions, &judged);
+    let judged_at = judged_indices(&regions);
+    let judged: Vec<[u32; 2]> = judged_at.iter().map(|&i| regions.edges[i]).collect();
+    // The longest the mesh's own shapes make each judged edge (0 without morph targets: every
+    // stretch is then judged).
+    let longest = regions.shapes_longest();
+    let own: Vec<f64> = judged_at
+        .iter()
+        .map(|&i| longest.map_or(0.0, |l| l[i]))
+        .collect();
     let mut torn = 0;
     super::playback::play(&[blob, linear], capture, |played| {
         torn += usize::from(tears(&regions, &judged, &own, &played[0], &played[1]));
     })?;
     Ok((torn, capture.frames.len()))
-}
-
-/// Per edge of `judged`, the longest the mesh's own shapes make it (0 for a mesh without
-/// morph targets: every stretch is then judged).
-fn shapes_longest(regions: &Regions, judged: &[[u32; 2]]) -> Vec<f64> {
-    let Some(longest) = regions.shapes_longest() else {
-        return vec![0.0; judged.len()];
-    };
-    let by_edge: std::collections::HashMap<[u32; 2], f64> = regions
-        .edges
-        .iter()
-        .copied()
-        .zip(longest.iter().copied())
-        .collect();
-    judged
-        .iter()
-        .map(|e| by_edge.get(e).copied().unwrap_or(0.0))
-        .collect()
 }
 
 /// The length of skin edge `[a, b]` in `p`.
@@ -150,6 +139,14 @@ pub(super) fn length(p: &[[f64; 3]], [a, b]: [u32; 2]) -> f64 {
 /// The skin edges judged for tears: all but those shorter at rest than [`TEAR_EDGE_FLOOR`] of
 /// the median.
 pub(super) fn judged_edges(regions: &Regions) -> Vec<[u32; 2]> {
+    judged_indices(regions)
+        .into_iter()
+        .map(|i| regions.edges[i])
+        .collect()
+}
+
+/// [`judged_edges`] as indices into [`Regions::edges`].
+fn judged_indices(regions: &Regions) -> Vec<usize> {
     let rest = regions.rest();
     let mut lengths: Vec<f64> = regions.edges.iter().map(|&e| length(rest, e)).collect();
     if lengths.is_empty() {
@@ -158,11 +155,8 @@ pub(super) fn judged_edges(regions: &Regions) -> Vec<[u32; 2]> {
     let mid = lengths.len() / 2;
     let (_, median, _) = lengths.select_nth_unstable_by(mid, f64::total_cmp);
     let floor = TEAR_EDGE_FLOOR * *median;
-    regions
-        .edges
-        .iter()
-        .copied()
-        .filter(|&e| length(rest, e) >= floor)
+    (0..regions.edges.len())
+        .filter(|&i| length(rest, regions.edges[i]) >= floor)
         .collect()
 }
 
