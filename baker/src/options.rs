@@ -294,7 +294,7 @@ impl Default for BakeOptions {
 impl BakeOptions {
     /// What `facebake bake` bakes with no flags: geodesic distances, masked, in the linear
     /// deformer ([`BakeOptions::for_method`]); the rig that keeps the skull still, lets the lips
-    /// part and closes the eyes (the README's figures).
+    /// part and closes the eyes (docs/figures.md).
     pub fn product_default() -> Self {
         Self::for_method(Method::Geodesic, true)
     }

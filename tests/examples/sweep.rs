@@ -1,4 +1,4 @@
-//! Ground-truth sweep over deformers, radial functions, widths and K: the figures behind the README's table.
+//! Ground-truth sweep over deformers, radial functions, widths and K: the figures behind docs/measurements.md's "Measured figures".
 //! `cargo run --release -p facebake-tests --example sweep [-- radial…]`
 use facebake::ground_truth::stats;
 use facebake::{BakeOptions, DeformerKind, RadialFunction};

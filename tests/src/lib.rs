@@ -18,7 +18,7 @@ pub fn fixture(name: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures")).join(name)
 }
 
-/// Markers on the FaceCap head, as in the README's figures: 40, of which 6 on still skin.
+/// Markers on the FaceCap head, as in the sweep's figures (docs/measurements.md): 40, of which 6 on still skin.
 pub const FACECAP_MARKERS: usize = 40;
 /// Of [`FACECAP_MARKERS`], how many sit where no morph target moves the skin.
 pub const FACECAP_STATIC_MARKERS: usize = 6;

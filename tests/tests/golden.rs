@@ -18,7 +18,7 @@
 //! | `jawmocap_capture.fbk` | FaceCap with the JawMoCap layout (41 markers) and the capture stages baked from JawMoCap (head markers [`JAWMOCAP_HEAD_MARKERS`], the markers smoothed) |
 //! | `jawmocap_actor.bin` | frames × 41 markers × (`u8` present, 3 × `i32` LE Q8.24 actor units): every 20th JawMoCap frame with markers knocked out, then [`CAPTURE_EDGE_FRAMES`] |
 //! | `hashes.txt` | per rig: FNV-1a-64 of each frame's output (`i32` LE, x y z per vertex), then of the whole sequence; for `capture`, of the character markers, the vertices and (residual, rebuilt, held) |
-//! | `hashes_planar.txt` | the same for the planar-bones rig, kept apart because the Cortex-M4 firmware does not play it yet (its per-frame instruction count is not constant: see the README) |
+//! | `hashes_planar.txt` | the same for the planar-bones rig, kept apart because the Cortex-M4 firmware does not play it yet (its per-frame instruction count is not constant: docs/design.md, "Planar bones") |
 //! | `hashes_normals.txt` | per rig (the planar one and `capture` included), FNV-1a-64 of each frame's unit normals from `Rig::normals` (`i16` LE, x y z per vertex), then of the whole sequence |
 
 use std::fmt::Write as _;

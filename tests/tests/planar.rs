@@ -121,7 +121,7 @@ fn ground_truth_beside_the_linear_methods() {
         figures.push((all, lip));
     }
     let (all, lip) = figures[0];
-    // Pinned (measured 0.92 / 9.36 / 39.5, lips 3.68 / 24.4 / 39.5: see the README), with a
+    // Pinned (measured 0.92 / 9.36 / 39.5, lips 3.68 / 24.4 / 39.5: docs/measurements.md), with a
     // little room, so a regression fails.
     assert!(
         all.mean_mm < 0.97 && all.p99_mm < 9.8 && all.max_mm < 41.0,
