@@ -1069,7 +1069,7 @@ fn capture_warnings(t: Option<&TakeMetrics>) -> Vec<String> {
     if t.frames_over_limit > 0 {
         let verdict = match t.beyond_shapes {
             Some((b, _)) if b <= facebake::metrics::STRETCH_LIMIT => format!(
-                "no edge goes beyond {b:.2}x of the longest the mesh's own morph targets make it, so the asset stretches it as far itself"
+                "measured against the longest the mesh's own morph targets make each edge, none passes twice it (worst {b:.2}x): the asset stretches these edges itself"
             ),
             Some((b, frame)) => format!(
                 "an edge goes {b:.2}x beyond the longest the mesh's own morph targets make it (frame {frame}): look at that frame (facebake render)"
@@ -1229,6 +1229,37 @@ pub fn parse_fraction(s: &str) -> Result<f64, String> {
 
 #[cfg(test)]
 mod tests {
+    /// The capture's stretch warning reads the stretch against the mesh's own shapes three
+    /// ways: within twice their longest (ICT-FaceKit's JawMoCap take, 3.82× from rest and 1.42×
+    /// of its shapes'), past it, and without shapes to read it against.
+    #[test]
+    fn the_stretch_warning_says_what_the_meshs_own_shapes_make_of_it() {
+        let t = facebake::metrics::TakeMetrics {
+            frames: 1590,
+            max_stretch: (3.82, 376),
+            frames_over_limit: 136,
+            beyond_shapes: Some((1.42, 433)),
+            ..Default::default()
+        };
+        let w = super::capture_warnings(Some(&t));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("136 of 1590 frames"), "{w:?}");
+        assert!(w[0].contains("none passes twice it (worst 1.42x)"), "{w:?}");
+        let past = facebake::metrics::TakeMetrics {
+            beyond_shapes: Some((2.8, 400)),
+            ..t
+        };
+        let w = super::capture_warnings(Some(&past));
+        assert!(w[0].contains("an edge goes 2.80x beyond"), "{w:?}");
+        let none = facebake::metrics::TakeMetrics {
+            beyond_shapes: None,
+            ..t
+        };
+        let w = super::capture_warnings(Some(&none));
+        assert!(w[0].contains("before calling it a tear"), "{w:?}");
+        assert!(super::capture_warnings(Some(&Default::default())).is_empty());
+    }
+
     #[test]
     fn fractions_are_in_zero_to_one() {
         assert_eq!(super::parse_fraction("0.2"), Ok(0.2));
