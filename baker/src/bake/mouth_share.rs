@@ -62,7 +62,7 @@ use serde::Serialize;
 
 use super::BakeError;
 use crate::mesh::distance;
-use crate::metrics::Regions;
+use crate::metrics::{Regions, STRETCH_LIMIT};
 use crate::model::{Capture, FaceMesh};
 pub use crate::surface::corners::{MOUTH_SHARE, MOUTH_SHARES};
 
@@ -177,7 +177,7 @@ fn tears(
         .any(|t| regions.turned(got, t) && !regions.turned(base, t))
         || judged.iter().zip(own).any(|(&e, &own)| {
             let l = length(got, e);
-            l > 2.0 * length(base, e).max(length(rest, e)) && l > own
+            l > STRETCH_LIMIT * length(base, e).max(length(rest, e)) && l > own
         })
 }
 
